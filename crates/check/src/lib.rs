@@ -1,0 +1,1 @@
+//! The validation harness (placeholder until the harness lands).

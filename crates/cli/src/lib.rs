@@ -1,0 +1,1 @@
+//! The fiberlab command line (placeholder).

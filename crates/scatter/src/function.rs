@@ -1,0 +1,87 @@
+//! The scattering-function interface every fiber model implements.
+//!
+//! A fiber scattering function `f_s(ω_i, ω_r)` (sr⁻¹) is the 1D analogue of a BRDF: the
+//! width-averaged outgoing radiance is `L_r(ω_r) = ∫ f_s(ω_i, ω_r) L_i(ω_i) cosθ_i dω_i`,
+//! with θ measured from the fiber's normal plane (models.md §1.4, §2.1). Directions are in
+//! the fiber frame of [`fiberlab_math`]; `ω_i` points toward the light, `ω_r` (`wo`) toward
+//! the viewer; `h ∈ [−1, 1]` is the offset across the fiber.
+
+use fiberlab_math::{DVec3, Rgb};
+
+/// Whether a model depends on the offset `h` across the fiber.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Field {
+    /// `f_s` is already averaged over the fiber width; `h` is ignored.
+    Far,
+    /// `eval` returns the value at offset `h`; its average over `h ∈ [−1, 1]` is the
+    /// far-field `f_s`.
+    Near,
+}
+
+/// Whether a model's distribution has a density or is concentrated on a cone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lobes {
+    /// A density over the sphere: `eval`, `pdf` are pointwise values.
+    Smooth,
+    /// All light leaves on the specular cone θ_r = −θ_i (a Dirac delta in θ): `eval` and
+    /// `pdf` return 0; `sample` returns the lobe and [`ScatteringFunction::cone`] its
+    /// azimuthal distribution.
+    Delta,
+}
+
+/// What a model claims about itself; the validation harness tests exactly these claims.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Properties {
+    /// `f_s(ω_i, ω_r) = f_s(ω_r, ω_i)` (for near-field models: of the h-average).
+    pub reciprocal: bool,
+    /// Albedo `ρ(ω_i) = ∫ f_s cosθ_r dω_r ≤ 1` for every `ω_i`.
+    pub energy_conserving: bool,
+    /// Near- or far-field.
+    pub field: Field,
+    /// Smooth or delta.
+    pub lobes: Lobes,
+}
+
+/// One importance sample of `ω_i` given `ω_o`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Sampled direction toward the light, unit length, fiber frame.
+    pub wi: DVec3,
+    /// `f_s(ω_i, ω_o)·cosθ_i / pdf` (for delta lobes: the lobe's throughput).
+    pub weight: Rgb,
+    /// Density of `wi` per steradian; 0 for delta lobes.
+    pub pdf: f64,
+    /// True when `wi` was drawn from a delta lobe (no MIS with light sampling).
+    pub delta: bool,
+}
+
+/// Value of a delta lobe on its cone at relative azimuth φ, see [`ScatteringFunction::cone`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConeValue {
+    /// `n(φ)` times the lobe's attenuation: `f_s = δ(θ_i + θ_r)·value/cos²θ_i`.
+    pub value: Rgb,
+    /// Density in φ (rad⁻¹) with which `sample` draws the relative azimuth.
+    pub pdf: f64,
+}
+
+/// A fiber scattering function: evaluation, importance sampling and its density.
+pub trait ScatteringFunction: Send + Sync {
+    /// What the model claims (reciprocity, energy, field, lobes).
+    fn properties(&self) -> Properties;
+
+    /// `f_s(ω_i, ω_o; h)` in sr⁻¹ per colour channel.
+    fn eval(&self, wi: DVec3, wo: DVec3, h: f64) -> Rgb;
+
+    /// Density (sr⁻¹) with which [`ScatteringFunction::sample`] draws `wi` given `wo`, `h`.
+    fn pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> f64;
+
+    /// Draws `ω_i` given `ω_o` and `h` from four independent uniforms in [0, 1).
+    /// `None` when no direction can be produced (zero-valued lobe).
+    fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample>;
+
+    /// For [`Lobes::Delta`] models: the lobe at relative azimuth `phi` (φ_o − φ_i) for a
+    /// viewer at inclination `theta_o`. Smooth models return zero.
+    fn cone(&self, _theta_o: f64, _phi: f64) -> ConeValue {
+        ConeValue { value: Rgb::ZERO, pdf: 0.0 }
+    }
+}

@@ -1,0 +1,145 @@
+//! Goldman 1997, *Fake fur rendering*: Kajiya–Kay with a directional (forward/backward)
+//! factor, as a fiber scattering function (models.md §3.1).
+//!
+//! | parameter | unit | default | range |
+//! |---|---|---|---|
+//! | `k_d`, `k_s`, `p` | as [`crate::kajiya_kay_1989`] | | |
+//! | `rho_reflect` | — | 1 | [0, 1] per channel |
+//! | `rho_transmit` | — | 0.5 | [0, 1] per channel |
+//!
+//! # Formula
+//! `κ = cos φ` (+1 backscatter, −1 straight through), `f_dir = ρ_reflect·(1 + κ)/2 +
+//! ρ_transmit·(1 − κ)/2`, `f_s = f_dir(φ)·f_s^KK`. Since `∫cosφ dφ = 0`,
+//! `ρ(θ_i) = ((ρ_reflect + ρ_transmit)/2)·ρ^KK(θ_i)`. Not reciprocal, not energy bounded.
+//! Sampling: θ_i as Kajiya–Kay, φ from the density `(a + b·cosφ)/(2πa)` with a, b the
+//! luminance of the two halves, by safeguarded Newton inversion of its CDF.
+
+use crate::kajiya_kay_1989::{self, KajiyaKay, theta_of};
+use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
+use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use fiberlab_math::frame::{cos_theta, relative_phi};
+use fiberlab_math::{DVec3, Rgb};
+use std::f64::consts::{PI, TAU};
+
+const PARAMS: [ParamSpec; 5] = [
+    kajiya_kay_1989::PARAMS[0],
+    kajiya_kay_1989::PARAMS[1],
+    kajiya_kay_1989::PARAMS[2],
+    ParamSpec {
+        key: "rho_reflect",
+        kind: ParamKind::Color(Range::UNIT),
+        unit: "",
+        default: "1",
+        doc: "weight of backward (reflected) scattering, κ = +1",
+    },
+    ParamSpec {
+        key: "rho_transmit",
+        kind: ParamKind::Color(Range::UNIT),
+        unit: "",
+        default: "0.5",
+        doc: "weight of forward (transmitted) scattering, κ = −1",
+    },
+];
+
+/// Registry entry: `goldman`.
+pub const SPEC: ModelSpec = ModelSpec {
+    name: "goldman",
+    summary: "Kajiya–Kay with Goldman's forward/backward directional factor",
+    citation: "Goldman 1997; models.md §3.1",
+    params: &PARAMS,
+    build: |p: &ParamSet| {
+        Ok(Goldman::new(KajiyaKay::from_params(p)?, p.color("rho_reflect"), p.color("rho_transmit"))?.into())
+    },
+};
+
+/// Goldman's directional Kajiya–Kay fiber.
+#[derive(Clone, Debug)]
+pub struct Goldman {
+    kk: KajiyaKay,
+    rho_reflect: Rgb,
+    rho_transmit: Rgb,
+    /// Luminance mean `a` and half-difference `b` of the directional factor.
+    a: f64,
+    b: f64,
+}
+
+impl Goldman {
+    /// Goldman's model on top of a Kajiya–Kay fiber.
+    pub fn new(kk: KajiyaKay, rho_reflect: Rgb, rho_transmit: Rgb) -> Result<Self, ModelError> {
+        Range::UNIT.check_rgb("rho_reflect", rho_reflect)?;
+        Range::UNIT.check_rgb("rho_transmit", rho_transmit)?;
+        let (lr, lt) = (rho_reflect.luminance(), rho_transmit.luminance());
+        Ok(Self { kk, rho_reflect, rho_transmit, a: 0.5 * (lr + lt), b: 0.5 * (lr - lt) })
+    }
+
+    /// The underlying Kajiya–Kay fiber.
+    #[must_use]
+    pub fn kajiya_kay(&self) -> &KajiyaKay {
+        &self.kk
+    }
+
+    /// Directional factor `f_dir(φ)`, φ = relative azimuth (0 = backscatter).
+    #[must_use]
+    pub fn directional(&self, phi: f64) -> Rgb {
+        let k = phi.cos();
+        self.rho_reflect * (0.5 * (1.0 + k)) + self.rho_transmit * (0.5 * (1.0 - k))
+    }
+
+    fn phi_pdf(&self, phi: f64) -> f64 {
+        (self.a + self.b * phi.cos()) / (TAU * self.a)
+    }
+
+    /// Inverts `G(φ) = (a(φ + π) + b·sinφ)/(2πa) = u` on [−π, π] (G is monotone: a ≥ |b|).
+    fn sample_phi(&self, u: f64) -> f64 {
+        let target = TAU * self.a * u;
+        let (mut lo, mut hi) = (-PI, PI);
+        let mut x = TAU * u - PI;
+        for _ in 0..60 {
+            let g = self.a * (x + PI) + self.b * x.sin() - target;
+            if g > 0.0 {
+                hi = x
+            } else {
+                lo = x
+            }
+            let dg = self.a + self.b * x.cos();
+            let next = if dg > 0.0 { x - g / dg } else { f64::NAN };
+            x = if next > lo && next < hi { next } else { 0.5 * (lo + hi) };
+            if g.abs() < 1e-14 * self.a || hi - lo < 1e-14 {
+                break;
+            }
+        }
+        x
+    }
+}
+
+impl ScatteringFunction for Goldman {
+    fn properties(&self) -> Properties {
+        Properties { reciprocal: false, energy_conserving: false, field: Field::Far, lobes: Lobes::Smooth }
+    }
+
+    fn eval(&self, wi: DVec3, wo: DVec3, h: f64) -> Rgb {
+        self.directional(relative_phi(wi, wo)) * self.kk.eval(wi, wo, h)
+    }
+
+    fn pdf(&self, wi: DVec3, wo: DVec3, _h: f64) -> f64 {
+        if self.a <= 0.0 {
+            return 0.0;
+        }
+        let (ti, _, ci) = theta_of(wi);
+        let (to, _, _) = theta_of(wo);
+        self.kk.theta_pdf(ti, ci, to) * self.phi_pdf(relative_phi(wi, wo)) / cos_theta(wi).max(1e-8)
+    }
+
+    fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {
+        if self.a <= 0.0 {
+            return None;
+        }
+        self.kk.sample_with(wo, u, self.sample_phi(u[3]), |wi| self.eval(wi, wo, h), |wi| self.pdf(wi, wo, h))
+    }
+}
+
+impl From<Goldman> for Model {
+    fn from(m: Goldman) -> Self {
+        Model::Goldman(m)
+    }
+}

@@ -1,0 +1,76 @@
+//! The ideal diffuse fiber (Marschner, *Scattering from fibers*, course notes; models.md §2.2).
+//!
+//! | parameter | unit | default | range |
+//! |---|---|---|---|
+//! | `albedo` ρ | — | 0.8 | [0, 1] per channel |
+//!
+//! # Formula
+//! `f_s(ω_i, ω_r) = ρ/π²` (constant), so `ρ(ω_i) = ∫ f_s cosθ_r dω_r = ρ` because
+//! `∫_{S²} cosθ dω = π²`. Reciprocal, far-field, energy conserving.
+//! Sampling is exact: density `cosθ_i/π²` per sr, weight ρ.
+
+use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
+use crate::sampling::{cos_theta_direction, cos_theta_pdf};
+use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use fiberlab_math::frame::cos_theta;
+use fiberlab_math::{DVec3, Rgb};
+use std::f64::consts::{PI, TAU};
+
+/// Registry entry: `diffuse`.
+pub const SPEC: ModelSpec = ModelSpec {
+    name: "diffuse",
+    summary: "ideal diffuse fiber, f_s = albedo/π²",
+    citation: "Marschner, Scattering from fibers (course notes), §2.2 of models.md",
+    params: &[ParamSpec {
+        key: "albedo",
+        kind: ParamKind::Color(Range::UNIT),
+        unit: "",
+        default: "0.8",
+        doc: "albedo ρ = π²·f_s",
+    }],
+    build: |p: &ParamSet| Ok(IdealDiffuse::new(p.color("albedo"))?.into()),
+};
+
+/// Ideal diffuse fiber: constant `f_s = ρ/π²`.
+#[derive(Clone, Debug)]
+pub struct IdealDiffuse {
+    albedo: Rgb,
+}
+
+impl IdealDiffuse {
+    /// A diffuse fiber of albedo `albedo` ∈ [0, 1] per channel.
+    pub fn new(albedo: Rgb) -> Result<Self, ModelError> {
+        Ok(Self { albedo: Range::UNIT.check_rgb("albedo", albedo)? })
+    }
+
+    /// The albedo ρ.
+    #[must_use]
+    pub fn albedo(&self) -> Rgb {
+        self.albedo
+    }
+}
+
+impl ScatteringFunction for IdealDiffuse {
+    fn properties(&self) -> Properties {
+        Properties { reciprocal: true, energy_conserving: true, field: Field::Far, lobes: Lobes::Smooth }
+    }
+
+    fn eval(&self, _wi: DVec3, _wo: DVec3, _h: f64) -> Rgb {
+        self.albedo / (PI * PI)
+    }
+
+    fn pdf(&self, wi: DVec3, _wo: DVec3, _h: f64) -> f64 {
+        cos_theta_pdf(cos_theta(wi))
+    }
+
+    fn sample(&self, _wo: DVec3, _h: f64, u: [f64; 4]) -> Option<Sample> {
+        let wi = cos_theta_direction(u[0], u[1], TAU * u[2]);
+        Some(Sample { wi, weight: self.albedo, pdf: cos_theta_pdf(cos_theta(wi)), delta: false })
+    }
+}
+
+impl From<IdealDiffuse> for Model {
+    fn from(m: IdealDiffuse) -> Self {
+        Model::Diffuse(m)
+    }
+}

@@ -1,0 +1,87 @@
+//! An opaque cylinder with a Lambertian surface, as a fiber scattering function
+//! (models.md §2.3; equal to Tungsten's `LambertianFiberBcsdf`).
+//!
+//! | parameter | unit | default | range |
+//! |---|---|---|---|
+//! | `albedo` ρ | — | 0.8 | [0, 1] per channel |
+//!
+//! # Formula
+//! `f_s = (ρ/(4π))·[(π − |φ|)·cosφ + sin|φ|]`, `|φ| ≤ π`, φ = φ_r − φ_i (0 = backscatter),
+//! independent of θ_i and θ_r; `∫ g dφ = 8` so the albedo is ρ. Reciprocal, far-field.
+//! Exact sampling: the offset h uniform over the visible width, the surface normal `n(h)`
+//! in the normal plane, then a cosine-weighted hemisphere about `n`; weight ρ.
+
+use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
+use crate::sampling::cosine_hemisphere;
+use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use fiberlab_math::frame::{cos_theta, phi, relative_phi};
+use fiberlab_math::{DVec3, Rgb};
+use std::f64::consts::PI;
+
+/// Registry entry: `lambertian-cylinder`.
+pub const SPEC: ModelSpec = ModelSpec {
+    name: "lambertian-cylinder",
+    summary: "opaque cylinder with a Lambertian surface",
+    citation: "models.md §2.3 (Tungsten LambertianFiberBcsdf)",
+    params: &[ParamSpec {
+        key: "albedo",
+        kind: ParamKind::Color(Range::UNIT),
+        unit: "",
+        default: "0.8",
+        doc: "surface albedo ρ",
+    }],
+    build: |p: &ParamSet| Ok(LambertianCylinder::new(p.color("albedo"))?.into()),
+};
+
+/// Opaque Lambertian cylinder.
+#[derive(Clone, Debug)]
+pub struct LambertianCylinder {
+    albedo: Rgb,
+}
+
+/// The azimuthal shape `g(φ) = (π − |φ|)cosφ + sin|φ|`, with `∫_{−π}^{π} g dφ = 8`.
+#[must_use]
+pub fn azimuthal(phi: f64) -> f64 {
+    let a = phi.abs().min(PI);
+    ((PI - a) * a.cos() + a.sin()).max(0.0)
+}
+
+impl LambertianCylinder {
+    /// A Lambertian cylinder of surface albedo `albedo` ∈ [0, 1] per channel.
+    pub fn new(albedo: Rgb) -> Result<Self, ModelError> {
+        Ok(Self { albedo: Range::UNIT.check_rgb("albedo", albedo)? })
+    }
+
+    fn density(wi: DVec3, wo: DVec3) -> f64 {
+        cos_theta(wi) * azimuthal(relative_phi(wi, wo)) / (4.0 * PI)
+    }
+}
+
+impl ScatteringFunction for LambertianCylinder {
+    fn properties(&self) -> Properties {
+        Properties { reciprocal: true, energy_conserving: true, field: Field::Far, lobes: Lobes::Smooth }
+    }
+
+    fn eval(&self, wi: DVec3, wo: DVec3, _h: f64) -> Rgb {
+        self.albedo * (azimuthal(relative_phi(wi, wo)) / (4.0 * PI))
+    }
+
+    fn pdf(&self, wi: DVec3, wo: DVec3, _h: f64) -> f64 {
+        Self::density(wi, wo)
+    }
+
+    fn sample(&self, wo: DVec3, _h: f64, u: [f64; 4]) -> Option<Sample> {
+        // Offset across the visible width, and the surface normal it hits.
+        let gamma = (2.0 * u[0] - 1.0).clamp(-1.0, 1.0).asin();
+        let phi_n = phi(wo) + gamma;
+        let n = DVec3::new(0.0, phi_n.cos(), phi_n.sin());
+        let wi = cosine_hemisphere(n, DVec3::X, u[1], u[2]);
+        Some(Sample { wi, weight: self.albedo, pdf: Self::density(wi, wo), delta: false })
+    }
+}
+
+impl From<LambertianCylinder> for Model {
+    fn from(m: LambertianCylinder) -> Self {
+        Model::LambertianCylinder(m)
+    }
+}

@@ -1,0 +1,23 @@
+//! The fiber scattering-function interface ([`ScatteringFunction`]), one file per model
+//! (named after its paper), the [`Model`] enum and registry, and curve radiometry.
+//!
+//! Pure: no I/O. Conventions (frame, angles, units) are those of [`fiberlab_math`]; every
+//! `f_s` is in sr⁻¹ with `L_r = ∫ f_s L_i cosθ_i dω_i`, θ from the fiber's normal plane.
+#![forbid(unsafe_code)]
+
+mod error;
+mod function;
+mod model;
+pub mod params;
+pub mod radiometry;
+pub mod sampling;
+
+pub mod goldman_1997;
+pub mod ideal_diffuse;
+pub mod ideal_specular;
+pub mod kajiya_kay_1989;
+pub mod lambertian_cylinder;
+
+pub use error::ModelError;
+pub use function::{ConeValue, Field, Lobes, Properties, Sample, ScatteringFunction};
+pub use model::{MODELS, Model, ModelSpec, build, find};

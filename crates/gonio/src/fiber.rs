@@ -1,0 +1,118 @@
+//! The simulated fiber: an infinite straight dielectric cylinder along `x` (the fiber
+//! frame's tangent, root → tip) with an elliptical cross-section, optional cuticle scales,
+//! absorbing interior and an optional scattering medulla. Lengths are in units of the
+//! major semi-axis (the "radius"), so absorption coefficients are per unit radius, as in
+//! the analytic models.
+
+use fiberlab_math::Rgb;
+use thiserror::Error;
+
+/// Invalid fiber description; the message names the key and its valid range.
+#[non_exhaustive]
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum FiberError {
+    /// A value outside its range, or not finite.
+    #[error("fiber parameter `{key}` = {value} is invalid; valid range {range}")]
+    OutOfRange {
+        /// Key.
+        key: &'static str,
+        /// Value given.
+        value: f64,
+        /// Valid range.
+        range: &'static str,
+    },
+}
+
+/// How the ellipse is oriented about the fiber axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Orientation {
+    /// Major axis at this angle (radians) from the frame's `y` axis toward `z`.
+    Fixed(f64),
+    /// A uniformly random orientation per ray (fibers in an assembly).
+    Average,
+}
+
+/// A concentric scattering medulla (fur), same refractive index as the cortex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Medulla {
+    /// Radius relative to the cortex (0, 1).
+    pub radius: f64,
+    /// Scattering coefficient, per unit radius.
+    pub sigma_s: f64,
+    /// Absorption coefficient, per unit radius.
+    pub sigma_a: Rgb,
+    /// Henyey–Greenstein asymmetry g ∈ (−1, 1).
+    pub g: f64,
+}
+
+/// The explicit fiber.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fiber {
+    /// Refractive index η of the cortex (and medulla).
+    pub eta: f64,
+    /// Cortex absorption per unit radius.
+    pub sigma_a: Rgb,
+    /// Axis ratio a = minor/major ∈ (0, 1].
+    pub aspect: f64,
+    /// Orientation of the major axis.
+    pub orientation: Orientation,
+    /// Cuticle scale angle α (radians): the tilt of the scale surfaces toward the root.
+    pub scale_angle: f64,
+    /// Length of one scale along the axis (radii).
+    pub scale_length: f64,
+    /// Optional medulla.
+    pub medulla: Option<Medulla>,
+}
+
+impl Default for Fiber {
+    /// A smooth, circular, non-absorbing fiber of index 1.55.
+    fn default() -> Self {
+        Self {
+            eta: 1.55,
+            sigma_a: Rgb::ZERO,
+            aspect: 1.0,
+            orientation: Orientation::Fixed(0.0),
+            scale_angle: 0.0,
+            scale_length: 0.5,
+            medulla: None,
+        }
+    }
+}
+
+fn check(key: &'static str, value: f64, ok: bool, range: &'static str) -> Result<(), FiberError> {
+    if value.is_finite() && ok { Ok(()) } else { Err(FiberError::OutOfRange { key, value, range }) }
+}
+
+impl Fiber {
+    /// Validates every field.
+    pub fn validate(&self) -> Result<(), FiberError> {
+        check("eta", self.eta, self.eta > 1.0 && self.eta <= 4.0, "(1, 4]")?;
+        for c in 0..3 {
+            check("sigma_a", self.sigma_a[c], self.sigma_a[c] >= 0.0, "[0, ∞)")?;
+        }
+        check("aspect", self.aspect, self.aspect > 0.0 && self.aspect <= 1.0, "(0, 1]")?;
+        if let Orientation::Fixed(o) = self.orientation {
+            check("orientation", o, true, "finite")?;
+        }
+        check("scale_angle", self.scale_angle, self.scale_angle.abs() < 0.35, "(−20°, 20°)")?;
+        check("scale_length", self.scale_length, self.scale_length > 0.0, "(0, ∞)")?;
+        // The sawtooth must not cut the fiber: its height L·tanα stays below the radius.
+        let height = self.scale_length * self.scale_angle.tan().abs();
+        check("scale_length", self.scale_length, height < 0.5, "L·tan α < 0.5 radii")?;
+        if let Some(m) = self.medulla {
+            check("medulla_radius", m.radius, m.radius > 0.0 && m.radius < 1.0 - height, "(0, 1 − L·tan α)")?;
+            check("medulla_sigma_s", m.sigma_s, m.sigma_s >= 0.0, "[0, ∞)")?;
+            for c in 0..3 {
+                check("medulla_sigma_a", m.sigma_a[c], m.sigma_a[c] >= 0.0, "[0, ∞)")?;
+            }
+            check("medulla_g", m.g, m.g.abs() < 1.0, "(−1, 1)")?;
+        }
+        Ok(())
+    }
+
+    /// True when the surface carries cuticle scales.
+    #[must_use]
+    pub fn has_scales(&self) -> bool {
+        self.scale_angle != 0.0
+    }
+}

@@ -122,7 +122,7 @@ pub fn measure(
     progress: impl Fn(usize) + Sync,
 ) -> Result<Measurement, FiberError> {
     fiber.validate()?;
-    if !(setup.theta_i.abs() < 89.9f64.to_radians()) {
+    if setup.theta_i.is_nan() || setup.theta_i.abs() >= 89.9f64.to_radians() {
         return Err(FiberError::OutOfRange { key: "theta_i", value: setup.theta_i, range: "(−89.9°, 89.9°)" });
     }
     let (nt, np) = (setup.bins_theta.max(1), setup.bins_phi.max(1));

@@ -6,6 +6,7 @@ mod bench;
 mod check;
 mod eval;
 mod files;
+mod measure;
 mod model_args;
 mod models;
 mod plot;
@@ -35,6 +36,8 @@ enum Command {
     Plot(plot::Args),
     /// Measure eval and sample throughput of the models (ns/call).
     Bench(bench::Args),
+    /// Virtual goniophotometer: measure f_s by ray tracing an explicit fiber.
+    Measure(measure::Args),
 }
 
 fn main() {
@@ -46,6 +49,7 @@ fn main() {
         Command::Sample(a) => sample::run(a),
         Command::Plot(a) => plot::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Measure(a) => measure::run(a),
     };
     if let Err(e) = result {
         eprintln!("fiberlab: error: {e:#}");

@@ -116,3 +116,107 @@ impl Fiber {
         self.scale_angle != 0.0
     }
 }
+
+/// Keys accepted by [`Fiber::from_pairs`], in documentation order.
+pub const FIBER_KEYS: [&str; 10] = [
+    "eta",
+    "sigma_a",
+    "aspect",
+    "orientation",
+    "scale_angle",
+    "scale_length",
+    "medulla_radius",
+    "medulla_sigma_s",
+    "medulla_sigma_a",
+    "medulla_g",
+];
+
+/// A `key=value` text that could not be used.
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum FiberKeyError {
+    /// Not a fiber key.
+    #[error("unknown fiber parameter `{0}`; valid keys: {keys}", keys = FIBER_KEYS.join(", "))]
+    UnknownKey(String),
+    /// The value could not be read.
+    #[error("fiber parameter `{key}`: cannot read `{value}` as {expected}")]
+    BadValue {
+        /// Key.
+        key: String,
+        /// Text given.
+        value: String,
+        /// What was expected.
+        expected: &'static str,
+    },
+    /// Read but invalid.
+    #[error(transparent)]
+    Invalid(#[from] FiberError),
+}
+
+impl Fiber {
+    /// Builds a fiber from `key=value` pairs (angles in degrees; `orientation` may be
+    /// `average`; `sigma_a`, `medulla_sigma_a` take one number or `r,g,b`), starting from
+    /// [`Fiber::default`]. Setting `medulla_radius` enables the medulla.
+    pub fn from_pairs<K: AsRef<str>, V: AsRef<str>>(pairs: &[(K, V)]) -> Result<Self, FiberKeyError> {
+        let mut f = Fiber::default();
+        let mut medulla = Medulla { radius: 0.0, sigma_s: 0.0, sigma_a: Rgb::ZERO, g: 0.0 };
+        let mut has_medulla = false;
+        for (k, v) in pairs {
+            let (key, text) = (k.as_ref().trim(), v.as_ref().trim());
+            let bad = |expected| FiberKeyError::BadValue { key: key.into(), value: text.into(), expected };
+            let number = || text.parse::<f64>().map_err(|_| bad("a number"));
+            let color = || -> Result<Rgb, FiberKeyError> {
+                let parts: Vec<f64> = text
+                    .split(',')
+                    .map(|t| t.trim().parse::<f64>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| bad("one number or r,g,b"))?;
+                match parts.as_slice() {
+                    [x] => Ok(Rgb::splat(*x)),
+                    [r, g, b] => Ok(Rgb::new(*r, *g, *b)),
+                    _ => Err(bad("one number or r,g,b")),
+                }
+            };
+            match key {
+                "eta" => f.eta = number()?,
+                "sigma_a" => f.sigma_a = color()?,
+                "aspect" => f.aspect = number()?,
+                "orientation" if text.eq_ignore_ascii_case("average") => f.orientation = Orientation::Average,
+                "orientation" => f.orientation = Orientation::Fixed(number()?.to_radians()),
+                "scale_angle" => f.scale_angle = number()?.to_radians(),
+                "scale_length" => f.scale_length = number()?,
+                "medulla_radius" => {
+                    medulla.radius = number()?;
+                    has_medulla = true;
+                }
+                "medulla_sigma_s" => medulla.sigma_s = number()?,
+                "medulla_sigma_a" => medulla.sigma_a = color()?,
+                "medulla_g" => medulla.g = number()?,
+                _ => return Err(FiberKeyError::UnknownKey(key.into())),
+            }
+        }
+        if has_medulla {
+            f.medulla = Some(medulla);
+        }
+        f.validate()?;
+        Ok(f)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pairs_parse_and_errors_name_the_key() {
+        let f = Fiber::from_pairs(&[("aspect", "0.8"), ("orientation", "average"), ("scale_angle", "3")]).unwrap();
+        assert_eq!(f.orientation, Orientation::Average);
+        assert!((f.scale_angle - 3f64.to_radians()).abs() < 1e-15);
+        let e = Fiber::from_pairs(&[("aspect", "1.5")]).unwrap_err().to_string();
+        assert!(e.contains("`aspect`") && e.contains("(0, 1]"), "{e}");
+        let e = Fiber::from_pairs(&[("eta", "NaN")]).unwrap_err().to_string();
+        assert!(e.contains("`eta`"), "{e}");
+        assert!(matches!(Fiber::from_pairs(&[("colour", "1")]), Err(FiberKeyError::UnknownKey(_))));
+        let m = Fiber::from_pairs(&[("medulla_radius", "0.3"), ("medulla_sigma_s", "5")]).unwrap();
+        assert_eq!(m.medulla.unwrap().sigma_s, 5.0);
+    }
+}

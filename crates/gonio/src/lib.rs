@@ -13,7 +13,7 @@ pub mod fiber;
 pub mod surface;
 pub mod trace;
 
-pub use fiber::{Fiber, FiberError, Medulla, Orientation};
+pub use fiber::{FIBER_KEYS, Fiber, FiberError, FiberKeyError, Medulla, Orientation};
 pub use trace::{Lobe, Outcome};
 
 use fiberlab_math::frame::{direction, phi, theta, wrap_pi};

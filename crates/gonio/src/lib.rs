@@ -303,6 +303,40 @@ mod tests {
         assert!(trt > 2.0 && trt < 5.0, "TRT shift {trt}");
     }
 
+    /// `½∫ A(p, h) dh` for p = 1 (TT) and 2 (TRT) with exact 3D Fresnel and absorption
+    /// `exp(−σ_a·path)`, where `path(γ_t, θ_t)` is the internal path of one chord.
+    fn lobe_albedo(theta: f64, sigma: f64, p: i32, path: impl Fn(f64, f64) -> f64) -> f64 {
+        let (eta, (st, ct)) = (1.55, theta.sin_cos());
+        let n = 20_000;
+        (0..n)
+            .map(|k| {
+                let h = -1.0 + (k as f64 + 0.5) * 2.0 / n as f64;
+                let f = fresnel::dielectric(ct * (1.0 - h * h).sqrt(), eta);
+                let gamma_t = fiberlab_math::bravais::sin_gamma_t(h, eta, st, ct).asin();
+                let cos_theta_t = fiberlab_math::bravais::cos_theta_t(eta, st);
+                let t = (-sigma * path(gamma_t, cos_theta_t)).exp();
+                (1.0 - f).powi(2) * f.powi(p - 1) * t.powi(p) / n as f64
+            })
+            .sum()
+    }
+
+    #[test]
+    fn absorption_follows_the_chord_length_not_the_printed_path() {
+        let (theta, sigma) = (0.4, 0.6);
+        let fiber = Fiber { sigma_a: Rgb::splat(sigma), ..Fiber::default() };
+        let m = run(&fiber, theta, 2_000_000, (18, 36));
+        for (lobe, p) in [("tt", 1), ("trt", 2)] {
+            let measured = m.lobe(lobe).unwrap().albedo[0];
+            // Standard error of a fraction estimated from N Bernoulli-like weights ≤ 1.
+            let se = (measured * (1.0 - measured) / m.traced as f64).sqrt();
+            let chord = lobe_albedo(theta, sigma, p, |g, ct| 2.0 * g.cos() / ct);
+            let printed = lobe_albedo(theta, sigma, p, |g, ct| 2.0 * (1.0 + (2.0 * g).cos()) / ct);
+            eprintln!("{lobe}: measured {measured:.5} ± {se:.5}, chord {chord:.5}, printed {printed:.5}");
+            assert!((measured - chord).abs() < 5.0 * se, "{lobe}: {measured} vs chord {chord}");
+            assert!((measured - printed).abs() > 20.0 * se, "{lobe}: cannot tell the formulas apart");
+        }
+    }
+
     #[test]
     fn deterministic_for_a_seed_whatever_the_threads() {
         let fiber = Fiber { scale_angle: 3f64.to_radians(), sigma_a: Rgb::new(0.2, 0.4, 0.8), ..Fiber::default() };

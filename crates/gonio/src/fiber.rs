@@ -45,6 +45,16 @@ pub struct Medulla {
     pub g: f64,
 }
 
+/// What happens where a ray meets the fiber surface from outside.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SurfaceKind {
+    /// A smooth dielectric interface (Fresnel reflection and refraction).
+    Dielectric,
+    /// An opaque Lambertian surface of the given albedo (reproduces the
+    /// `lambertian-cylinder` model exactly; used to validate the normalization).
+    Lambertian(Rgb),
+}
+
 /// The explicit fiber.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fiber {
@@ -62,6 +72,8 @@ pub struct Fiber {
     pub scale_length: f64,
     /// Optional medulla.
     pub medulla: Option<Medulla>,
+    /// Dielectric (default) or opaque Lambertian surface.
+    pub surface: SurfaceKind,
 }
 
 impl Default for Fiber {
@@ -75,6 +87,7 @@ impl Default for Fiber {
             scale_angle: 0.0,
             scale_length: 0.5,
             medulla: None,
+            surface: SurfaceKind::Dielectric,
         }
     }
 }
@@ -107,6 +120,11 @@ impl Fiber {
             }
             check("medulla_g", m.g, m.g.abs() < 1.0, "(−1, 1)")?;
         }
+        if let SurfaceKind::Lambertian(a) = self.surface {
+            for c in 0..3 {
+                check("albedo", a[c], (0.0..=1.0).contains(&a[c]), "[0, 1]")?;
+            }
+        }
         Ok(())
     }
 
@@ -118,7 +136,7 @@ impl Fiber {
 }
 
 /// Keys accepted by [`Fiber::from_pairs`], in documentation order.
-pub const FIBER_KEYS: [&str; 10] = [
+pub const FIBER_KEYS: [&str; 12] = [
     "eta",
     "sigma_a",
     "aspect",
@@ -129,6 +147,8 @@ pub const FIBER_KEYS: [&str; 10] = [
     "medulla_sigma_s",
     "medulla_sigma_a",
     "medulla_g",
+    "surface",
+    "albedo",
 ];
 
 /// A `key=value` text that could not be used.
@@ -160,6 +180,8 @@ impl Fiber {
         let mut f = Fiber::default();
         let mut medulla = Medulla { radius: 0.0, sigma_s: 0.0, sigma_a: Rgb::ZERO, g: 0.0 };
         let mut has_medulla = false;
+        let mut lambertian = false;
+        let mut albedo = Rgb::splat(0.8);
         for (k, v) in pairs {
             let (key, text) = (k.as_ref().trim(), v.as_ref().trim());
             let bad = |expected| FiberKeyError::BadValue { key: key.into(), value: text.into(), expected };
@@ -191,11 +213,18 @@ impl Fiber {
                 "medulla_sigma_s" => medulla.sigma_s = number()?,
                 "medulla_sigma_a" => medulla.sigma_a = color()?,
                 "medulla_g" => medulla.g = number()?,
+                "surface" if text.eq_ignore_ascii_case("lambertian") => lambertian = true,
+                "surface" if text.eq_ignore_ascii_case("dielectric") => lambertian = false,
+                "surface" => return Err(bad("dielectric or lambertian")),
+                "albedo" => albedo = color()?,
                 _ => return Err(FiberKeyError::UnknownKey(key.into())),
             }
         }
         if has_medulla {
             f.medulla = Some(medulla);
+        }
+        if lambertian {
+            f.surface = SurfaceKind::Lambertian(albedo);
         }
         f.validate()?;
         Ok(f)

@@ -13,7 +13,7 @@ pub mod fiber;
 pub mod surface;
 pub mod trace;
 
-pub use fiber::{FIBER_KEYS, Fiber, FiberError, FiberKeyError, Medulla, Orientation};
+pub use fiber::{FIBER_KEYS, Fiber, FiberError, FiberKeyError, Medulla, Orientation, SurfaceKind};
 pub use trace::{Lobe, Outcome};
 
 use fiberlab_math::frame::{direction, phi, theta, wrap_pi};
@@ -335,6 +335,39 @@ mod tests {
             assert!((measured - chord).abs() < 5.0 * se, "{lobe}: {measured} vs chord {chord}");
             assert!((measured - printed).abs() > 20.0 * se, "{lobe}: cannot tell the formulas apart");
         }
+    }
+
+    #[test]
+    fn lambertian_surface_reproduces_the_analytic_lambertian_cylinder() {
+        // f_s = (ρ/4π)·[(π − |φ|)cosφ + sin|φ|], independent of θ (models.md §2.3).
+        let rho = 0.7;
+        let fiber = Fiber { surface: SurfaceKind::Lambertian(Rgb::splat(rho)), ..Fiber::default() };
+        let (nt, np) = (12, 24);
+        let m = run(&fiber, 0.5, 4_000_000, (nt, np));
+        let all = m.lobe("all").unwrap();
+        assert!((all.albedo[0] - rho).abs() < 1e-12);
+        let mut worst: f64 = 0.0;
+        for i in 0..nt {
+            for j in 0..np {
+                let (a, b) = (-PI + j as f64 * TAU / np as f64, -PI + (j + 1) as f64 * TAU / np as f64);
+                let k = 400;
+                let expected: f64 = (0..k)
+                    .map(|s| {
+                        let p: f64 = a + (s as f64 + 0.5) * (b - a) / k as f64;
+                        let g = (PI - p.abs()) * p.cos() + p.abs().sin();
+                        rho / (4.0 * PI) * g / k as f64
+                    })
+                    .sum();
+                let (got, se) = (all.f[i * np + j][0], all.std[i * np + j][0]);
+                // Error expected from the analytic value itself (each hit carries weight ρ).
+                let omega = cos_weighted_solid_angle(i, nt, np);
+                let se_expected = (expected * omega * rho / m.traced as f64).sqrt() / omega;
+                let z = (got - expected) / se.max(se_expected);
+                worst = worst.max(z.abs());
+                assert!(z.abs() < 5.0, "bin ({i}, {j}): {got} vs {expected} ± {se}");
+            }
+        }
+        eprintln!("worst |z| = {worst:.2}");
     }
 
     #[test]

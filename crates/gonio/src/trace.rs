@@ -3,7 +3,7 @@
 //! internal reflection, path-length absorption, Henyey–Greenstein scattering in the
 //! medulla, and classification of the path by its sequence of events.
 
-use crate::fiber::Fiber;
+use crate::fiber::{Fiber, SurfaceKind};
 use crate::surface::Surface;
 use fiberlab_math::{DVec3, FiberFrame, Rgb, fresnel};
 use rand::Rng;
@@ -73,6 +73,13 @@ fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
     Some((d * eta + n * (eta * cos_i - (1.0 - sin2_t).sqrt())).normalize())
 }
 
+/// Cosine-weighted direction about the frame's first axis.
+fn cosine_about(frame: &FiberFrame, u0: f64, u1: f64) -> DVec3 {
+    let r = u0.sqrt();
+    let (sp, cp) = (TAU * u1).sin_cos();
+    frame.to_world(DVec3::new((1.0 - u0).max(0.0).sqrt(), r * cp, r * sp))
+}
+
 /// Henyey–Greenstein direction about `d` with asymmetry `g`.
 fn henyey_greenstein(d: DVec3, g: f64, u0: f64, u1: f64) -> DVec3 {
     let cos_t = if g.abs() < 1e-4 {
@@ -124,6 +131,14 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
                 return Outcome::Exit(Exit { direction: d, weight, lobe: ev.lobe() });
             };
             p += d * hit.t;
+            if let SurfaceKind::Lambertian(albedo) = fiber.surface {
+                // Opaque diffuse surface: cosine-weighted reflection about the normal.
+                let frame = FiberFrame::from_tangent(hit.normal);
+                d = cosine_about(&frame, rng.random(), rng.random());
+                weight *= albedo;
+                ev.external_reflections += 1;
+                continue;
+            }
             let cos_i = -d.dot(hit.normal);
             if rng.random::<f64>() < fresnel::dielectric(cos_i, fiber.eta) {
                 d = (d + hit.normal * (2.0 * cos_i)).normalize();

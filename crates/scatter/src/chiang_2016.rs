@@ -27,10 +27,10 @@
 //! its h-average is the backward-form far-field `f_s` of §1.4.
 //! * `M_p`: d'Eon's longitudinal term, [`crate::deon_2011::Longitudinal`] (§5.1), with
 //!   `v_0 = (0.726β_m + 0.812β_m² + 3.7β_m²⁰)²`, `v_1 = v_0/4`, `v_2 = v_3 = 4v_0`
-//!   (Chiang 2016, Eq. 7).
+//!   (Chiang 2016; models.md §5.3).
 //! * `N_p(φ) = ℓ(wrap(φ − Φ(p, h)); s)/(F_ℓ(π) − F_ℓ(−π))`, φ = φ_i − φ_o, the logistic
 //!   trimmed to [−π, π], `Φ(p, h) = 2pγ_t − 2γ_o + pπ`, `s = √(π/8)·(0.265β_n + 1.194β_n² +
-//!   5.372β_n²²)` (Chiang 2016, Eqs. 8–11); `N_3 = 1/(2π)`.
+//!   5.372β_n²²)` (Chiang 2016; models.md §5.3); `N_3 = 1/(2π)`.
 //! * `A_0 = f`, `A_1 = (1 − f)²T`, `A_2 = A_1 f T`, `A_3 = A_2 f T/(1 − f T)` (all p ≥ 3),
 //!   `f` = exact 3D dielectric Fresnel at `cosθ_o cosγ_o`, `T = exp(−σ_a·2cosγ_t/cosθ_t)` the
 //!   chord-length absorption (σ_a per unit radius). `Σ A_p = 1` when σ_a = 0.
@@ -72,11 +72,11 @@ pub const DEFAULT_EUMELANIN: f64 = 1.3;
 /// Smallest desired colour channel used by the colour inversion (ln 0 = −∞ otherwise).
 const MIN_COLOR: f64 = 1e-4;
 
-/// Coefficients of Chiang 2016, Eq. 7: `v_0 = (c₁β_m + c₂β_m² + c₃β_m²⁰)²`.
+/// Coefficients of Chiang 2016 (models.md §5.3): `v_0 = (c₁β_m + c₂β_m² + c₃β_m²⁰)²`.
 const V0_COEFFS: (f64, f64, f64) = (0.726, 0.812, 3.7);
-/// Coefficients of Chiang 2016, Eq. 8: `s = √(π/8)·(c₁β_n + c₂β_n² + c₃β_n²²)`.
+/// Coefficients of Chiang 2016 (models.md §5.3): `s = √(π/8)·(c₁β_n + c₂β_n² + c₃β_n²²)`.
 const S_COEFFS: (f64, f64, f64) = (0.265, 1.194, 5.372);
-/// Polynomial in β_n of Chiang 2016, Eq. 9 (σ_a from a desired colour), lowest order first.
+/// Polynomial in β_n of Chiang 2016 (models.md §5.3) (σ_a from a desired colour), lowest order first.
 const COLOR_POLY: [f64; 6] = [5.969, -0.215, 2.532, -10.73, 5.574, 0.245];
 
 pub(crate) const ETA_RANGE: Range = Range::open_closed(1.0, 4.0);
@@ -170,7 +170,7 @@ pub enum Absorption {
         /// Pheomelanin concentration.
         pheomelanin: f64,
     },
-    /// A desired colour C ∈ (0, 1] per channel, inverted with Chiang 2016, Eq. 9 (depends
+    /// A desired colour C ∈ (0, 1] per channel, inverted with Chiang 2016 (models.md §5.3) (depends
     /// on β_n): `σ_a = (ln C / (5.969 − 0.215β_n + 2.532β_n² − 10.73β_n³ + 5.574β_n⁴ +
     /// 0.245β_n⁵))²`, C clamped to [1e−4, 1].
     Color(Rgb),
@@ -239,14 +239,14 @@ impl Absorption {
     }
 }
 
-/// Longitudinal variance `v_0` of the R lobe from β_m (Chiang 2016, Eq. 7).
+/// Longitudinal variance `v_0` of the R lobe from β_m (Chiang 2016; models.md §5.3).
 #[must_use]
 pub fn longitudinal_variance(beta_m: f64) -> f64 {
     let (a, b, c) = V0_COEFFS;
     (a * beta_m + b * beta_m * beta_m + c * beta_m.powi(20)).powi(2)
 }
 
-/// Logistic scale `s` of the azimuthal lobes from β_n (Chiang 2016, Eq. 8), radians.
+/// Logistic scale `s` of the azimuthal lobes from β_n (Chiang 2016; models.md §5.3), radians.
 #[must_use]
 pub fn logistic_scale(beta_n: f64) -> f64 {
     let (a, b, c) = S_COEFFS;
@@ -284,7 +284,7 @@ pub struct Hit {
     pub a: [Rgb; 4],
 }
 
-/// Attenuations `A_p(θ_o, h)` (Chiang 2016, Eqs. 3–6; models.md §5.3): exact 3D Fresnel
+/// Attenuations `A_p(θ_o, h)` (Chiang 2016; models.md §5.3): exact 3D Fresnel
 /// at `cosθ_o cosγ_o`, chord absorption `T = exp(−σ_a·2cosγ_t/cosθ_t)`, residual
 /// `A_3 = A_2 f T/(1 − f T)` with the silhouette guard (`A_3 = 0` when `f T = 1`).
 #[must_use]
@@ -381,7 +381,7 @@ impl Chiang {
         self.s
     }
 
-    /// `N_p(φ)` for p < 3: trimmed logistic of `wrap(φ − Φ(p, h))` (Chiang 2016, Eq. 10).
+    /// `N_p(φ)` for p < 3: trimmed logistic of `wrap(φ − Φ(p, h))` (Chiang 2016; models.md §5.3).
     #[inline]
     fn azimuthal(&self, p: usize, dphi: f64, hit: &Hit) -> f64 {
         let x = wrap_pi(dphi - exit_azimuth(p, hit.gamma_o, hit.gamma_t));

@@ -114,8 +114,8 @@ fn chi2_goodness_of_fit_down_to_beta_0_1() {
         for &(theta_o, h) in &[(0.4, 0.37), (-1.2, -0.8)] {
             let wo = direction(theta_o, 0.3);
             let r = chi2(&f, wo, h, 600_000, 200, 720, 11);
-            report +=
-                &format!("β_m={bm} β_n={bn} θ_o={theta_o} h={h}: χ²={:.0} dof={} z={:.2}\n", r.statistic, r.dof, r.z);
+            let (stat, dof, z) = (r.statistic, r.dof, r.z);
+            report += &format!("β_m={bm} β_n={bn} θ_o={theta_o} h={h}: χ²={stat:.0} dof={dof} z={z:.2}\n");
             assert!((r.pdf_integral - 1.0).abs() < 2e-3, "pdf integrates to {}", r.pdf_integral);
             assert!(r.z < 4.0, "χ² rejects β_m={bm} β_n={bn} θ_o={theta_o} h={h}: {r:?}");
         }

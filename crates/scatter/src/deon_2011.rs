@@ -188,8 +188,7 @@ fn row_position(cos_d: f64) -> (usize, usize, f64) {
     (j0, j0 + 1, x - j0 as f64)
 }
 
-/// `N_p(φ; cosθ_d)` for the explicit lobes and the residual masses, tabulated.
-#[derive(Debug)]
+/// `N_p(φ; cosθ_n)` for the explicit lobes and the residual masses, tabulated.
 struct AzimuthalTable {
     n_phi: usize,
     dphi: f64,
@@ -204,6 +203,17 @@ struct AzimuthalTable {
     mass: Vec<Rgb>,
     /// Residual mass `Ā_res` per row.
     residual: Vec<Rgb>,
+}
+
+impl std::fmt::Debug for AzimuthalTable {
+    /// A summary (the tables themselves hold up to 10⁵ values).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("AzimuthalTable")
+            .field("phi_nodes", &self.n_phi)
+            .field("rows", &TABLE_ROWS)
+            .field("lobes", &self.mass.len().checked_div(TABLE_ROWS).unwrap_or(0))
+            .finish()
+    }
 }
 
 impl AzimuthalTable {
@@ -497,8 +507,15 @@ impl Deon {
         }
     }
 
-    /// Luminance of the lobe masses at row position `rows` (explicit lobes and residual),
-    /// and their total.
+    /// Measured non-reciprocity `max |f(i, r) − f(r, i)| / max(f(i, r), f(r, i))` over
+    /// `pairs` random direction pairs (see
+    /// [`crate::chiang_2016::max_relative_non_reciprocity`]). 0 for a reciprocal model.
+    #[must_use]
+    pub fn non_reciprocity(&self, pairs: usize, seed: u64) -> f64 {
+        chiang_2016::max_relative_non_reciprocity(self, pairs, seed)
+    }
+
+    /// Luminance of the lobe mass of lobe `p` (explicit or residual) at row position `rows`.
     #[inline]
     fn lobe_luminance(&self, p: usize, rows: (usize, usize, f64)) -> f64 {
         if p < self.p_max { self.table.mass_luminance(p, rows) } else { self.table.residual(rows).luminance() }
@@ -630,7 +647,11 @@ impl Longitudinal {
         let a = cos_i * cos_o / self.v;
         // 1 − cos(θ_i + θ_o), cancellation-free.
         let one_minus_cos = 0.5 * ((cos_i - cos_o).powi(2) + (sin_i + sin_o).powi(2));
-        let m = i0e(a) * (-one_minus_cos / self.v).exp() * self.inv_norm;
+        let e = (-one_minus_cos / self.v).exp();
+        if e == 0.0 {
+            return 0.0; // far outside a narrow lobe: skip the Bessel function
+        }
+        let m = i0e(a) * e * self.inv_norm;
         debug_assert!(m.is_finite() && m >= 0.0);
         m
     }

@@ -229,6 +229,14 @@ fn no_nan_at_grazing_angles_and_extreme_roughness() {
 }
 
 #[test]
+fn backward_form_is_measurably_non_reciprocal() {
+    let d = Deon::new(1.55, 0.3, 0.3, 2.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
+    let x = d.non_reciprocity(2000, 3);
+    println!("deon β=0.3 max relative non-reciprocity over 2000 pairs: {x:.3}");
+    assert!(x > 0.1 && x <= 1.0, "{x}");
+}
+
+#[test]
 fn more_lobes_keep_the_furnace_and_p_max_must_be_an_integer() {
     let q = Quadrature { theta: 256, phi: 256, h: 1 };
     for p_max in [1, 2, 6] {

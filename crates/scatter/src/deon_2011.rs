@@ -498,6 +498,7 @@ impl Deon {
     /// residual `Σ_{q ≥ p_max} ½∫A_q dh`.
     #[must_use]
     pub fn lobe_mass(&self, p: usize, cos_theta_d: f64) -> Rgb {
+        assert!(p <= self.p_max, "lobe {p} does not exist (p_max = {})", self.p_max);
         let rows = row_position(cos_theta_d);
         if p < self.p_max {
             let (j0, j1, t) = rows;

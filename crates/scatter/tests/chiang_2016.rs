@@ -5,8 +5,8 @@ mod hair_common;
 
 use fiberlab_math::frame::{cos_theta, direction, direction_from_sin_cos, phi};
 use fiberlab_math::special::{logistic, sample_trimmed_logistic, trimmed_logistic, trimmed_logistic_cdf};
-use fiberlab_math::{DVec3, Rgb};
-use fiberlab_scatter::chiang_2016::{Absorption, Chiang, logistic_scale};
+use fiberlab_math::{DVec3, Rgb, fresnel};
+use fiberlab_scatter::chiang_2016::{Absorption, Chiang, attenuation, logistic_scale};
 use fiberlab_scatter::radiometry::{Quadrature, albedo};
 use fiberlab_scatter::{ModelError, ScatteringFunction, build};
 use hair_common::{Pcg, chi2};
@@ -132,6 +132,35 @@ fn exit_azimuth_2d(p: usize, eta: f64, theta_o: f64, h: f64) -> f64 {
     let eta_prime = (eta * eta - theta_o.sin().powi(2)).sqrt() / theta_o.cos();
     let (gamma_o, gamma_t) = (h.asin(), (h / eta_prime).asin());
     2.0 * p as f64 * gamma_t - 2.0 * gamma_o + p as f64 * PI
+}
+
+#[test]
+fn attenuation_matches_an_independent_bravais_computation() {
+    // A_p from Marschner's Bravais-index Fresnel (a different formula) and Snell's law in
+    // the normal plane, against the model's exact 3D Fresnel and chord absorption.
+    let sigma_a = Rgb::new(0.3, 0.8, 1.9);
+    let mut rng = Pcg::new(4);
+    for _ in 0..2000 {
+        let theta_o = (2.0 * rng.uniform() - 1.0) * 1.5;
+        let h = 2.0 * rng.uniform() - 1.0;
+        let (s, c) = theta_o.sin_cos();
+        let eta: f64 = 1.55;
+        let eta_prime = (eta * eta - s * s).sqrt() / c;
+        let eta_double_prime = eta * eta / eta_prime;
+        let (gamma_o, gamma_t) = (h.asin(), (h / eta_prime).asin());
+        let f = fresnel::bravais(eta_prime, eta_double_prime, gamma_o);
+        let cos_theta_t = (1.0 - (s / eta).powi(2)).sqrt();
+        let t = (sigma_a * (-2.0 * gamma_t.cos() / cos_theta_t)).exp();
+        let want = [Rgb::splat(f), t * (1.0 - f).powi(2), t * t * ((1.0 - f).powi(2) * f)];
+        let residual = t * t * t * ((1.0 - f).powi(2) * f * f) / (Rgb::ONE - t * f);
+        let hit = attenuation(eta, sigma_a, s, c, h);
+        for (p, w) in want.iter().chain(std::iter::once(&residual)).enumerate() {
+            for ch in 0..3 {
+                assert!((hit.a[p][ch] - w[ch]).abs() < 1e-12, "p={p} θo={theta_o} h={h}: {:?} vs {w:?}", hit.a[p]);
+            }
+        }
+        assert!((hit.gamma_t - gamma_t).abs() < 1e-12 && (hit.gamma_o - gamma_o).abs() < 1e-15);
+    }
 }
 
 #[test]

@@ -6,7 +6,7 @@ mod hair_common;
 use fiberlab_math::frame::{cos_theta, direction, direction_from_sin_cos, phi};
 use fiberlab_math::special::{logistic, sample_trimmed_logistic, trimmed_logistic, trimmed_logistic_cdf};
 use fiberlab_math::{DVec3, Rgb, fresnel};
-use fiberlab_scatter::chiang_2016::{Absorption, Chiang, attenuation, logistic_scale};
+use fiberlab_scatter::chiang_2016::{Absorption, Chiang, attenuation, logistic_scale, longitudinal_variance};
 use fiberlab_scatter::radiometry::{Quadrature, albedo};
 use fiberlab_scatter::{ModelError, ScatteringFunction, build};
 use hair_common::{Pcg, chi2};
@@ -132,6 +132,17 @@ fn exit_azimuth_2d(p: usize, eta: f64, theta_o: f64, h: f64) -> f64 {
     let eta_prime = (eta * eta - theta_o.sin().powi(2)).sqrt() / theta_o.cos();
     let (gamma_o, gamma_t) = (h.asin(), (h / eta_prime).asin());
     2.0 * p as f64 * gamma_t - 2.0 * gamma_o + p as f64 * PI
+}
+
+#[test]
+fn roughness_maps_match_the_published_values() {
+    // models.md §5.3: β = 0.1/0.3/0.5/1.0 → v_0 = 0.00652/0.0846/0.320/27.44,
+    // s = 0.0241/0.1172/0.2701/4.281.
+    let table = [(0.1, 0.00652, 0.0241), (0.3, 0.0846, 0.1172), (0.5, 0.320, 0.2701), (1.0, 27.44, 4.281)];
+    for (beta, v0, s) in table {
+        assert!((longitudinal_variance(beta) - v0).abs() < 2e-3 * v0, "v_0({beta})");
+        assert!((logistic_scale(beta) - s).abs() < 2e-3 * s, "s({beta})");
+    }
 }
 
 #[test]

@@ -24,7 +24,9 @@
 //! a density over `ω_i` with `∫ g_h dω_i = Σ A_p` (models.md §1.4). fiberlab's convention
 //! `L_r = ∫ f_s L_i cosθ_i dω_i` makes the near-field scattering function
 //! `f_s(ω_i, ω_o; h) = g_h(ω_o, ω_i)/cosθ_i`, θ the fiber inclination (not a ribbon normal);
-//! its h-average is the backward-form far-field `f_s` of §1.4.
+//! its h-average is the backward-form far-field `f_s` of §1.4. Sign of h (pbrt's): the
+//! surface normal at the hit has azimuth `φ_o − asin h`, i.e. seen from +z (φ_o = π/2),
+//! h increases toward +y; the R lobe then leaves at `φ_i = φ_o − 2 asin h`.
 //! * `M_p`: d'Eon's longitudinal term, [`crate::deon_2011::Longitudinal`] (§5.1), with
 //!   `v_0 = (0.726β_m + 0.812β_m² + 3.7β_m²⁰)²`, `v_1 = v_0/4`, `v_2 = v_3 = 4v_0`
 //!   (Chiang 2016; models.md §5.3).

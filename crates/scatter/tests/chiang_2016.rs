@@ -325,6 +325,32 @@ fn absorption_keys_are_exclusive_and_color_inverts() {
 }
 
 #[test]
+fn r_lobe_leaves_by_mirror_reflection_at_the_hit_normal() {
+    // Geometry in the normal plane: viewer at azimuth φ_o, hit offset h, surface normal at
+    // azimuth φ_o − asin h; mirror the view direction about it and compare with the R peak.
+    let f = lossless(0.1, 0.1, 0.0);
+    for &(phi_o, h) in &[(FRAC_PI_2, 0.6), (0.3, -0.45), (-2.0, 0.2)] {
+        let normal = phi_o - f64::asin(h);
+        let (ny, nz) = (normal.cos(), normal.sin());
+        let (dy, dz) = (phi_o.cos(), phi_o.sin());
+        let dot = ny * dy + nz * dz;
+        let (ry, rz) = (2.0 * dot * ny - dy, 2.0 * dot * nz - dz);
+        let mirror = rz.atan2(ry);
+        let wo = direction(0.0, phi_o);
+        let (mut best, mut arg) = (0.0, 0.0);
+        for k in 0..2000 {
+            let ph = mirror - 0.5 + k as f64 * 0.0005;
+            let g = f.eval(direction(0.0, ph), wo, h)[0];
+            if g > best {
+                best = g;
+                arg = ph;
+            }
+        }
+        assert!((arg - mirror).abs() < 2e-3, "φo={phi_o} h={h}: R peak at {arg}, mirror {mirror}");
+    }
+}
+
+#[test]
 fn azimuthal_lobe_is_centred_on_the_exit_azimuth() {
     // With β_m = 1 (nearly uniform M) and σ_a = 0, integrate g_h over θ_i at each φ: the
     // φ-profile must peak at Φ(p, h) for the dominant lobe (TT at h = 0.2).

@@ -42,7 +42,7 @@
 //! `½A_p cosγ_i dγ_i` deposited at `Φ(p, h)` on the φ grid by linear (cloud-in-cell)
 //! weights, then convolved with D truncated at ±5σ_n (using the symmetry
 //! `N_p(−φ) = N_p(φ)`) and renormalized (mass-preserving). Measured error of the
-//! interpolated table against a direct 20 000-cell evaluation (tests, off-node φ and cosθ): 0.5% of the lobe maximum
+//! interpolated table against a direct 10 000-cell evaluation (tests, off-node φ and cosθ): 0.5% of the lobe maximum
 //! at β_n = 0.3 and 0.9% at β_n = 0.1; the masses equal `½∫A_p dh` to 2e−5 on the rows
 //! and 2e−3 between them. Construction takes 10–40 ms (β_n = 1 to 0.1).
 //!

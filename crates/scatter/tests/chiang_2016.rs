@@ -375,3 +375,14 @@ fn azimuthal_lobe_is_centred_on_the_exit_azimuth() {
     }
     assert!((arg - want).abs() < 0.01, "TT peak at {arg}, Φ = {want}");
 }
+
+#[test]
+fn pdf_integrates_to_one_at_extreme_configurations() {
+    for &(bm, bn) in &[(0.3, 0.3), (0.9, 0.2)] {
+        let f = Chiang::new(1.55, bm, bn, 5.0, Absorption::default()).unwrap();
+        for &(theta_o, h) in &[(FRAC_PI_2, 1.0), (-FRAC_PI_2 + 1e-9, -1.0), (0.0, 0.999_999), (1.4, -0.3)] {
+            let r = chi2(&f, direction(theta_o, 1.0), h, 1000, 160, 320, 3);
+            assert!((r.pdf_integral - 1.0).abs() < 1e-3, "β=({bm},{bn}) θo={theta_o} h={h}: ∫pdf = {}", r.pdf_integral);
+        }
+    }
+}

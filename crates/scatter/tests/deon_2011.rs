@@ -251,3 +251,14 @@ fn more_lobes_keep_the_furnace_and_p_max_must_be_an_integer() {
     assert!(build("deon", &[("theta_n", "difference")]).is_ok());
     assert!(build("deon", &[("theta_n", "half")]).is_err());
 }
+
+#[test]
+fn pdf_integrates_to_one_at_extreme_configurations() {
+    for theta_n in [AzimuthalInclination::Camera, AzimuthalInclination::Difference] {
+        let d = Deon::new(1.55, 0.3, 0.3, 5.0, 3, theta_n, melanin()).unwrap();
+        for &theta_o in &[FRAC_PI_2, -FRAC_PI_2 + 1e-9, 1.4] {
+            let r = chi2(&d, direction(theta_o, 1.0), 0.0, 1000, 160, 320, 3);
+            assert!((r.pdf_integral - 1.0).abs() < 1e-3, "{theta_n:?} θo={theta_o}: ∫pdf = {}", r.pdf_integral);
+        }
+    }
+}

@@ -508,6 +508,28 @@ impl Deon {
         }
     }
 
+    /// Light-side albedo `ρ(ω_i) = ∫ f_s(ω_i, ω_r) cosθ_r dω_r` at light inclination
+    /// `theta_i` (models.md §5.6). Since `∫ N_p dφ` is the lobe mass,
+    /// `ρ = (1/cosθ_i)∫ cos²θ_r Σ_p M_p(θ_i, θ_r^(p)) Ā_p(θ_n) dθ_r`, evaluated with 2048
+    /// midpoint cells. Like Chiang's, it exceeds 1 at grazing light.
+    #[must_use]
+    pub fn light_side_albedo(&self, theta_i: f64) -> Rgb {
+        let (sin_i, cos_i) = theta_i.sin_cos();
+        let n = 2048;
+        let dt = PI / n as f64;
+        let mut sum = Rgb::ZERO;
+        for k in 0..n {
+            let (sin_r, cos_r) = (-0.5 * PI + (k as f64 + 0.5) * dt).sin_cos();
+            let cos_n = self.cos_theta_n(sin_i, cos_i, sin_r, cos_r);
+            for p in 0..=self.p_max {
+                let (so, co) = rotate(sin_r, cos_r, self.tilt[p]);
+                let m = self.longitudinal[p].eval(sin_i, cos_i, so, co);
+                sum += self.lobe_mass(p, cos_n) * (m * cos_r * cos_r * dt);
+            }
+        }
+        sum / cos_i.max(MIN_COS)
+    }
+
     /// Measured non-reciprocity `max |f(i, r) − f(r, i)| / max(f(i, r), f(r, i))` over
     /// `pairs` random direction pairs (see
     /// [`crate::chiang_2016::max_relative_non_reciprocity`]). 0 for a reciprocal model.

@@ -8,7 +8,7 @@ use fiberlab_math::frame::{cos_theta, direction};
 use fiberlab_math::{Rgb, fresnel};
 use fiberlab_scatter::chiang_2016::Absorption;
 use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, wrapped_gaussian};
-use fiberlab_scatter::radiometry::{Quadrature, furnace};
+use fiberlab_scatter::radiometry::{Quadrature, albedo, furnace};
 use fiberlab_scatter::{ModelError, ScatteringFunction, build};
 use hair_common::{Pcg, chi2};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -224,6 +224,19 @@ fn no_nan_at_grazing_angles_and_extreme_roughness() {
                 }
             }
         }
+    }
+}
+
+#[test]
+fn light_side_albedo_matches_direct_quadrature_and_exceeds_one_at_grazing() {
+    for theta_n in [AzimuthalInclination::Camera, AzimuthalInclination::Difference] {
+        let d = Deon::new(1.55, 0.5, 0.5, 2.0, 3, theta_n, Absorption::SigmaA(Rgb::ZERO)).unwrap();
+        let direct = albedo(&d, direction(0.6, 0.4), &Quadrature { theta: 256, phi: 256, h: 1 })[0];
+        let formula = d.light_side_albedo(0.6)[0];
+        assert!((direct - formula).abs() < 3e-3 * formula, "{theta_n:?}: {direct} vs {formula}");
+        let grazing = d.light_side_albedo(1.55)[0];
+        println!("deon {theta_n:?} β=0.5 light-side albedo θi=0.6 {formula:.4}, θi=1.55 {grazing:.3}");
+        assert!(grazing > 2.0, "{grazing}");
     }
 }
 

@@ -205,6 +205,9 @@ fn tilt_moves_r_toward_the_root_and_tt_trt_toward_the_tip() {
         // The untilted lobe is centred on the mirror cone up to the vMF-marginal skew.
         assert!(flat.abs() < 0.25 * alpha, "p={p}: untilted centre θi+θo = {flat}");
         let shift = tilted - flat;
+        println!(
+            "p={p}: lobe centre θi+θo untilted {flat:.5}, tilted {tilted:.5}, shift {shift:.5} (want {expected:.5})"
+        );
         assert!(shift * expected > 0.0, "p={p}: shift {shift} has the wrong sign (want {expected})");
         assert!((shift - expected).abs() < 0.15 * expected.abs(), "p={p}: shift {shift} vs {expected}");
     }

@@ -66,6 +66,7 @@ models! {
     Specular(crate::ideal_specular::IdealSpecular) = crate::ideal_specular::SPEC,
     KajiyaKay(crate::kajiya_kay_1989::KajiyaKay) = crate::kajiya_kay_1989::SPEC,
     Goldman(crate::goldman_1997::Goldman) = crate::goldman_1997::SPEC,
+    Marschner(crate::marschner_2003::Marschner) = crate::marschner_2003::SPEC,
 }
 
 /// The registry entry called `name`.

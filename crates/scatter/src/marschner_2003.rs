@@ -1015,8 +1015,10 @@ impl ScatteringFunction for Marschner {
         if !(q > 0.0) || !q.is_finite() {
             return None;
         }
-        let weight = self.eval(wi, wo, 0.0) / q;
-        let pdf = q / cos_theta(wi).max(MIN_COS_THETA_I);
+        // q is per dθ_i dφ; dω = cosθ_i dθ_i dφ, so pdf = q/cosθ_i and f·cosθ_i/pdf = f·cos²θ_i/q.
+        let cos_i = cos_theta(wi);
+        let weight = self.eval(wi, wo, 0.0) * (cos_i * cos_i / q);
+        let pdf = q / cos_i.max(MIN_COS_THETA_I);
         debug_assert!(weight.is_finite() && pdf.is_finite());
         Some(Sample { wi, weight, pdf, delta: false })
     }
@@ -1472,16 +1474,27 @@ mod tests {
         sum + tanh_sinh(f, lo, b)
     }
 
+    /// Gauss–Legendre nodes and weights on [−1, 1], 8 points (positive half).
+    const GAUSS_LEGENDRE_8: [(f64, f64); 4] = [
+        (0.1834346424956498, 0.3626837833783620),
+        (0.5255324099163290, 0.3137066458778873),
+        (0.7966664774136267, 0.2223810344533745),
+        (0.9602898564975363, 0.1012285362903763),
+    ];
+
     /// `∫∫ pdf·cosθ_i dθ_i dφ` over the bins of `theta_edges × phi_edges` (row-major):
-    /// midpoint in θ_i with `sub` rows per bin, piecewise tanh–sinh in φ.
+    /// 8-point Gauss–Legendre on each of `sub` equal parts of a θ_i bin, piecewise tanh–sinh
+    /// in φ.
     fn binned_pdf_mass(m: &Marschner, wo: DVec3, theta_edges: &[f64], sub: usize, phi_edges: &[f64]) -> Vec<f64> {
         let theta_r = sin_theta(wo).atan2(cos_theta(wo));
         let np = phi_edges.len() - 1;
         let mut out = vec![0.0; (theta_edges.len() - 1) * np];
+        let nodes: Vec<(f64, f64)> = GAUSS_LEGENDRE_8.iter().flat_map(|&(x, w)| [(-x, w), (x, w)]).collect();
         for (i, te) in theta_edges.windows(2).enumerate() {
-            let dt = (te[1] - te[0]) / sub as f64;
-            for r in 0..sub {
-                let t = te[0] + (r as f64 + 0.5) * dt;
+            let part = (te[1] - te[0]) / sub as f64;
+            for (r, &(x, w)) in (0..sub).flat_map(|r| nodes.iter().map(move |n| (r, n))) {
+                let t = te[0] + part * (r as f64 + 0.5 + 0.5 * x);
+                let dt = 0.5 * part * w;
                 let (s, c) = t.sin_cos();
                 let breaks = phi_breaks(m.params.eta, 0.5 * (theta_r - t), m.params.roots);
                 let q = |x: f64| m.pdf(direction_from_sin_cos(s, c, phi(wo) - x), wo, 0.0) * c;
@@ -1514,7 +1527,7 @@ mod tests {
         for m in sampling_variants() {
             for &t in &[0.3, -1.0, 1.45] {
                 let wo = direction(t, 0.7);
-                let total: f64 = binned_pdf_mass(&m, wo, &[-FRAC_PI_2, FRAC_PI_2], 360, &[-PI, PI]).iter().sum();
+                let total: f64 = binned_pdf_mass(&m, wo, &[-FRAC_PI_2, FRAC_PI_2], 24, &[-PI, PI]).iter().sum();
                 assert!((total - 1.0).abs() < 1e-3, "θ_r = {t}: ∫pdf = {total}");
             }
         }
@@ -1558,6 +1571,114 @@ mod tests {
         let default = MarschnerParams { sigma_a: Rgb::ZERO, glints: false, ..Default::default() };
         for row in albedo_table(&default, &[0.0, 0.5, 1.0, 1.3, 1.55], &q).unwrap() {
             assert!(row.energy[0] <= 1.07 && row.energy[0] > 0.85, "{row:?}");
+        }
+    }
+
+    #[test]
+    fn sample_agrees_with_pdf_and_eval() {
+        let mut rng = lcg(5);
+        for m in sampling_variants() {
+            let mut produced = 0;
+            for _ in 0..20_000 {
+                let wo = random_direction(&mut rng);
+                let u = [rng(), rng(), rng(), rng()];
+                let Some(s) = m.sample(wo, 0.0, u) else { continue };
+                produced += 1;
+                assert!((s.wi.length() - 1.0).abs() < 1e-12 && !s.delta);
+                let pdf = m.pdf(s.wi, wo, 0.0);
+                assert_relative_eq!(s.pdf, pdf, max_relative = 1e-12);
+                let expected = m.eval(s.wi, wo, 0.0) * (cos_theta(s.wi) / pdf);
+                for c in 0..3 {
+                    assert!(
+                        (s.weight[c] - expected[c]).abs() <= 1e-9 * expected[c].abs() + 1e-300,
+                        "{:?} {:?} wo {wo:?} wi {:?} pdf {} cos {}",
+                        s.weight,
+                        expected,
+                        s.wi,
+                        pdf,
+                        cos_theta(s.wi)
+                    );
+                }
+            }
+            assert!(produced > 19_900, "{produced}");
+        }
+    }
+
+    /// χ² of 10⁶ samples in (θ_i, φ) bins against the binned integral of pdf (cells with
+    /// expected count < 5 pooled); threshold at significance 10⁻³ (Wilson–Hilferty).
+    #[test]
+    fn chi_square_of_sample_against_pdf() {
+        let (nt, np, n) = (16usize, 32usize, 1_000_000usize);
+        let theta_edges: Vec<f64> = (0..=nt).map(|k| -FRAC_PI_2 + PI * k as f64 / nt as f64).collect();
+        let phi_edges: Vec<f64> = (0..=np).map(|k| -PI + TAU * k as f64 / np as f64).collect();
+        let mut rng = lcg(99);
+        for (mi, m) in sampling_variants().iter().enumerate() {
+            for &t in &[0.4, -1.2] {
+                let wo = direction(t, 0.7);
+                let mass = binned_pdf_mass(m, wo, &theta_edges, 1, &phi_edges);
+                let mut counts = vec![0usize; nt * np];
+                for _ in 0..n {
+                    let Some(s) = m.sample(wo, 0.0, [rng(), rng(), rng(), rng()]) else { continue };
+                    let ti = sin_theta(s.wi).atan2(cos_theta(s.wi));
+                    let x = wrap_pi(phi(wo) - phi(s.wi));
+                    let i = (((ti + FRAC_PI_2) / PI * nt as f64) as usize).min(nt - 1);
+                    let k = (((x + PI) / TAU * np as f64) as usize).min(np - 1);
+                    counts[i * np + k] += 1;
+                }
+                let (mut chi2, mut dof) = (0.0, 0usize);
+                let (mut pooled_e, mut pooled_o) = (0.0, 0.0);
+                for (c, e) in counts.iter().zip(&mass) {
+                    let e = e * n as f64;
+                    if e < 5.0 {
+                        pooled_e += e;
+                        pooled_o += *c as f64;
+                        continue;
+                    }
+                    chi2 += (*c as f64 - e).powi(2) / e;
+                    dof += 1;
+                }
+                if pooled_e >= 5.0 {
+                    chi2 += (pooled_o - pooled_e).powi(2) / pooled_e;
+                    dof += 1;
+                } else {
+                    assert!(pooled_o < 20.0, "{pooled_o} samples where the pdf has mass {pooled_e}");
+                }
+                let k = (dof - 1) as f64;
+                let threshold = k * (1.0 - 2.0 / (9.0 * k) + 3.09 * (2.0 / (9.0 * k)).sqrt()).powi(3);
+                eprintln!("variant {mi}, θ_r {t}: χ² = {chi2:.1}, dof {k}, threshold {threshold:.1}");
+                assert!(chi2 < threshold, "variant {mi}, θ_r {t}: χ² = {chi2:.1} > {threshold:.1} (dof {k})");
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+        #[test]
+        fn finite_and_non_negative_everywhere(
+            ti in prop_oneof![Just(FRAC_PI_2), Just(-FRAC_PI_2), Just(0.0), -FRAC_PI_2..FRAC_PI_2],
+            tr in prop_oneof![Just(FRAC_PI_2), Just(-FRAC_PI_2), Just(1.5707963), -FRAC_PI_2..FRAC_PI_2],
+            pi in -PI..PI,
+            pr in prop_oneof![Just(0.0), -PI..PI],
+            a in prop_oneof![Just(1.0), 0.75..1.0],
+            zero_sigma in any::<bool>(),
+            cubic in any::<bool>(),
+            glints in any::<bool>(),
+            u in prop::array::uniform4(0.0..1.0f64),
+        ) {
+            let m = model(|p| {
+                p.eccentricity = a;
+                if zero_sigma { p.sigma_a = Rgb::ZERO; }
+                if cubic { p.roots = RootMode::Cubic; }
+                p.glints = glints;
+            });
+            let (wi, wo) = (direction(ti, pi), direction(tr, pi + pr));
+            let f = m.eval(wi, wo, 0.0);
+            prop_assert!(f.is_finite() && f.min_component() >= 0.0, "{f:?}");
+            let pdf = m.pdf(wi, wo, 0.0);
+            prop_assert!(pdf.is_finite() && pdf >= 0.0, "{pdf}");
+            if let Some(s) = m.sample(wo, 0.0, u) {
+                prop_assert!(s.weight.is_finite() && s.weight.min_component() >= 0.0 && s.pdf.is_finite() && s.pdf > 0.0);
+            }
         }
     }
 }

@@ -102,6 +102,7 @@ use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wr
 use fiberlab_math::special::{gaussian, normal_mass, safe_sqrt, sample_truncated_normal, smoothstep};
 use fiberlab_math::{DVec3, Rgb, bravais, fresnel};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::sync::Arc;
 
 /// Smallest `cosθ_d` used in the `1/cos²θ_d` of Eq. 3 (reached only at θ_r = −θ_i = ±90°).
 pub const MIN_COS_THETA_D: f64 = 1e-6;
@@ -109,6 +110,9 @@ pub const MIN_COS_THETA_D: f64 = 1e-6;
 pub const MIN_DPHI: f64 = 1e-12;
 /// Smallest `cosθ_i` used to convert the (θ_i, φ) density to a density per steradian.
 const MIN_COS_THETA_I: f64 = 1e-300;
+/// `eval` skips a lobe whose θ_h lies more than this many β_p from α_p: its Gaussian is
+/// below e^{−72} ≈ 5·10⁻³² of its peak (the pdf never skips; it must match `sample`).
+pub const LOBE_CUTOFF_SIGMAS: f64 = 12.0;
 /// Minimum share of the lobe-selection probability given to each enabled lobe.
 pub const LOBE_FLOOR: f64 = 0.02;
 /// Probability of the uniform-φ component when sampling TRT on a circular fiber.
@@ -515,8 +519,9 @@ impl NormalPlane {
             return roots;
         }
         let pi_p = p as f64 * PI;
-        // Φ(p, γ) − pπ is odd in γ, so the end values follow from the positive side.
-        let end = self.phi_and_derivative(p, FRAC_PI_2).0 - pi_p;
+        // Φ(p, γ) − pπ is odd in γ, so the end values follow from the positive side; at
+        // γ = π/2 both modes give 2pc − π (the cubic interpolates γ_t there).
+        let end = 2.0 * p as f64 * self.c - PI;
         match self.stationary(p) {
             None => {
                 self.solve_monotone(p, target, -FRAC_PI_2, FRAC_PI_2, -end + pi_p, end + pi_p, &mut roots);
@@ -586,7 +591,8 @@ impl NormalPlane {
                         // d²Φ/dh² = 2p·h/(η′² − h²)^{3/2} − 2h/(1 − h²)^{3/2}, p = 2
                         let hi = h_c * self.inv_eta_prime;
                         let inv3 = self.inv_eta_prime.powi(3);
-                        4.0 * h_c * inv3 / (1.0 - hi * hi).powf(1.5) - 2.0 * h_c / (1.0 - h_c * h_c).powf(1.5)
+                        let (a, b) = (1.0 - hi * hi, 1.0 - h_c * h_c);
+                        4.0 * h_c * inv3 / (a * a.sqrt()) - 2.0 * h_c / (b * b.sqrt())
                     }
                     RootMode::Cubic => {
                         // Φ̂''(γ)/cos²γ with Φ̂'' = 6aγ, a = −16c/π³
@@ -687,8 +693,9 @@ pub struct Marschner {
     eta_star: (f64, f64),
     /// False only in tests (Fresnel ≡ 1).
     fresnel: bool,
-    /// Unnormalized lobe-selection weights at |θ_r| = kπ/(2·LOBE_TABLE_INTERVALS).
-    lobe_table: [[f64; 3]; LOBE_TABLE_INTERVALS + 1],
+    /// Unnormalized lobe-selection weights at |θ_r| = kπ/(2·LOBE_TABLE_INTERVALS) (shared
+    /// between clones; keeps [`Model`] small).
+    lobe_table: Arc<[[f64; 3]; LOBE_TABLE_INTERVALS + 1]>,
 }
 
 impl Marschner {
@@ -715,10 +722,10 @@ impl Marschner {
             k_m: params.normalization.k_m(),
             eta_star,
             fresnel: true,
-            lobe_table: [[0.0; 3]; LOBE_TABLE_INTERVALS + 1],
+            lobe_table: Arc::new([[0.0; 3]; LOBE_TABLE_INTERVALS + 1]),
             params,
         };
-        m.fill_lobe_table();
+        m.lobe_table = Arc::new(m.lobe_table());
         Ok(m)
     }
 
@@ -728,8 +735,9 @@ impl Marschner {
         &self.params
     }
 
-    fn fill_lobe_table(&mut self) {
-        for k in 0..=LOBE_TABLE_INTERVALS {
+    fn lobe_table(&self) -> [[f64; 3]; LOBE_TABLE_INTERVALS + 1] {
+        let mut table = [[0.0; 3]; LOBE_TABLE_INTERVALS + 1];
+        for (k, row) in table.iter_mut().enumerate() {
             let theta = FRAC_PI_2 * k as f64 / LOBE_TABLE_INTERVALS as f64;
             let (s, c) = theta.sin_cos();
             let plane = self.plane(self.params.eta, s, c);
@@ -745,8 +753,9 @@ impl Marschner {
                     w[2] += 2.0 * cst.t * self.params.k_g * a_c.luminance() * dh;
                 }
             }
-            self.lobe_table[k] = w;
+            *row = w;
         }
+        table
     }
 
     fn plane(&self, eta: f64, sin_theta_d: f64, cos_theta_d: f64) -> NormalPlane {
@@ -813,6 +822,12 @@ impl Marschner {
 
     fn azimuthal_at(&self, lobe: Lobe, sin_theta_d: f64, cos_theta_d: f64, phi: f64, cos_2phi_h: f64) -> Rgb {
         let plane = self.plane(self.lobe_eta(lobe, cos_2phi_h), sin_theta_d, cos_theta_d);
+        self.azimuthal_in(&plane, lobe, phi)
+    }
+
+    /// `N_p(φ)` in a given normal plane (its η already the lobe's), glints included.
+    fn azimuthal_in(&self, plane: &NormalPlane, lobe: Lobe, phi: f64) -> Rgb {
+        let plane = *plane;
         let n_p = self.azimuthal_without_glints(&plane, lobe, phi);
         if lobe != Lobe::TRT || !self.params.glints {
             return n_p;
@@ -897,6 +912,7 @@ impl Marschner {
     /// Density of `sample` per dθ_i dφ (not yet divided by cosθ_i).
     fn angular_density(&self, angles: &PairAngles) -> f64 {
         let w = self.lobe_weights(angles.theta_r);
+        let plane = self.plane(self.params.eta, angles.sin_theta_d, angles.cos_theta_d);
         let mut q = 0.0;
         for lobe in Lobe::ALL {
             let wp = w[lobe.p()];
@@ -912,7 +928,6 @@ impl Marschner {
             if p_theta == 0.0 {
                 continue;
             }
-            let plane = self.plane(self.params.eta, angles.sin_theta_d, angles.cos_theta_d);
             let (q_u, q_g, c) = self.phi_mixture(lobe, &plane);
             let mut p_phi = (1.0 - q_u - q_g) * Self::h_map_density(&plane, lobe, angles.phi) + q_u / TAU;
             if q_g > 0.0 {
@@ -958,15 +973,20 @@ impl ScatteringFunction for Marschner {
     fn eval(&self, wi: DVec3, wo: DVec3, _h: f64) -> Rgb {
         let angles = PairAngles::new(wi, wo);
         let mut s = Rgb::ZERO;
+        let mut circular: Option<NormalPlane> = None;
         for lobe in Lobe::ALL {
-            if !self.params.lobes[lobe.p()] {
+            let p = lobe.p();
+            if !self.params.lobes[p] || (angles.theta_h - self.alpha[p]).abs() > LOBE_CUTOFF_SIGMAS * self.beta[p] {
                 continue;
             }
             let m = self.longitudinal(lobe, angles.theta_h);
-            if m == 0.0 {
-                continue;
-            }
-            let n = self.azimuthal_at(lobe, angles.sin_theta_d, angles.cos_theta_d, angles.phi, angles.cos_2phi_h);
+            let n = if lobe == Lobe::TRT && self.params.eccentricity < 1.0 {
+                self.azimuthal_at(lobe, angles.sin_theta_d, angles.cos_theta_d, angles.phi, angles.cos_2phi_h)
+            } else {
+                let plane = *circular
+                    .get_or_insert_with(|| self.plane(self.params.eta, angles.sin_theta_d, angles.cos_theta_d));
+                self.azimuthal_in(&plane, lobe, angles.phi)
+            };
             s += n * m;
         }
         let c = angles.cos_theta_d.max(MIN_COS_THETA_D);
@@ -1012,7 +1032,7 @@ impl ScatteringFunction for Marschner {
         let (si, ci) = theta_i.sin_cos();
         let wi = direction_from_sin_cos(si, ci, phi(wo) - phi_rel);
         let q = self.angular_density(&PairAngles::new(wi, wo));
-        if !(q > 0.0) || !q.is_finite() {
+        if q.is_nan() || q <= 0.0 || q.is_infinite() {
             return None;
         }
         // q is per dθ_i dφ; dω = cosθ_i dθ_i dφ, so pdf = q/cosθ_i and f·cosθ_i/pdf = f·cos²θ_i/q.
@@ -1398,14 +1418,14 @@ mod tests {
             // (N_TRT with A ≡ 1), summed over ±φ.
             let (s, c) = theta_d.sin_cos();
             let plane = NormalPlane::new(1.55, s, c, RootMode::Exact);
-            for i in 0..bins {
+            for (i, &count) in hist.iter().enumerate() {
                 let x = (i as f64 + 0.5) * bin;
                 if x > row.exact.phi_c - 1f64.to_radians() {
                     break;
                 }
                 let model_density =
                     Marschner::h_map_density(&plane, Lobe::TRT, x) + Marschner::h_map_density(&plane, Lobe::TRT, -x);
-                let hist_density = hist[i] as f64 / (exits.len() as f64 * bin);
+                let hist_density = count as f64 / (exits.len() as f64 * bin);
                 assert!(
                     (hist_density - model_density).abs() < 0.01 * model_density + 2e-3,
                     "{x} {hist_density} {model_density}"
@@ -1476,8 +1496,8 @@ mod tests {
 
     /// Gauss–Legendre nodes and weights on [−1, 1], 8 points (positive half).
     const GAUSS_LEGENDRE_8: [(f64, f64); 4] = [
-        (0.1834346424956498, 0.3626837833783620),
-        (0.5255324099163290, 0.3137066458778873),
+        (0.1834346424956498, 0.362683783378362),
+        (0.525532409916329, 0.3137066458778873),
         (0.7966664774136267, 0.2223810344533745),
         (0.9602898564975363, 0.1012285362903763),
     ];
@@ -1569,7 +1589,7 @@ mod tests {
         // cos²θ_r/cos²θ_d ≠ 1, so ρ_energy exceeds 1 by a few percent (measured 1.05 at
         // θ_i ≈ 1 rad); bounded here with tolerance 0.07 up to θ_i = 1.55.
         let default = MarschnerParams { sigma_a: Rgb::ZERO, glints: false, ..Default::default() };
-        for row in albedo_table(&default, &[0.0, 0.5, 1.0, 1.3, 1.55], &q).unwrap() {
+        for row in albedo_table(&default, &[0.0, 1.0, 1.55], &q).unwrap() {
             assert!(row.energy[0] <= 1.07 && row.energy[0] > 0.85, "{row:?}");
         }
     }
@@ -1604,16 +1624,23 @@ mod tests {
         }
     }
 
-    /// χ² of 10⁶ samples in (θ_i, φ) bins against the binned integral of pdf (cells with
+    /// χ² of 6·10⁵ samples in (θ_i, φ) bins against the binned integral of pdf (cells with
     /// expected count < 5 pooled); threshold at significance 10⁻³ (Wilson–Hilferty).
     #[test]
     fn chi_square_of_sample_against_pdf() {
-        let (nt, np, n) = (16usize, 32usize, 1_000_000usize);
+        let (nt, np, n) = (16usize, 32usize, 600_000usize);
         let theta_edges: Vec<f64> = (0..=nt).map(|k| -FRAC_PI_2 + PI * k as f64 / nt as f64).collect();
         let phi_edges: Vec<f64> = (0..=np).map(|k| -PI + TAU * k as f64 / np as f64).collect();
         let mut rng = lcg(99);
         for (mi, m) in sampling_variants().iter().enumerate() {
-            for &t in &[0.4, -1.2] {
+            let thetas: &[f64] = if mi == 0 {
+                &[0.4, -1.2]
+            } else if mi == 1 {
+                &[0.4]
+            } else {
+                &[-1.2]
+            };
+            for &t in thetas {
                 let wo = direction(t, 0.7);
                 let mass = binned_pdf_mass(m, wo, &theta_edges, 1, &phi_edges);
                 let mut counts = vec![0usize; nt * np];
@@ -1656,7 +1683,7 @@ mod tests {
         #[test]
         fn finite_and_non_negative_everywhere(
             ti in prop_oneof![Just(FRAC_PI_2), Just(-FRAC_PI_2), Just(0.0), -FRAC_PI_2..FRAC_PI_2],
-            tr in prop_oneof![Just(FRAC_PI_2), Just(-FRAC_PI_2), Just(1.5707963), -FRAC_PI_2..FRAC_PI_2],
+            tr in prop_oneof![Just(FRAC_PI_2), Just(-FRAC_PI_2), Just(FRAC_PI_2 - 1e-9), -FRAC_PI_2..FRAC_PI_2],
             pi in -PI..PI,
             pr in prop_oneof![Just(0.0), -PI..PI],
             a in prop_oneof![Just(1.0), 0.75..1.0],

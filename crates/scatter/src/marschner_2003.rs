@@ -441,7 +441,8 @@ impl NormalPlane {
     /// The normal-plane problem for index `eta` at `sinθ_d`, `cosθ_d ≥ 0`.
     #[must_use]
     pub fn new(eta: f64, sin_theta_d: f64, cos_theta_d: f64, mode: RootMode) -> Self {
-        let inv_eta_prime = cos_theta_d / (eta * eta - sin_theta_d * sin_theta_d).sqrt();
+        // 1/η′ = sinγ_t at h = 1, in the cancellation-free form (finite at cosθ_d = 0).
+        let inv_eta_prime = bravais::sin_gamma_t(1.0, eta, sin_theta_d, cos_theta_d);
         Self {
             eta,
             cos_theta_d,
@@ -1796,6 +1797,39 @@ mod tests {
                 eprintln!("∫pdf dω, variant {i}, θ_r = {t}: {total:.6}");
             }
         }
+    }
+
+    #[test]
+    fn attenuation_matches_chord_and_printed_path_lengths() {
+        // Independent 3D computation at θ_d = 0.6, h = 0.4: the refracted ray's internal
+        // chord between the two surface hits, and the paper's printed 2(1 + cos2γ_t)/cosθ_t.
+        let (eta, theta_d, h) = (1.55, 0.6f64, 0.4f64);
+        let sigma = Rgb::new(0.3, 0.7, 1.1);
+        let d0 = -direction(-theta_d, 0.0);
+        let n0 = DVec3::new(0.0, (1.0 - h * h).sqrt(), h);
+        let cos_i = -d0.dot(n0);
+        let r = 1.0 / eta;
+        let d1 = d0 * r + n0 * (r * cos_i - (1.0 - r * r * (1.0 - cos_i * cos_i)).sqrt());
+        let chord = -2.0 * (n0.y * d1.y + n0.z * d1.z) / (d1.y * d1.y + d1.z * d1.z); // |d1| = 1
+        let f = fresnel::dielectric(cos_i, eta);
+        let gamma_t = (h * theta_d.cos() / (eta * eta - theta_d.sin().powi(2)).sqrt()).asin();
+        let cos_theta_t = (1.0 - (theta_d.sin() / eta).powi(2)).sqrt();
+        let printed = 2.0 * (1.0 + (2.0 * gamma_t).cos()) / cos_theta_t;
+        for (absorption, length) in [(Absorption::Chord, chord), (Absorption::Paper, printed)] {
+            let m = model(|p| {
+                p.sigma_a = sigma;
+                p.absorption = absorption;
+            });
+            let t = (sigma * -length).exp();
+            let expected = [Rgb::splat(f), t * (1.0 - f).powi(2), t * t * (1.0 - f).powi(2) * f];
+            for lobe in Lobe::ALL {
+                let a = m.attenuation(lobe, h, theta_d);
+                for c in 0..3 {
+                    assert_relative_eq!(a[c], expected[lobe.p()][c], max_relative = 1e-12);
+                }
+            }
+        }
+        assert!((printed - chord).abs() > 0.1, "the two path lengths differ: {printed} vs {chord}");
     }
 
     proptest! {

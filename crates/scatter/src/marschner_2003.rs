@@ -100,6 +100,19 @@
 //! sampler cannot know before φ is drawn, and the glint tails). The pdf is this mixture
 //! summed over all lobes: per steradian, `Σ_p w_p·½·g(β_p; θ_h − α_p)/Z_p·p_φ,p(φ)/cosθ_i`
 //! (½ = dθ_h/dθ_i, Z_p the truncated mass).
+//!
+//! Far field: `h` is ignored. η′, θ_t and Fresnel use θ_d (as the paper), not θ_r.
+//!
+//! # Tests (this file)
+//! Reciprocity on random pairs (circular and eccentric, both root modes); `∫N_p dφ = ½∫A dh`
+//! per lobe and root mode (tanh–sinh in φ against direct h-integration); R with F ≡ 1 equals
+//! `cos(φ/2)/4`; A(p, h) against a 3D refracted chord and the printed path; the exact caustic
+//! against a 3D ray-traced TRT histogram (and the h-map density away from it), the worked
+//! values of models.md §4.5 for both modes; the cubic error table; continuity of the glint
+//! fade at η′ = 2; the R lobe's tilt toward the root; albedo for both normalizations;
+//! pdf integrates to 1; sample ≡ pdf/eval; χ² of sample against pdf; no NaN/Inf (proptest,
+//! including θ = ±90°, θ_d → ±90°, a < 1, σ_a = 0). `marschner_report` (ignored) prints the
+//! caustic, error and albedo tables.
 
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
 use crate::radiometry::{Quadrature, albedo};

@@ -1874,5 +1874,42 @@ mod tests {
                 prop_assert!(s.weight.is_finite() && s.weight.min_component() >= 0.0 && s.pdf.is_finite() && s.pdf > 0.0);
             }
         }
+
+        #[test]
+        fn finite_and_consistent_over_the_parameter_ranges(
+            eta in 1.001f64..4.0,
+            alpha in -20.0f64..20.0,
+            beta in 1.0f64..20.0,
+            w_c in 1.0f64..45.0,
+            k_g in 0.0f64..10.0,
+            a in 0.75f64..1.0,
+            sigma in 0.0f64..50.0,
+            cubic in any::<bool>(),
+            ti in -FRAC_PI_2..FRAC_PI_2,
+            tr in -FRAC_PI_2..FRAC_PI_2,
+            dphi in -PI..PI,
+            u in prop::array::uniform4(0.0..1.0f64),
+        ) {
+            let m = model(|p| {
+                p.eta = eta;
+                p.alpha_r = alpha.to_radians();
+                p.beta_r = beta.to_radians();
+                p.w_c = w_c.to_radians();
+                p.k_g = k_g;
+                p.eccentricity = a;
+                p.sigma_a = Rgb::new(sigma, 0.5 * sigma, 0.0);
+                if cubic { p.roots = RootMode::Cubic; }
+            });
+            let (wi, wo) = (direction(ti, 0.4), direction(tr, 0.4 + dphi));
+            let f = m.eval(wi, wo, 0.0);
+            prop_assert!(f.is_finite() && f.min_component() >= 0.0, "{f:?}");
+            let pdf = m.pdf(wi, wo, 0.0);
+            prop_assert!(pdf.is_finite() && pdf >= 0.0);
+            if let Some(s) = m.sample(wo, 0.0, u) {
+                prop_assert!(s.weight.is_finite() && s.weight.min_component() >= 0.0);
+                let p2 = m.pdf(s.wi, wo, 0.0);
+                prop_assert!((s.pdf - p2).abs() <= 1e-12 * p2, "{} vs {}", s.pdf, p2);
+            }
+        }
     }
 }

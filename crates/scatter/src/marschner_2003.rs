@@ -1846,7 +1846,7 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(2000))]
+        #![proptest_config(ProptestConfig::with_cases(1000))]
         #[test]
         fn finite_and_non_negative_everywhere(
             ti in prop_oneof![Just(FRAC_PI_2), Just(-FRAC_PI_2), Just(0.0), -FRAC_PI_2..FRAC_PI_2],

@@ -144,6 +144,8 @@ const TRT_GLINT_MAX: f64 = 0.8;
 const LOBE_TABLE_INTERVALS: usize = 64;
 /// Midpoint nodes in γ for `½∫A dh` in the lobe-selection table.
 const LOBE_TABLE_NODES: usize = 64;
+/// `|Φ(p, γ) − φ|` (radians) at which the root solve stops: a few ulps of 3π.
+const ROOT_TOLERANCE: f64 = 4e-15;
 /// Iterations of safeguarded Newton (each either a Newton step or a bisection).
 const MAX_ROOT_ITERATIONS: usize = 100;
 
@@ -579,7 +581,9 @@ impl NormalPlane {
         for _ in 0..MAX_ROOT_ITERATIONS {
             let (phi, d) = self.phi_and_derivative(p, x);
             let f = phi - target;
-            if f == 0.0 {
+            // |Φ − target| at the level of Φ's rounding (|Φ| ≤ 3π): x is the root to
+            // ~1e−15/|Φ′|, which only matters within ~1e−14 rad of a caustic.
+            if f.abs() <= ROOT_TOLERANCE {
                 break;
             }
             if (f > 0.0) == increasing {

@@ -19,6 +19,7 @@ pub mod ideal_diffuse;
 pub mod ideal_specular;
 pub mod kajiya_kay_1989;
 pub mod lambertian_cylinder;
+pub mod marschner_2003;
 
 pub use error::ModelError;
 pub use function::{ConeValue, Field, Lobes, Properties, Sample, ScatteringFunction};

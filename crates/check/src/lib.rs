@@ -12,6 +12,7 @@
 
 pub mod chi2;
 pub mod expected;
+pub mod reports;
 pub mod tolerance;
 
 use chi2::{Chi2Config, chi2_cone, chi2_test};
@@ -91,6 +92,9 @@ pub fn default_cases() -> Vec<CheckCase> {
         CheckCase::new("kajiya-kay", &[("k_d", "0"), ("k_s", "1"), ("p", "10")]),
         CheckCase::new("kajiya-kay", &[("k_d", "0.02"), ("k_s", "0.3"), ("p", "100")]),
         CheckCase::new("goldman", &[("rho_reflect", "0.9,0.6,0.3"), ("rho_transmit", "0.2")]),
+        CheckCase::new("marschner", &[("sigma_a", "0"), ("glints", "off")]),
+        CheckCase::new("marschner", &[("roots", "cubic"), ("normalization", "paper")]),
+        CheckCase::new("marschner", &[("eccentricity", "0.85"), ("sigma_a", "0")]),
         CheckCase::new("chiang", &[("sigma_a", "0")]),
         CheckCase::new("chiang", &[("sigma_a", "0"), ("alpha", "0"), ("beta_m", "0.5"), ("beta_n", "0.7")]),
         CheckCase::new("chiang", &[("color", "0.6,0.4,0.2"), ("beta_m", "0.4"), ("beta_n", "0.4")]),
@@ -263,13 +267,17 @@ pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
             consistency <= SAMPLE_CONSISTENCY_REL,
         );
         t.test(
-            format!("χ² p-value θ_o={th:.2} h={h} (dof {}, impossible {})", outcome.dof, outcome.impossible),
+            format!(
+                "χ² p-value θ_o={th:.2} h={h} (dof {}, impossible {}, unresolved cells {})",
+                outcome.dof, outcome.impossible, outcome.untrusted
+            ),
             outcome.p_value,
             alpha,
             alpha,
             outcome.passes(alpha),
         );
     }
+    t.rows.extend(reports::model_reports(label, f));
     t.rows
 }
 

@@ -4,6 +4,7 @@
 
 mod bench;
 mod check;
+mod compare_model;
 mod eval;
 mod files;
 mod measure;
@@ -11,6 +12,7 @@ mod model_args;
 mod models;
 mod plot;
 mod sample;
+mod table;
 
 use clap::{Parser, Subcommand};
 
@@ -38,6 +40,8 @@ enum Command {
     Bench(bench::Args),
     /// Virtual goniophotometer: measure f_s by ray tracing an explicit fiber.
     Measure(measure::Args),
+    /// Compare a model with a measured table, per lobe (errors, peaks, difference figures).
+    CompareModel(compare_model::Args),
 }
 
 fn main() {
@@ -50,6 +54,7 @@ fn main() {
         Command::Plot(a) => plot::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Measure(a) => measure::run(a),
+        Command::CompareModel(a) => compare_model::run(a),
     };
     if let Err(e) = result {
         eprintln!("fiberlab: error: {e:#}");

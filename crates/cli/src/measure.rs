@@ -24,9 +24,10 @@ pub struct Args {
     /// A TOML file with the same keys (command-line --param values override it).
     #[arg(long)]
     fiber: Option<PathBuf>,
-    /// Light inclination θ_i from the normal plane, degrees.
+    /// Light inclination θ_i from the normal plane, degrees; a comma-separated list measures
+    /// several incidences into one table (what `--model measured` needs).
     #[arg(long, allow_hyphen_values = true)]
-    theta_i: f64,
+    theta_i: String,
     /// Light azimuth φ_i, degrees (relative to the major axis of an elliptical fiber).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     phi_i: f64,
@@ -99,45 +100,76 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .filter(|&(a, b)| a > 0 && b > 0)
         .with_context(|| format!("--bins: expected two positive integers NT,NP, got `{}`", args.bins))?;
     anyhow::ensure!(args.rays > 0, "--rays must be positive");
-    let setup = Setup {
-        theta_i: args.theta_i.to_radians(),
-        phi_i: args.phi_i.to_radians(),
-        rays: args.rays,
-        bins_theta: nt,
-        bins_phi: np,
-        seed: args.seed,
-    };
+    let thetas: Vec<f64> =
+        args.theta_i
+            .split(',')
+            .map(|t| {
+                t.trim().parse::<f64>().ok().filter(|v| v.abs() < 89.9).with_context(|| {
+                    format!("--theta-i: expected degrees in (-89.9, 89.9), comma-separated; got `{t}`")
+                })
+            })
+            .collect::<anyhow::Result<_>>()?;
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = stop.clone();
         // A second Ctrl-C is not caught again: the handler only asks the loop to stop.
         let _ = ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed));
     }
-    let bar = ProgressBar::new(args.rays as u64).with_style(
+    let bar = ProgressBar::new((args.rays * thetas.len()) as u64).with_style(
         ProgressStyle::with_template("{wide_bar} {pos}/{len} rays {per_sec} eta {eta}").expect("valid template"),
     );
     let start = Instant::now();
-    let m = measure(&fiber, &setup, &stop, |n| bar.inc(n as u64))?;
+    let mut measurements = Vec::new();
+    for &t in &thetas {
+        if stop.load(Ordering::Relaxed) {
+            break;
+        }
+        let setup = Setup {
+            theta_i: t.to_radians(),
+            phi_i: args.phi_i.to_radians(),
+            rays: args.rays,
+            bins_theta: nt,
+            bins_phi: np,
+            seed: args.seed,
+        };
+        measurements.push(measure(&fiber, &setup, &stop, |n| bar.inc(n as u64))?);
+    }
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
     if stop.load(Ordering::Relaxed) {
-        eprintln!("interrupted: writing the {} rays traced so far", m.traced);
+        eprintln!("interrupted: writing what was traced so far");
     }
-    write_csv(&m, &args.out.with_extension("csv"))?;
-    let title = format!("measured fiber {}   θ_i = {}°", args.params.join(" "), args.theta_i);
-    write_figure(&args.out.with_extension("png"), &figure(&m), &title, Scale::Log, 4.0)?;
-    println!("traced {} rays in {seconds:.2} s: {:.3} Mrays/s", m.traced, m.traced as f64 / seconds / 1e6);
-    println!("missed {} (beam margin for scales), dropped {} (> event limit)", m.missed, m.dropped);
-    for (name, lobe) in Measurement::LOBE_NAMES.iter().zip(&m.lobes) {
-        println!("albedo {name:<8} {:.6} {:.6} {:.6}", lobe.albedo[0], lobe.albedo[1], lobe.albedo[2]);
+    write_csv(&measurements, &args.out.with_extension("csv"))?;
+    let first = &measurements[0];
+    let title = format!("measured fiber {}   θ_i = {}°", args.params.join(" "), thetas[0]);
+    write_figure(&args.out.with_extension("png"), &figure(first), &title, Scale::Log, 4.0)?;
+    let traced: usize = measurements.iter().map(|m| m.traced).sum();
+    println!("traced {traced} rays in {seconds:.2} s: {:.3} Mrays/s", traced as f64 / seconds / 1e6);
+    for m in &measurements {
+        println!(
+            "θ_i = {:.2}°: missed {} (beam margin for scales), dropped {} (> event limit)",
+            m.setup.theta_i.to_degrees(),
+            m.missed,
+            m.dropped
+        );
+        for (name, lobe) in Measurement::LOBE_NAMES.iter().zip(&m.lobes) {
+            println!("  albedo {name:<8} {:.6} {:.6} {:.6}", lobe.albedo[0], lobe.albedo[1], lobe.albedo[2]);
+        }
     }
     println!("wrote {} and {}", args.out.with_extension("csv").display(), args.out.with_extension("png").display());
     Ok(())
 }
 
-fn write_csv(m: &Measurement, path: &Path) -> anyhow::Result<()> {
+fn write_csv(measurements: &[Measurement], path: &Path) -> anyhow::Result<()> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record(["lobe", "theta_i", "phi_i", "theta_r", "phi_r", "f_r", "f_g", "f_b", "std_r", "std_g", "std_b"])?;
+    for m in measurements {
+        write_rows(m, &mut w)?;
+    }
+    write_atomically(path, &w.into_inner()?)
+}
+
+fn write_rows(m: &Measurement, w: &mut csv::Writer<Vec<u8>>) -> anyhow::Result<()> {
     let (ti, pi) = (m.setup.theta_i.to_degrees().to_string(), m.setup.phi_i.to_degrees().to_string());
     for (name, lobe) in Measurement::LOBE_NAMES.iter().zip(&m.lobes) {
         for i in 0..m.setup.bins_theta {
@@ -161,7 +193,7 @@ fn write_csv(m: &Measurement, path: &Path) -> anyhow::Result<()> {
             }
         }
     }
-    write_atomically(path, &w.into_inner()?)
+    Ok(())
 }
 
 /// The `all` lobe as a figure: image, azimuthal distribution and the specular-cone row.

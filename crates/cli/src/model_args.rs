@@ -20,13 +20,35 @@ impl ModelArgs {
         self.params.iter().map(|p| split_key_value(p).map_err(anyhow::Error::from)).collect()
     }
 
-    /// Builds the model, with an error naming the model on failure.
+    /// Builds the model, with an error naming the model on failure. `measured` loads its
+    /// table (`table=PATH`, rows with lobe `all`).
     pub fn build(&self) -> anyhow::Result<Model> {
-        fiberlab_scatter::build(&self.model, &self.pairs()?).with_context(|| format!("model `{}`", self.model))
+        let pairs = self.pairs()?;
+        if self.model == "measured" {
+            return build_measured(&pairs);
+        }
+        fiberlab_scatter::build(&self.model, &pairs).with_context(|| format!("model `{}`", self.model))
     }
 
     /// `name key=value …` for titles.
     pub fn label(&self) -> String {
         std::iter::once(self.model.clone()).chain(self.params.iter().cloned()).collect::<Vec<_>>().join(" ")
     }
+}
+
+/// `measured` from its `table=PATH` parameter.
+fn build_measured(pairs: &[(String, String)]) -> anyhow::Result<Model> {
+    let mut path = None;
+    for (k, v) in pairs {
+        match k.as_str() {
+            "table" => path = Some(std::path::PathBuf::from(v)),
+            _ => anyhow::bail!("model `measured` has no parameter `{k}`; its parameters are: table"),
+        }
+    }
+    let path = path.context("model `measured`: give the table as --param table=PATH")?;
+    let lobes = crate::table::read(&path)?;
+    let all = lobes.get("all").with_context(|| format!("{}: no rows with lobe `all`", path.display()))?;
+    let model =
+        fiberlab_scatter::measured::Measured::new(all.to_table()).with_context(|| path.display().to_string())?;
+    Ok(model.into())
 }

@@ -1,6 +1,6 @@
 //! `fiberlab models`: every registered model with its parameters.
 
-use fiberlab_scatter::MODELS;
+use fiberlab_scatter::ALL_MODELS;
 
 /// Flags of `fiberlab models`.
 #[derive(clap::Args)]
@@ -15,7 +15,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(name) = &args.model {
         fiberlab_scatter::find(name)?;
     }
-    for spec in MODELS.iter().filter(|m| args.model.as_deref().is_none_or(|n| n == m.name)) {
+    for spec in ALL_MODELS.iter().filter(|m| args.model.as_deref().is_none_or(|n| n == m.name)) {
         println!("{} — {}", spec.name, spec.summary);
         println!("  source: {}", spec.citation);
         println!("  {:<14} {:<28} {:<10} {:<10} description", "parameter", "valid", "unit", "default");

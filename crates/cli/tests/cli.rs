@@ -170,3 +170,57 @@ fn measure_writes_the_documented_csv_and_a_figure() {
         .unwrap();
     assert!(String::from_utf8_lossy(&res.stderr).contains("unknown key `radius`"));
 }
+
+#[test]
+fn measured_table_is_a_model_and_compares_with_models() {
+    let dir = tempfile::tempdir().unwrap();
+    let prefix = dir.path().join("t");
+    stdout_of(fiberlab().args([
+        "measure",
+        "--theta-i",
+        "-30,0,30",
+        "--rays",
+        "60000",
+        "--bins",
+        "18,36",
+        "--param",
+        "sigma_a=0.2",
+        "--out",
+        prefix.to_str().unwrap(),
+    ]));
+    let table = format!("table={}", prefix.with_extension("csv").display());
+    // Tabulated model: eval and sample work, and sampling weights average to its albedo.
+    let out = stdout_of(fiberlab().args([
+        "sample",
+        "--model",
+        "measured",
+        "--param",
+        &table,
+        "--wo",
+        "0.2,0.9797959,0",
+        "--count",
+        "2000",
+    ]));
+    let weights: Vec<f64> = out.lines().skip(1).map(|l| l.split(',').nth(3).unwrap().parse().unwrap()).collect();
+    let mean = weights.iter().sum::<f64>() / weights.len() as f64;
+    assert!(mean > 0.3 && mean < 1.0, "mean weight {mean}");
+    let out = stdout_of(
+        fiberlab()
+            .args(["eval", "--model", "measured", "--param", &table])
+            .write_stdin("wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,1,0,0,0,1\n"),
+    );
+    assert!(out.lines().nth(1).unwrap().split(',').count() == 10);
+    // compare-model prints one line per incidence and lobe.
+    let out = stdout_of(fiberlab().args([
+        "compare-model",
+        "--table",
+        prefix.with_extension("csv").to_str().unwrap(),
+        "--model",
+        "marschner",
+    ]));
+    assert_eq!(out.lines().filter(|l| l.contains(" all ")).count(), 3, "{out}");
+    assert_eq!(out.lines().filter(|l| l.contains(" trt ")).count(), 3, "{out}");
+    // A missing table is a clear error.
+    let res = fiberlab().args(["sample", "--model", "measured", "--wo", "0,1,0", "--count", "1"]).output().unwrap();
+    assert!(String::from_utf8_lossy(&res.stderr).contains("table=PATH"));
+}

@@ -104,7 +104,7 @@ const PARAMS: [ParamSpec; 10] = [
     },
     ParamSpec {
         key: "p_max",
-        kind: ParamKind::Number(P_MAX_RANGE),
+        kind: ParamKind::Integer(P_MAX_RANGE),
         unit: "",
         default: "3",
         doc: "explicit lobes p < p_max (integer); higher orders form a uniform residual lobe",

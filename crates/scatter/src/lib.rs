@@ -20,7 +20,8 @@ pub mod ideal_specular;
 pub mod kajiya_kay_1989;
 pub mod lambertian_cylinder;
 pub mod marschner_2003;
+pub mod measured;
 
 pub use error::ModelError;
 pub use function::{ConeValue, Field, Lobes, Properties, Sample, ScatteringFunction};
-pub use model::{MODELS, Model, ModelSpec, build, find};
+pub use model::{ALL_MODELS, EXTERNAL_DATA, MODELS, Model, ModelSpec, build, find};

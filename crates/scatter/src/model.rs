@@ -32,8 +32,9 @@ macro_rules! models {
             )*
         }
 
-        /// All registered models, in the order `fiberlab models` lists them.
-        pub const MODELS: &[ModelSpec] = &[$($spec),*];
+        /// Every model the enum can hold, in the order `fiberlab models` lists them; those in
+        /// [`EXTERNAL_DATA`] cannot be built from parameters alone.
+        pub const ALL_MODELS: &[ModelSpec] = &[$($spec),*];
 
         impl ScatteringFunction for Model {
             #[inline]
@@ -69,13 +70,31 @@ models! {
     Marschner(crate::marschner_2003::Marschner) = crate::marschner_2003::SPEC,
     Chiang(crate::chiang_2016::Chiang) = crate::chiang_2016::SPEC,
     Deon(crate::deon_2011::Deon) = crate::deon_2011::SPEC,
+    Measured(crate::measured::Measured) = crate::measured::SPEC,
 }
+
+/// Models that need data loaded by the caller (a table file): listed by `fiberlab models`
+/// but skipped by code that builds every model from its defaults.
+pub const EXTERNAL_DATA: &[&str] = &["measured"];
+
+/// The models that can be built from parameters alone (every entry of [`ALL_MODELS`] not in
+/// [`EXTERNAL_DATA`]).
+pub const MODELS: &[ModelSpec] = &[
+    crate::ideal_diffuse::SPEC,
+    crate::lambertian_cylinder::SPEC,
+    crate::ideal_specular::SPEC,
+    crate::kajiya_kay_1989::SPEC,
+    crate::goldman_1997::SPEC,
+    crate::marschner_2003::SPEC,
+    crate::chiang_2016::SPEC,
+    crate::deon_2011::SPEC,
+];
 
 /// The registry entry called `name`.
 pub fn find(name: &str) -> Result<&'static ModelSpec, ModelError> {
-    MODELS.iter().find(|m| m.name == name).ok_or_else(|| ModelError::UnknownModel {
+    ALL_MODELS.iter().find(|m| m.name == name).ok_or_else(|| ModelError::UnknownModel {
         name: name.into(),
-        known: MODELS.iter().map(|m| m.name).collect::<Vec<_>>().join(", "),
+        known: ALL_MODELS.iter().map(|m| m.name).collect::<Vec<_>>().join(", "),
     })
 }
 
@@ -90,6 +109,12 @@ pub fn build<K: AsRef<str>, V: AsRef<str>>(name: &str, pairs: &[(K, V)]) -> Resu
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn models_lists_every_buildable_entry_of_all_models() {
+        let buildable: Vec<&str> = ALL_MODELS.iter().map(|m| m.name).filter(|n| !EXTERNAL_DATA.contains(n)).collect();
+        assert_eq!(buildable, MODELS.iter().map(|m| m.name).collect::<Vec<_>>());
+    }
 
     #[test]
     fn every_model_builds_with_defaults_and_names_are_unique() {

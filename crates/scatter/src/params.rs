@@ -95,6 +95,8 @@ impl fmt::Display for Range {
 pub enum ParamKind {
     /// A real number in the range.
     Number(Range),
+    /// A whole number in the range.
+    Integer(Range),
     /// A colour: one number or `r,g,b`, each channel in the range.
     Color(Range),
     /// One word out of a list.
@@ -148,6 +150,17 @@ impl ParamSpec {
         };
         match self.kind {
             ParamKind::Number(r) => Ok(ParamValue::Number(r.check(self.key, number(text)?)?)),
+            ParamKind::Integer(r) => {
+                let x = r.check(self.key, number(text)?)?;
+                if x.fract() != 0.0 {
+                    return Err(ModelError::BadValue {
+                        key: self.key.into(),
+                        value: text.into(),
+                        expected: format!("a whole number in {r}"),
+                    });
+                }
+                Ok(ParamValue::Number(x))
+            }
             ParamKind::Color(r) => {
                 let parts: Vec<&str> = text.split(',').collect();
                 let c = match parts.as_slice() {
@@ -197,6 +210,7 @@ impl ParamSpec {
     pub fn valid(&self) -> String {
         match self.kind {
             ParamKind::Number(r) => r.to_string(),
+            ParamKind::Integer(r) => format!("integer in {r}"),
             ParamKind::Color(r) => format!("{r} per channel"),
             ParamKind::Choice(c) => c.join("|"),
             ParamKind::Subset(c) => format!("subset of {}", c.join(",")),

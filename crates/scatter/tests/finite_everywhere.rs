@@ -29,6 +29,7 @@ fn pick(range: Range, t: f64) -> f64 {
 fn value(spec: &ParamSpec, t: f64) -> Option<String> {
     match spec.kind {
         ParamKind::Number(r) => Some(pick(r, t).to_string()),
+        ParamKind::Integer(r) => Some(pick(r, t).round().clamp(r.min.ceil(), r.max.floor()).to_string()),
         ParamKind::Color(r) => Some(format!("{},{},{}", pick(r, t), pick(r, 1.0 - t), pick(r, (t * 7.0) % 1.0))),
         ParamKind::Choice(c) => Some(c[((t * c.len() as f64) as usize).min(c.len() - 1)].to_string()),
         ParamKind::Subset(c) => Some(c[..1 + ((t * c.len() as f64) as usize).min(c.len() - 1)].join(",")),
@@ -88,7 +89,7 @@ proptest! {
 fn non_finite_parameters_are_rejected_for_every_model() {
     for spec in MODELS {
         for p in spec.params {
-            if matches!(p.kind, ParamKind::Number(_) | ParamKind::Color(_)) {
+            if matches!(p.kind, ParamKind::Number(_) | ParamKind::Integer(_) | ParamKind::Color(_)) {
                 for bad in ["NaN", "inf", "-inf"] {
                     let e = build(spec.name, &[(p.key, bad)]);
                     assert!(e.is_err(), "{} accepted {}={bad}", spec.name, p.key);

@@ -1,0 +1,115 @@
+//! Reading `fiberlab measure` tables back: CSV rows
+//! `lobe,theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b,std_r,std_g,std_b` (degrees at bin centres).
+
+use anyhow::{Context, bail};
+use fiberlab_math::Rgb;
+use fiberlab_scatter::measured::MeasuredTable;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// One lobe's bins for every incidence: `(f, std)` per bin, row-major `[θ_r][φ]`.
+#[derive(Clone, Debug)]
+pub struct LobeSlices {
+    /// Incidence inclinations θ_i (radians), increasing.
+    pub theta_in: Vec<f64>,
+    /// Light azimuth φ_i (radians) of each slice.
+    pub phi_in: Vec<f64>,
+    /// Bins in θ_r.
+    pub bins_theta: usize,
+    /// Bins in φ.
+    pub bins_phi: usize,
+    /// Values per slice.
+    pub f: Vec<Vec<Rgb>>,
+    /// Standard errors per slice.
+    #[allow(dead_code)] // read by fitting (weights), kept with the values it belongs to
+    pub std: Vec<Vec<Rgb>>,
+}
+
+impl LobeSlices {
+    /// The table as a scattering function's data.
+    pub fn to_table(&self) -> MeasuredTable {
+        MeasuredTable {
+            theta_in: self.theta_in.clone(),
+            bins_theta: self.bins_theta,
+            bins_phi: self.bins_phi,
+            f: self.f.clone(),
+        }
+    }
+}
+
+/// Reads every lobe of a measurement CSV; errors name the file and line.
+pub fn read(path: &Path) -> anyhow::Result<BTreeMap<String, LobeSlices>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    parse(&text, &path.display().to_string())
+}
+
+/// Parses measurement CSV `text` (named `name` in errors).
+pub fn parse(text: &str, name: &str) -> anyhow::Result<BTreeMap<String, LobeSlices>> {
+    const COLS: [&str; 11] =
+        ["lobe", "theta_i", "phi_i", "theta_r", "phi_r", "f_r", "f_g", "f_b", "std_r", "std_g", "std_b"];
+    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
+    let header = reader.headers().with_context(|| format!("{name}: line 1: cannot read the header"))?.clone();
+    let idx: Vec<usize> = COLS
+        .iter()
+        .map(|c| header.iter().position(|h| h == *c).with_context(|| format!("{name}: line 1: missing column `{c}`")))
+        .collect::<anyhow::Result<_>>()?;
+    // lobe → (θ_i, φ_i) key → (θ_i, φ_i, rows of (θ_r, φ_r, f, std))
+    type Rows = Vec<(f64, f64, Rgb, Rgb)>;
+    type Slices = BTreeMap<(i64, i64), (f64, f64, Rows)>;
+    let mut lobes: BTreeMap<String, Slices> = BTreeMap::new();
+    for rec in reader.records() {
+        let rec = rec.map_err(|e| anyhow::anyhow!("{name}: line {}: {e}", e.position().map_or(0, |p| p.line())))?;
+        let line = rec.position().map_or(0, |p| p.line());
+        let num = |k: usize| -> anyhow::Result<f64> {
+            let t = rec.get(idx[k]).unwrap_or("");
+            t.parse::<f64>().ok().filter(|v| v.is_finite()).with_context(|| {
+                format!(
+                    "{name}: line {line}, column {} (`{}`): expected a finite number, got `{t}`",
+                    idx[k] + 1,
+                    COLS[k]
+                )
+            })
+        };
+        let v: Vec<f64> = (1..11).map(num).collect::<anyhow::Result<_>>()?;
+        let lobe = rec.get(idx[0]).unwrap_or("").to_string();
+        // Key slices by θ_i, φ_i in millidegrees so that printed decimals group exactly.
+        let key = ((v[0] * 1000.0).round() as i64, (v[1] * 1000.0).round() as i64);
+        let slot = lobes.entry(lobe).or_default().entry(key).or_insert((v[0], v[1], Vec::new()));
+        slot.2.push((v[2], v[3], Rgb::new(v[4], v[5], v[6]), Rgb::new(v[7], v[8], v[9])));
+    }
+    if lobes.is_empty() {
+        bail!("{name}: no data rows");
+    }
+    lobes
+        .into_iter()
+        .map(|(lobe, slices)| {
+            let mut theta_in = Vec::new();
+            let mut phi_in = Vec::new();
+            let mut f = Vec::new();
+            let mut std = Vec::new();
+            let (mut nt, mut np) = (0, 0);
+            for (_, (ti, pi, mut rows)) in slices {
+                let distinct = |sel: fn(&(f64, f64, Rgb, Rgb)) -> f64, rows: &Rows| {
+                    let mut v: Vec<i64> = rows.iter().map(|r| (sel(r) * 1e6).round() as i64).collect();
+                    v.sort_unstable();
+                    v.dedup();
+                    v.len()
+                };
+                let (t, p) = (distinct(|r| r.0, &rows), distinct(|r| r.1, &rows));
+                if t * p != rows.len() {
+                    bail!("{name}: lobe `{lobe}`, θ_i = {ti}°: {} rows do not form a {t}×{p} grid", rows.len());
+                }
+                if (nt, np) != (0, 0) && (nt, np) != (t, p) {
+                    bail!("{name}: lobe `{lobe}`: θ_i = {ti}° has a {t}×{p} grid, other slices {nt}×{np}");
+                }
+                (nt, np) = (t, p);
+                rows.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+                theta_in.push(ti.to_radians());
+                phi_in.push(pi.to_radians());
+                f.push(rows.iter().map(|r| r.2).collect());
+                std.push(rows.iter().map(|r| r.3).collect());
+            }
+            Ok((lobe, LobeSlices { theta_in, phi_in, bins_theta: nt, bins_phi: np, f, std }))
+        })
+        .collect()
+}

@@ -219,7 +219,7 @@ impl CurveSet {
             let r = f64::from(s.radius);
             let d = (p1 - p0).normalize();
             // A miter ellipse reaches r/cos from the vertex; bound both ends by that sphere.
-            let cos = f64::from(s.n0.as_dvec3().dot(d).min(s.n1.as_dvec3().dot(d))).max(MIN_MITER_COS);
+            let cos = s.n0.as_dvec3().dot(d).min(s.n1.as_dvec3().dot(d)).max(MIN_MITER_COS);
             let reach = r / cos * (1.0 + 1e-6);
             let len = (p1 - p0).length();
             let pieces = ((len / (SPLIT_LENGTH_IN_RADII * r)).ceil() as usize).clamp(1, MAX_PIECES);
@@ -431,7 +431,7 @@ mod tests {
         /// φ_i − φ_o = −2 asin h (models.md §1.2 in pbrt's convention) and θ_i = −θ_o.
         #[test]
         fn mirror_reflection_matches_phi_of_h(
-            ox in -1.0f64..1.0, oz in -1.0f64..1.0, dy in -0.9f64..0.9, angle in 0.0f64..6.28, off in -0.99f64..0.99
+            ox in -1.0f64..1.0, oz in -1.0f64..1.0, dy in -0.9f64..0.9, angle in 0.0f64..std::f64::consts::TAU, off in -0.99f64..0.99
         ) {
             // Positions are stored as f32: use representable coordinates for the reference axis.
             let (ox, oz) = (f64::from(ox as f32), f64::from(oz as f32));

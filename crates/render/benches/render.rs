@@ -1,1 +1,2 @@
+//! Criterion benchmarks for the renderer (see fiberlab_render::bench).
 fn main() {}

@@ -10,3 +10,4 @@
 
 pub mod bvh;
 pub mod curves;
+pub mod generator;

@@ -9,5 +9,11 @@
 #![forbid(unsafe_code)]
 
 pub mod bvh;
+pub mod camera;
 pub mod curves;
 pub mod generator;
+pub mod integrator;
+pub mod light;
+pub mod sampler;
+pub mod scene;
+pub mod shapes;

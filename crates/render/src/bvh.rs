@@ -327,6 +327,22 @@ impl Bvh {
         }
     }
 
+    /// True when `hit(prim)` returns true for some primitive whose leaf the ray reaches
+    /// (any-hit query for shadow rays; stops at the first hit).
+    pub fn any(&self, ray: &Ray, mut hit: impl FnMut(u32) -> bool) -> bool {
+        let mut found = false;
+        self.traverse(ray, |p, t_max| {
+            if found || !hit(p) {
+                return None;
+            }
+            found = true;
+            // t_max = −∞ prunes every remaining box.
+            let _ = t_max;
+            Some(f64::NEG_INFINITY)
+        });
+        found
+    }
+
     /// Unordered recursive walk (overflow path of [`Bvh::traverse`]).
     fn walk(&self, node: usize, _ray: &Ray, t_max: &mut f64, hit: &mut impl FnMut(u32, f64) -> Option<f64>) {
         let n = self.nodes[node];

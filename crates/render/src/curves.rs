@@ -280,6 +280,12 @@ impl CurveSet {
         best
     }
 
+    /// True when the ray enters any tube within `(t_min, t_max)` (shadow rays).
+    #[must_use]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.bvh.any(ray, |piece| self.intersect_segment(self.piece_segment[piece as usize], ray, ray.t_max).is_some())
+    }
+
     /// Nearest tube entry by testing every segment (the reference for the BVH).
     #[must_use]
     pub fn intersect_brute_force(&self, ray: &Ray) -> Option<CurveHit> {
@@ -399,6 +405,11 @@ mod tests {
                 let a = set.intersect(&ray);
                 let b = set.intersect_brute_force(&ray);
                 assert_eq!(a.map(|h| h.t), b.map(|h| h.t), "seed {seed} ray {ray:?}");
+                assert_eq!(set.occluded(&ray), b.is_some());
+                if let Some(h) = b {
+                    let short = Ray { t_max: h.t * 0.999_999, ..ray };
+                    assert_eq!(set.occluded(&short), set.intersect_brute_force(&short).is_some());
+                }
                 hits += usize::from(b.is_some());
             }
             assert!(hits > 100, "too few hits ({hits}) to be a test");

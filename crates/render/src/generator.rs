@@ -5,7 +5,7 @@
 //! 1. **Root**: uniform on the sphere cap within [`HairParams::scalp_angle_deg`] of the crown
 //!    (`+y`), minus a face region (front, below [`FACE_CUTOFF_Y`]); lifted by one radius.
 //! 2. **Guide path**: `segments` steps of length `length/segments` from the root. The direction
-//!    starts along the scalp normal tilted backward, is pulled toward `−y` by `gravity`, jittered
+//!    starts tangent to the scalp, combed backward, is pulled toward `−y` by `gravity`, jittered
 //!    by `noise`, and every point is pushed out of the head so strands drape over it.
 //! 3. **Style**: `straight`; `wavy` adds a planar sine offset `A sin(2πs/λ + φ₀)` across the
 //!    strand; `curly` a helix of radius `A` and pitch `λ` around the path. Amplitude grows from
@@ -21,7 +21,14 @@ use serde::Deserialize;
 use std::f64::consts::TAU;
 
 /// Roots in front (`z > 0`) below this height (fraction of the head radius) are face, not scalp.
-pub const FACE_CUTOFF_Y: f64 = 0.25;
+pub const FACE_CUTOFF_Y: f64 = 0.35;
+
+/// Sideways (outward) part of the comb direction per unit of the scalp normal's x.
+const COMB_SPREAD: f64 = 0.5;
+/// Downward part of the comb direction (relative to backward = 1).
+const COMB_DOWN: f64 = 0.2;
+/// Normal component of the root direction (0 = flat on the scalp).
+const ROOT_LIFT: f64 = 0.25;
 
 /// Hair style.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
@@ -267,8 +274,11 @@ impl HairParams {
         let step = self.length / self.segments as f64;
         let lift = 0.5 * self.root_diameter;
         let mut p = center + n * (r_head + lift);
-        // Initial direction: out of the scalp, combed backward (−z) and down.
-        let mut dir = (n * 0.6 + DVec3::new(0.0, -0.1, -0.5)).normalize_or(n);
+        // Initial direction: combed backward (−z), slightly down and outward, projected onto
+        // the scalp's tangent plane, lifted a little off it.
+        let comb = DVec3::new(COMB_SPREAD * n.x, -COMB_DOWN, -1.0);
+        let along = (comb - n * n.dot(comb)).normalize_or(DVec3::NEG_Y);
+        let mut dir = (along + n * ROOT_LIFT).normalize();
         let mut path = Vec::with_capacity(self.segments + 1);
         path.push(p);
         for _ in 0..self.segments {

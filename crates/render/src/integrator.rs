@@ -520,7 +520,7 @@ mod tests {
         // A lossy assembly is darker: the test can fail.
         let lossy = render(&furnace_scene(0.5, true), &settings(16), &|_, _| {}, &AtomicBool::new(false));
         let m: f64 = lossy.image.pixels().iter().map(|p| f64::from(p[0])).sum::<f64>() / px.len() as f64;
-        assert!(m < 0.8, "lossy mean {m}");
+        assert!(m < 0.95, "lossy mean {m}");
     }
 
     #[test]

@@ -16,4 +16,5 @@ pub mod integrator;
 pub mod light;
 pub mod sampler;
 pub mod scene;
+pub mod scene_file;
 pub mod shapes;

@@ -135,6 +135,8 @@ impl Scene {
     /// except the one at the end, which the caller excludes by shortening `t_max`).
     #[must_use]
     pub fn unoccluded(&self, ray: &Ray) -> bool {
-        self.intersect(ray).is_none()
+        !(self.spheres.iter().any(|s| sphere_hit(ray.o, ray.d, s.center, s.radius, ray.t_min, ray.t_max).is_some())
+            || self.meshes.iter().any(|m| m.mesh.occluded(ray))
+            || self.fibers.iter().any(|f| f.curves.occluded(ray)))
     }
 }

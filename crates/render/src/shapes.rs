@@ -100,6 +100,12 @@ impl TriangleMesh {
         self.triangles.is_empty()
     }
 
+    /// True when the ray hits any triangle within `(t_min, t_max)`.
+    #[must_use]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.bvh.any(ray, |i| triangle_hit(ray, &self.triangles[i as usize], ray.t_max).is_some())
+    }
+
     /// Nearest hit: `(t, geometric unit normal)`.
     #[must_use]
     pub fn intersect(&self, ray: &Ray) -> Option<(f64, DVec3)> {

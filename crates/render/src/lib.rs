@@ -8,6 +8,7 @@
 //! frame (see [`curves`]) and calls the model.
 #![forbid(unsafe_code)]
 
+pub mod bench;
 pub mod bvh;
 pub mod camera;
 pub mod curves;

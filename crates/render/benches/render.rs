@@ -1,4 +1,5 @@
 //! Criterion benchmarks: BVH build, closest-hit rays (camera and incoherent) and path-traced
+#![allow(missing_docs)] // criterion macros generate undocumented items
 //! samples on a reduced default scene. Run with `cargo bench -p fiberlab-render`.
 use criterion::{Criterion, criterion_group, criterion_main};
 use fiberlab_render::bench::{bvh_build, ray_throughput, samples_per_second};

@@ -1,1 +1,472 @@
-//! The validation harness (placeholder until the harness lands).
+//! The validation harness: every claim a scattering model makes, tested the same way for
+//! every model (statrs' `check_continuous_distribution`, Mitsuba's `chi2.py`).
+//!
+//! [`check_model`] runs, for one configured model: finiteness and non-negativity sweeps
+//! (including θ = ±π/2 and h = ±1), the light-side albedo by quadrature against closed forms
+//! from models.md ([`expected`]), the energy bound when claimed, the camera-side furnace by
+//! quadrature against Monte Carlo of `sample()`, reciprocity (tested when claimed, measured
+//! and reported otherwise), `∫ pdf dω = 1`, `sample()` agreeing with `eval()`/`pdf()`, and a
+//! χ² goodness-of-fit test of `sample()` against `pdf()`. It stops at reporting: printing
+//! and exit codes belong to the CLI.
+#![forbid(unsafe_code)]
+
+pub mod chi2;
+pub mod expected;
+pub mod tolerance;
+
+use chi2::{Chi2Config, chi2_cone, chi2_test};
+use fiberlab_math::frame::{cos_theta, direction, theta};
+use fiberlab_math::{DVec3, Rgb};
+use fiberlab_scatter::radiometry::{self, Quadrature};
+use fiberlab_scatter::{Field, Lobes, Model, ModelError, ScatteringFunction, build};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use rayon::prelude::*;
+use serde::Serialize;
+use tolerance::*;
+
+/// One line of the check table.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    /// Model configuration label, e.g. `specular azimuth=mirror fresnel=on`.
+    pub model: String,
+    /// What was tested.
+    pub test: String,
+    /// Measured value.
+    pub value: f64,
+    /// Expected value (NaN for report-only rows).
+    pub expected: f64,
+    /// Allowed deviation (meaning depends on the test; NaN for report-only rows).
+    pub tolerance: f64,
+    /// Whether the test passed (report-only rows always pass).
+    pub pass: bool,
+    /// True for measurements reported without a pass/fail claim.
+    pub report: bool,
+}
+
+/// A model configuration to check: registry name and `key=value` parameters.
+#[derive(Clone, Debug)]
+pub struct CheckCase {
+    /// Registry name.
+    pub model: String,
+    /// Parameters.
+    pub params: Vec<(String, String)>,
+}
+
+impl CheckCase {
+    /// A case from a name and `key=value` pairs.
+    #[must_use]
+    pub fn new(model: &str, params: &[(&str, &str)]) -> Self {
+        Self { model: model.into(), params: params.iter().map(|(k, v)| ((*k).into(), (*v).into())).collect() }
+    }
+
+    /// `name key=value …`.
+    #[must_use]
+    pub fn label(&self) -> String {
+        let mut s = self.model.clone();
+        for (k, v) in &self.params {
+            s.push_str(&format!(" {k}={v}"));
+        }
+        s
+    }
+
+    /// Builds the model.
+    pub fn build(&self) -> Result<Model, ModelError> {
+        build(&self.model, &self.params)
+    }
+}
+
+/// The configurations `fiberlab check` validates: every registered model with its defaults,
+/// plus the variants whose claims differ (white furnace, Fresnel, exponents).
+#[must_use]
+pub fn default_cases() -> Vec<CheckCase> {
+    let mut cases: Vec<CheckCase> = fiberlab_scatter::MODELS.iter().map(|m| CheckCase::new(m.name, &[])).collect();
+    cases.extend([
+        CheckCase::new("diffuse", &[("albedo", "1")]),
+        CheckCase::new("diffuse", &[("albedo", "0.2,0.5,0.9")]),
+        CheckCase::new("lambertian-cylinder", &[("albedo", "1")]),
+        CheckCase::new("specular", &[("azimuth", "mirror"), ("fresnel", "on")]),
+        CheckCase::new("specular", &[("azimuth", "uniform"), ("fresnel", "off")]),
+        CheckCase::new("specular", &[("azimuth", "uniform"), ("fresnel", "on"), ("eta", "1.33")]),
+        CheckCase::new("kajiya-kay", &[("k_d", "0"), ("k_s", "1"), ("p", "10")]),
+        CheckCase::new("kajiya-kay", &[("k_d", "0.02"), ("k_s", "0.3"), ("p", "100")]),
+        CheckCase::new("goldman", &[("rho_reflect", "0.9,0.6,0.3"), ("rho_transmit", "0.2")]),
+    ]);
+    cases
+}
+
+/// How thoroughly to check (the test suite and `fiberlab check` use the default).
+#[derive(Clone, Copy, Debug)]
+pub struct Effort {
+    /// Samples per χ² case.
+    pub chi2_samples: usize,
+    /// Samples per sample-consistency and Monte Carlo furnace case.
+    pub samples: usize,
+    /// Random direction pairs for finiteness and reciprocity.
+    pub pairs: usize,
+}
+
+impl Default for Effort {
+    fn default() -> Self {
+        Self { chi2_samples: 500_000, samples: 100_000, pairs: 20_000 }
+    }
+}
+
+/// Viewer directions used by the per-direction tests (θ_o from normal to near grazing).
+const WO_THETAS: [f64; 4] = [0.0, 0.6, -1.1, 1.45];
+/// Light inclinations of the albedo table.
+pub const ALBEDO_THETAS: [f64; 4] = [0.0, 0.5, 1.0, 1.4];
+
+fn h_values(f: &impl ScatteringFunction) -> &'static [f64] {
+    if f.properties().field == Field::Near { &[0.0, 0.6, -0.97] } else { &[0.0] }
+}
+
+/// Relative difference, robust to zeros.
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / a.abs().max(b.abs()).max(1e-300)
+}
+
+fn max_rel(a: Rgb, b: Rgb) -> f64 {
+    (0..3).map(|c| if a[c] == b[c] { 0.0 } else { rel(a[c], b[c]) }).fold(0.0, f64::max)
+}
+
+/// Runs every applicable test on `f`, labelling rows with `label`.
+pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
+    let props = f.properties();
+    let mut t = Table { label, rows: Vec::new() };
+    let mut rng = Pcg64::seed_from_u64(0x5eed);
+    let wos: Vec<DVec3> = WO_THETAS.iter().enumerate().map(|(k, &t)| direction(t, 0.4 + 1.3 * k as f64)).collect();
+
+    // 1. finiteness and non-negativity, random and extreme arguments
+    let (nonfinite, negative) = finiteness(f, effort.pairs, &mut rng);
+    t.test("finite eval/pdf/sample (bad count)".into(), nonfinite as f64, 0.0, 0.0, nonfinite == 0);
+    t.test("non-negative eval/pdf (bad count)".into(), negative as f64, 0.0, 0.0, negative == 0);
+
+    // 2. light-side albedo against closed forms; energy bound when claimed
+    let q = Quadrature::default();
+    let mut max_albedo: f64 = 0.0;
+    for &ti in &ALBEDO_THETAS {
+        let wi = direction(ti, 0.3);
+        let rho = radiometry::albedo(f, wi, &q);
+        max_albedo = max_albedo.max(rho.max_component());
+        match expected::albedo(f, ti) {
+            Some(e) => {
+                let err = max_rel(rho, e);
+                t.test(
+                    format!("albedo θ_i={ti:.2} (luminance)"),
+                    rho.luminance(),
+                    e.luminance(),
+                    ALBEDO_REL,
+                    err <= ALBEDO_REL,
+                )
+            }
+            None => t.report(format!("albedo θ_i={ti:.2} (luminance)"), rho.luminance()),
+        }
+    }
+    if props.energy_conserving {
+        t.test(
+            "energy bound max ρ ≤ 1".into(),
+            max_albedo,
+            1.0,
+            ENERGY_BOUND_SLACK,
+            max_albedo <= 1.0 + ENERGY_BOUND_SLACK,
+        );
+    }
+
+    // 3. camera-side furnace: quadrature of eval vs Monte Carlo of sample weights
+    for (k, &wo) in wos.iter().enumerate() {
+        for &h in h_values(f) {
+            let quad = furnace_at(f, wo, h, &q);
+            let (mc, se) = mc_furnace(f, wo, h, effort.samples, &mut rng);
+            let tol = MC_SIGMAS * se.luminance() + 1e-3 * quad.luminance().abs() + 1e-9;
+            let pass = (mc.luminance() - quad.luminance()).abs() <= tol;
+            t.test(
+                format!("furnace θ_o={:.2} h={h}: MC vs quadrature", WO_THETAS[k]),
+                mc.luminance(),
+                quad.luminance(),
+                tol,
+                pass,
+            );
+        }
+    }
+
+    // 4. reciprocity
+    let (recip, recip_samples) = reciprocity(f, effort.pairs / 4, &mut rng);
+    if props.reciprocal {
+        t.test("reciprocity max relative defect".into(), recip, 0.0, RECIPROCITY_REL, recip <= RECIPROCITY_REL);
+    } else {
+        t.report("non-reciprocity max relative (report)".into(), recip);
+        if let Model::KajiyaKay(kk) = f {
+            let defect = kajiya_kay_ratio_defect(kk, &recip_samples);
+            t.test("non-reciprocity = cosθ_r/cosθ_i (max rel. error)".into(), defect, 0.0, 1e-9, defect <= 1e-9);
+        }
+    }
+
+    // 5–7. pdf normalization, sample consistency, χ²
+    let cases: Vec<(usize, f64)> = (0..wos.len()).flat_map(|k| h_values(f).iter().map(move |&h| (k, h))).collect();
+    let alpha = CHI2_SIGNIFICANCE / cases.len() as f64;
+    let results: Vec<_> = cases
+        .par_iter()
+        .map(|&(k, h)| {
+            let wo = wos[k];
+            let integral = pdf_integral(f, wo, h);
+            let consistency = sample_consistency(f, wo, h, effort.samples / 5, 17 + k as u64);
+            let outcome = if props.lobes == Lobes::Delta {
+                chi2_cone(f, wo, 180, effort.chi2_samples, 99 + k as u64)
+            } else {
+                chi2_test(
+                    f,
+                    wo,
+                    h,
+                    &Chi2Config { samples: effort.chi2_samples, seed: 99 + k as u64, ..Default::default() },
+                )
+            };
+            (k, h, integral, consistency, outcome)
+        })
+        .collect();
+    for (k, h, integral, consistency, outcome) in results {
+        let th = WO_THETAS[k];
+        t.test(
+            format!("∫pdf dω θ_o={th:.2} h={h}"),
+            integral,
+            1.0,
+            PDF_INTEGRAL_ABS,
+            (integral - 1.0).abs() <= PDF_INTEGRAL_ABS,
+        );
+        t.test(
+            format!("sample vs eval/pdf θ_o={th:.2} h={h} (max rel.)"),
+            consistency,
+            0.0,
+            SAMPLE_CONSISTENCY_REL,
+            consistency <= SAMPLE_CONSISTENCY_REL,
+        );
+        t.test(
+            format!("χ² p-value θ_o={th:.2} h={h} (dof {}, impossible {})", outcome.dof, outcome.impossible),
+            outcome.p_value,
+            alpha,
+            alpha,
+            outcome.passes(alpha),
+        );
+    }
+    t.rows
+}
+
+/// Rows of one model under construction.
+struct Table<'a> {
+    label: &'a str,
+    rows: Vec<Row>,
+}
+
+impl Table<'_> {
+    fn test(&mut self, test: String, value: f64, expected: f64, tolerance: f64, pass: bool) {
+        self.rows.push(Row { model: self.label.into(), test, value, expected, tolerance, pass, report: false });
+    }
+
+    fn report(&mut self, test: String, value: f64) {
+        let nan = f64::NAN;
+        self.rows.push(Row {
+            model: self.label.into(),
+            test,
+            value,
+            expected: nan,
+            tolerance: nan,
+            pass: true,
+            report: true,
+        });
+    }
+}
+
+/// Checks every case (in parallel); a case whose model fails to build yields a failing row.
+#[must_use]
+pub fn check_cases(cases: &[CheckCase], effort: &Effort) -> Vec<Row> {
+    check_cases_with_progress(cases, effort, || {})
+}
+
+/// [`check_cases`], calling `done` after each case finishes (for progress bars).
+pub fn check_cases_with_progress(cases: &[CheckCase], effort: &Effort, done: impl Fn() + Sync) -> Vec<Row> {
+    cases
+        .par_iter()
+        .flat_map(|case| {
+            let rows = check_case(case, effort);
+            done();
+            rows
+        })
+        .collect()
+}
+
+/// Checks one case; a model that fails to build yields a failing row.
+#[must_use]
+pub fn check_case(case: &CheckCase, effort: &Effort) -> Vec<Row> {
+    match case.build() {
+        Ok(m) => check_model(&case.label(), &m, effort),
+        Err(e) => vec![Row {
+            model: case.label(),
+            test: format!("build: {e}"),
+            value: f64::NAN,
+            expected: f64::NAN,
+            tolerance: f64::NAN,
+            pass: false,
+            report: false,
+        }],
+    }
+}
+
+fn random_direction(rng: &mut Pcg64) -> DVec3 {
+    let z: f64 = 2.0 * rng.random::<f64>() - 1.0;
+    let p = std::f64::consts::TAU * rng.random::<f64>();
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    DVec3::new(z, r * p.cos(), r * p.sin())
+}
+
+/// Counts non-finite and negative results over random and extreme arguments.
+pub fn finiteness(f: &impl ScatteringFunction, pairs: usize, rng: &mut Pcg64) -> (usize, usize) {
+    let extremes = [
+        DVec3::X,
+        -DVec3::X,
+        DVec3::Y,
+        -DVec3::Z,
+        direction(std::f64::consts::FRAC_PI_2 - 1e-12, 0.3),
+        direction(-std::f64::consts::FRAC_PI_2 + 1e-12, -2.0),
+        direction(0.0, std::f64::consts::PI),
+    ];
+    let hs = [-1.0, -0.999999, 0.0, 0.5, 1.0];
+    let (mut nonfinite, mut negative) = (0, 0);
+    let mut test = |wi: DVec3, wo: DVec3, h: f64, u: [f64; 4]| {
+        let v = f.eval(wi, wo, h);
+        let p = f.pdf(wi, wo, h);
+        if !v.is_finite() || !p.is_finite() {
+            nonfinite += 1;
+        }
+        if v.min_component() < 0.0 || p < 0.0 {
+            negative += 1;
+        }
+        if let Some(s) = f.sample(wo, h, u) {
+            if !s.weight.is_finite() || !s.pdf.is_finite() || !s.wi.is_finite() || (s.wi.length() - 1.0).abs() > 1e-6 {
+                nonfinite += 1;
+            }
+            if s.weight.min_component() < 0.0 || s.pdf < 0.0 {
+                negative += 1;
+            }
+        }
+    };
+    for &a in &extremes {
+        for &b in &extremes {
+            for &h in &hs {
+                for u in [[0.0; 4], [0.999_999_999; 4], [0.5, 0.0, 0.999_999, 0.25]] {
+                    test(a, b, h, u);
+                }
+            }
+        }
+    }
+    for _ in 0..pairs {
+        let (wi, wo) = (random_direction(rng), random_direction(rng));
+        let h = 2.0 * rng.random::<f64>() - 1.0;
+        test(wi, wo, h, [rng.random(), rng.random(), rng.random(), rng.random()]);
+    }
+    (nonfinite, negative)
+}
+
+/// Camera-side furnace at a fixed h: `∫ f_s(ω_i, ω_o; h) cosθ_i dω_i` by quadrature.
+fn furnace_at(f: &Model, wo: DVec3, h: f64, q: &Quadrature) -> Rgb {
+    if f.properties().lobes == Lobes::Delta {
+        return radiometry::furnace(f, wo, q);
+    }
+    let mut sum = Rgb::ZERO;
+    q.for_each_direction(|wi, dw| sum += f.eval(wi, wo, h) * (cos_theta(wi) * dw));
+    sum
+}
+
+/// Mean sample weight (camera-side furnace) with its standard error.
+fn mc_furnace(f: &Model, wo: DVec3, h: f64, n: usize, rng: &mut Pcg64) -> (Rgb, Rgb) {
+    let (mut s, mut s2) = (Rgb::ZERO, Rgb::ZERO);
+    for _ in 0..n {
+        if let Some(x) = f.sample(wo, h, [rng.random(), rng.random(), rng.random(), rng.random()]) {
+            s += x.weight;
+            s2 += x.weight * x.weight;
+        }
+    }
+    let m = s / n as f64;
+    (m, ((s2 / n as f64 - m * m).map(|v| v.max(0.0)) / n as f64).map(f64::sqrt))
+}
+
+/// Max relative reciprocity defect of the (h-averaged) f_s over random pairs; also returns
+/// the pairs with their two values for model-specific analysis.
+fn reciprocity(f: &Model, pairs: usize, rng: &mut Pcg64) -> (f64, Vec<(DVec3, DVec3, Rgb, Rgb)>) {
+    let near = f.properties().field == Field::Near;
+    let eval_avg = |a: DVec3, b: DVec3| {
+        if near {
+            let n = 32;
+            (0..n).map(|k| f.eval(a, b, -1.0 + (k as f64 + 0.5) * 2.0 / n as f64)).fold(Rgb::ZERO, |s, v| s + v)
+                / n as f64
+        } else {
+            f.eval(a, b, 0.0)
+        }
+    };
+    let mut worst: f64 = 0.0;
+    let mut samples = Vec::with_capacity(pairs);
+    for _ in 0..pairs {
+        let (wi, wr) = (random_direction(rng), random_direction(rng));
+        let (a, b) = (eval_avg(wi, wr), eval_avg(wr, wi));
+        if a.max_component() > 1e-12 || b.max_component() > 1e-12 {
+            worst = worst.max(max_rel(a, b));
+        }
+        samples.push((wi, wr, a, b));
+    }
+    (worst, samples)
+}
+
+/// Kajiya–Kay: `(f(i,r) − k_d)/(f(r,i) − k_d)` must equal `cosθ_r/cosθ_i` (models.md §3).
+fn kajiya_kay_ratio_defect(
+    kk: &fiberlab_scatter::kajiya_kay_1989::KajiyaKay,
+    pairs: &[(DVec3, DVec3, Rgb, Rgb)],
+) -> f64 {
+    let mut worst: f64 = 0.0;
+    for &(wi, wr, a, b) in pairs {
+        let (sa, sb) = (a - kk.k_d(), b - kk.k_d());
+        if sa.max_component() > 1e-6 && sb.max_component() > 1e-6 && cos_theta(wi) > 1e-3 && cos_theta(wr) > 1e-3 {
+            let predicted = expected::kajiya_kay_reciprocity_ratio(cos_theta(wi), cos_theta(wr));
+            worst = worst.max(rel(sa.luminance() / sb.luminance(), predicted));
+        }
+    }
+    worst
+}
+
+/// `∫ pdf(ω_i | ω_o, h) dω_i` on a fine midpoint grid (delta models: `∫ n(φ) dφ`).
+pub fn pdf_integral(f: &impl ScatteringFunction, wo: DVec3, h: f64) -> f64 {
+    if f.properties().lobes == Lobes::Delta {
+        let n = 20_000;
+        let t = theta(wo);
+        return (0..n)
+            .map(|j| {
+                f.cone(t, -std::f64::consts::PI + (j as f64 + 0.5) * std::f64::consts::TAU / n as f64).pdf
+                    * std::f64::consts::TAU
+                    / n as f64
+            })
+            .sum();
+    }
+    let q = Quadrature { theta: 1024, phi: 1024, h: 1 };
+    let mut sum = 0.0;
+    q.for_each_direction(|wi, dw| sum += f.pdf(wi, wo, h) * dw);
+    sum
+}
+
+/// Max relative disagreement of `sample()` with `pdf()` and `eval()·cosθ_i/pdf`.
+pub fn sample_consistency(f: &impl ScatteringFunction, wo: DVec3, h: f64, n: usize, seed: u64) -> f64 {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let delta = f.properties().lobes == Lobes::Delta;
+    let mut worst: f64 = 0.0;
+    for _ in 0..n {
+        let Some(s) = f.sample(wo, h, [rng.random(), rng.random(), rng.random(), rng.random()]) else { continue };
+        if delta {
+            let c = f.cone(theta(wo), fiberlab_math::relative_phi(s.wi, wo));
+            worst = worst.max(max_rel(s.weight, c.value / c.pdf));
+        } else {
+            let pdf = f.pdf(s.wi, wo, h);
+            worst = worst.max(rel(s.pdf, pdf));
+            if pdf > 0.0 {
+                worst = worst.max(max_rel(s.weight, f.eval(s.wi, wo, h) * (cos_theta(s.wi) / pdf)));
+            }
+        }
+    }
+    worst
+}

@@ -233,6 +233,12 @@ where
     file.flush()?;
     file.rewind()?;
     file.sync_all()?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // tempfile creates files readable by the owner only; outputs are ordinary files.
+        file.set_permissions(std::fs::Permissions::from_mode(0o644))?;
+    }
     tmp.persist(path).map_err(|e| e.error)?;
     Ok(())
 }

@@ -78,6 +78,12 @@ impl Goldman {
         &self.kk
     }
 
+    /// Weights `(ρ_reflect, ρ_transmit)` of backward and forward scattering.
+    #[must_use]
+    pub fn directional_weights(&self) -> (Rgb, Rgb) {
+        (self.rho_reflect, self.rho_transmit)
+    }
+
     /// Directional factor `f_dir(φ)`, φ = relative azimuth (0 = backscatter).
     #[must_use]
     pub fn directional(&self, phi: f64) -> Rgb {
@@ -94,19 +100,18 @@ impl Goldman {
         let target = TAU * self.a * u;
         let (mut lo, mut hi) = (-PI, PI);
         let mut x = TAU * u - PI;
-        for _ in 0..60 {
+        for _ in 0..100 {
             let g = self.a * (x + PI) + self.b * x.sin() - target;
-            if g > 0.0 {
-                hi = x
-            } else {
-                lo = x
-            }
-            let dg = self.a + self.b * x.cos();
-            let next = if dg > 0.0 { x - g / dg } else { f64::NAN };
-            x = if next > lo && next < hi { next } else { 0.5 * (lo + hi) };
-            if g.abs() < 1e-14 * self.a || hi - lo < 1e-14 {
+            if g.abs() <= 1e-15 * self.a || hi - lo <= 1e-15 {
                 break;
             }
+            if g > 0.0 {
+                hi = x;
+            } else {
+                lo = x;
+            }
+            let next = x - g / (self.a + self.b * x.cos());
+            x = if next > lo && next < hi { next } else { 0.5 * (lo + hi) };
         }
         x
     }
@@ -141,5 +146,22 @@ impl ScatteringFunction for Goldman {
 impl From<Goldman> for Model {
     fn from(m: Goldman) -> Self {
         Model::Goldman(m)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn phi_sampler_inverts_its_cdf() {
+        let kk = KajiyaKay::new(Rgb::splat(0.05), Rgb::splat(0.1), 30.0).unwrap();
+        let g = Goldman::new(kk, Rgb::splat(1.0), Rgb::splat(0.2)).unwrap();
+        for i in 0..=100 {
+            let u = i as f64 / 100.0;
+            let x = g.sample_phi(u);
+            let cdf = (g.a * (x + PI) + g.b * x.sin()) / (TAU * g.a);
+            assert!((cdf - u).abs() < 1e-9, "u {u} x {x} cdf {cdf}");
+        }
     }
 }

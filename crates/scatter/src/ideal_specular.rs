@@ -88,6 +88,18 @@ impl IdealSpecular {
         Ok(Self { azimuth, eta })
     }
 
+    /// The azimuthal distribution.
+    #[must_use]
+    pub fn azimuth(&self) -> Azimuth {
+        self.azimuth
+    }
+
+    /// `Some(η)` when the lobe is Fresnel-weighted.
+    #[must_use]
+    pub fn fresnel_eta(&self) -> Option<f64> {
+        self.eta
+    }
+
     /// `n(φ)`, density of the relative azimuth (rad⁻¹).
     fn azimuthal_pdf(&self, phi: f64) -> f64 {
         match self.azimuth {

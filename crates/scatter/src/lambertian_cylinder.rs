@@ -52,6 +52,12 @@ impl LambertianCylinder {
         Ok(Self { albedo: Range::UNIT.check_rgb("albedo", albedo)? })
     }
 
+    /// The surface albedo ρ.
+    #[must_use]
+    pub fn albedo(&self) -> Rgb {
+        self.albedo
+    }
+
     fn density(wi: DVec3, wo: DVec3) -> f64 {
         cos_theta(wi) * azimuthal(relative_phi(wi, wo)) / (4.0 * PI)
     }

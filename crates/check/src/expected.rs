@@ -1,0 +1,87 @@
+//! Independent expected values: closed forms from models.md, computed here without calling
+//! the models' own code paths (1D quadratures of the formulas, Gamma functions).
+
+use fiberlab_math::{Rgb, fresnel};
+use fiberlab_scatter::Model;
+use fiberlab_scatter::ideal_specular::Azimuth;
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+/// Composite Simpson rule of `f` on `[a, b]` with `n` (even) intervals.
+pub fn simpson(a: f64, b: f64, n: usize, f: impl Fn(f64) -> f64) -> f64 {
+    let n = n + n % 2;
+    let h = (b - a) / n as f64;
+    let mut s = f(a) + f(b);
+    for i in 1..n {
+        s += f(a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    s * h / 3.0
+}
+
+/// Kajiya–Kay specular energy `E_p(θ_i) = (2π/cosθ_i) ∫ max(0, cos(θ_i+θ_r))^p cos²θ_r dθ_r`
+/// (models.md §3), by Simpson's rule over the non-zero part of the lobe.
+#[must_use]
+pub fn kajiya_kay_energy(p: f64, theta_i: f64) -> f64 {
+    let lo = (-FRAC_PI_2 - theta_i).max(-FRAC_PI_2);
+    let hi = (FRAC_PI_2 - theta_i).min(FRAC_PI_2);
+    let integral = simpson(lo, hi, 20_000, |tr| (theta_i + tr).cos().max(0.0).powf(p) * tr.cos().powi(2));
+    TAU * integral / theta_i.cos()
+}
+
+/// `E_p(0) = 2π^{3/2} Γ((p+3)/2)/Γ((p+4)/2)` (models.md §3).
+#[must_use]
+pub fn kajiya_kay_energy_normal(p: f64) -> f64 {
+    use statrs::function::gamma::ln_gamma;
+    2.0 * PI.powf(1.5) * (ln_gamma((p + 3.0) / 2.0) - ln_gamma((p + 4.0) / 2.0)).exp()
+}
+
+/// The light-side albedo `ρ(θ_i)` a model must have, when models.md gives a closed form.
+#[must_use]
+pub fn albedo(model: &Model, theta_i: f64) -> Option<Rgb> {
+    match model {
+        Model::Diffuse(m) => Some(m.albedo()),
+        Model::LambertianCylinder(m) => Some(m.albedo()),
+        Model::Specular(m) => Some(Rgb::splat(match (m.fresnel_eta(), m.azimuth()) {
+            (None, _) => 1.0,
+            (Some(eta), Azimuth::Uniform) => fresnel::dielectric(theta_i.cos(), eta),
+            // h uniform on [−1, 1], incidence cos ι = cosθ·sqrt(1 − h²) (§2.4).
+            (Some(eta), Azimuth::Mirror) => {
+                0.5 * simpson(-1.0, 1.0, 20_000, |h| fresnel::dielectric(theta_i.cos() * (1.0 - h * h).sqrt(), eta))
+            }
+        })),
+        Model::KajiyaKay(m) => Some(m.k_d() * (PI * PI) + m.k_s() * kajiya_kay_energy(m.p(), theta_i)),
+        Model::Goldman(m) => {
+            let kk = m.kajiya_kay();
+            let (r, t) = m.directional_weights();
+            Some((r + t) * 0.5 * (kk.k_d() * (PI * PI) + kk.k_s() * kajiya_kay_energy(kk.p(), theta_i)))
+        }
+        #[allow(unreachable_patterns)]
+        _ => None,
+    }
+}
+
+/// Predicted `f(ω_i, ω_r)/f(ω_r, ω_i)` for models that are knowingly non-reciprocal, when the
+/// prediction is closed-form: Kajiya–Kay's specular part gives `cosθ_r/cosθ_i`.
+#[must_use]
+pub fn kajiya_kay_reciprocity_ratio(cos_i: f64, cos_r: f64) -> f64 {
+    cos_r / cos_i
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    /// The values printed in models.md §3 (independently derived there).
+    #[test]
+    fn kajiya_kay_energy_matches_models_md() {
+        for (p, e0) in [(1.0, 8.378), (10.0, 4.453), (100.0, 1.556)] {
+            assert_relative_eq!(kajiya_kay_energy(p, 0.0), e0, max_relative = 1e-3);
+            assert_relative_eq!(kajiya_kay_energy_normal(p), e0, max_relative = 1e-3);
+        }
+        for (t, e10, e100) in [(0.5, 4.014, 1.369), (1.0, 2.932, 0.861), (1.4, 2.627, 0.351)] {
+            assert_relative_eq!(kajiya_kay_energy(10.0, t), e10, max_relative = 1e-3);
+            assert_relative_eq!(kajiya_kay_energy(100.0, t), e100, max_relative = 2e-3);
+        }
+        assert!(kajiya_kay_energy(10.0, FRAC_PI_2 - 1e-4) > 1e3);
+    }
+}

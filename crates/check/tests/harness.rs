@@ -1,0 +1,54 @@
+//! Every registered model configuration passes the harness, and the harness can fail.
+
+use fiberlab_check::chi2::{Chi2Config, chi2_test};
+use fiberlab_check::{Effort, check_cases, default_cases};
+use fiberlab_math::frame::direction;
+use fiberlab_math::{DVec3, Rgb};
+use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
+use fiberlab_scatter::{Properties, Sample, ScatteringFunction};
+
+#[test]
+fn every_default_case_passes() {
+    let rows = check_cases(&default_cases(), &Effort::default());
+    let failed: Vec<_> = rows.iter().filter(|r| !r.pass).collect();
+    for r in &failed {
+        eprintln!("FAIL {} | {} | value {} expected {} tol {}", r.model, r.test, r.value, r.expected, r.tolerance);
+    }
+    assert!(failed.is_empty(), "{} failing rows", failed.len());
+    assert!(rows.len() > 100);
+}
+
+/// Samples from one Kajiya–Kay lobe but reports the pdf of a slightly different one: both
+/// pdfs integrate to 1, so only the χ² test can notice.
+struct WrongPdf {
+    sampler: KajiyaKay,
+    claimed: KajiyaKay,
+}
+
+impl ScatteringFunction for WrongPdf {
+    fn properties(&self) -> Properties {
+        self.sampler.properties()
+    }
+    fn eval(&self, wi: DVec3, wo: DVec3, h: f64) -> Rgb {
+        self.claimed.eval(wi, wo, h)
+    }
+    fn pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> f64 {
+        self.claimed.pdf(wi, wo, h)
+    }
+    fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {
+        self.sampler.sample(wo, h, u)
+    }
+}
+
+#[test]
+fn chi2_rejects_a_wrong_pdf_and_accepts_the_right_one() {
+    let kk = |p: f64| KajiyaKay::new(Rgb::splat(0.02), Rgb::splat(0.3), p).unwrap();
+    let wo = direction(0.4, 0.0);
+    let cfg = Chi2Config { samples: 300_000, ..Default::default() };
+    let wrong = WrongPdf { sampler: kk(30.0), claimed: kk(36.0) };
+    let outcome = chi2_test(&wrong, wo, 0.0, &cfg);
+    assert!(!outcome.passes(0.01), "χ² failed to reject a wrong pdf: {outcome:?}");
+    let right = WrongPdf { sampler: kk(30.0), claimed: kk(30.0) };
+    let outcome = chi2_test(&right, wo, 0.0, &cfg);
+    assert!(outcome.passes(0.01), "χ² rejected a correct pdf: {outcome:?}");
+}

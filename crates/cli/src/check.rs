@@ -1,0 +1,79 @@
+//! `fiberlab check`: run the validation harness and print the table.
+
+use fiberlab_check::{CheckCase, Effort, Row, check_cases_with_progress, default_cases};
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// Flags of `fiberlab check`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Check only the configurations of this model.
+    #[arg(long)]
+    model: Option<String>,
+    /// Print the rows as one JSON array instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs the harness; fails (non-zero exit) when any row fails.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    if let Some(name) = &args.model {
+        fiberlab_scatter::find(name)?;
+    }
+    let cases: Vec<CheckCase> =
+        default_cases().into_iter().filter(|c| args.model.as_deref().is_none_or(|m| m == c.model)).collect();
+    let bar = ProgressBar::new(cases.len() as u64).with_style(
+        ProgressStyle::with_template("checking {pos}/{len} model configurations {wide_bar} {elapsed}")
+            .expect("valid template"),
+    );
+    if args.json {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let mut rows = check_cases_with_progress(&cases, &Effort::default(), || bar.inc(1));
+    bar.finish_and_clear();
+    // Keep the table in registry order, whatever order the threads finished in.
+    let order = |r: &Row| cases.iter().position(|c| c.label() == r.model).unwrap_or(usize::MAX);
+    rows.sort_by_key(order);
+    let failed = rows.iter().filter(|r| !r.pass).count();
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    } else {
+        print_table(&rows);
+        let tests = rows.iter().filter(|r| !r.report).count();
+        println!("\n{} passed, {} failed", tests - failed, failed);
+    }
+    anyhow::ensure!(failed == 0, "{failed} check(s) failed");
+    Ok(())
+}
+
+fn fmt(x: f64) -> String {
+    if x.is_nan() {
+        "-".into()
+    } else if x == 0.0 || (1e-3..1e5).contains(&x.abs()) {
+        format!("{x:.6}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
+fn print_table(rows: &[Row]) {
+    let w = rows.iter().map(|r| r.model.chars().count()).max().unwrap_or(5).max(5);
+    let t = rows.iter().map(|r| r.test.chars().count()).max().unwrap_or(4).max(4);
+    println!("{:<w$}  {:<t$}  {:>12}  {:>12}  {:>10}  pass", "model", "test", "value", "expected", "tolerance");
+    for r in rows {
+        let pass = if r.report {
+            "report"
+        } else if r.pass {
+            "yes"
+        } else {
+            "NO"
+        };
+        println!(
+            "{:<w$}  {:<t$}  {:>12}  {:>12}  {:>10}  {pass}",
+            r.model,
+            r.test,
+            fmt(r.value),
+            fmt(r.expected),
+            fmt(r.tolerance)
+        );
+    }
+}

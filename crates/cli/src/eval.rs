@@ -1,0 +1,121 @@
+//! `fiberlab eval`: f_s and pdf for direction pairs read as CSV.
+//!
+//! Input columns (header required): `wi_x,wi_y,wi_z,wo_x,wo_y,wo_z` and optionally `h`;
+//! other columns are copied through. Output: the input columns plus `f_r,f_g,f_b,pdf`.
+
+use crate::files::{require_unit, write_output};
+use crate::model_args::ModelArgs;
+use anyhow::{Context, bail};
+use fiberlab_math::DVec3;
+use fiberlab_scatter::ScatteringFunction;
+use std::io::Read;
+use std::path::PathBuf;
+
+/// Flags of `fiberlab eval`.
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Input CSV (default: standard input).
+    #[arg(long)]
+    input: Option<PathBuf>,
+    /// Output CSV (default: standard output); written only when every row is valid.
+    #[arg(long)]
+    output: Option<PathBuf>,
+}
+
+const COLUMNS: [&str; 6] = ["wi_x", "wi_y", "wi_z", "wo_x", "wo_y", "wo_z"];
+
+/// Evaluates every row; any malformed row is an error naming its line and column.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let model = args.model.build()?;
+    let (name, text) = match &args.input {
+        Some(p) if p.as_os_str() != "-" => {
+            (p.display().to_string(), std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?)
+        }
+        _ => {
+            let mut s = String::new();
+            std::io::stdin().read_to_string(&mut s).context("reading standard input")?;
+            ("<stdin>".to_string(), s)
+        }
+    };
+    let out = evaluate(&model, &name, &text)?;
+    write_output(args.output.as_deref(), &out)
+}
+
+/// Evaluates CSV `text` (named `name` in errors) and returns the output CSV.
+pub fn evaluate(model: &impl ScatteringFunction, name: &str, text: &str) -> anyhow::Result<Vec<u8>> {
+    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
+    let header = reader.headers().with_context(|| format!("{name}: line 1: cannot read the header"))?.clone();
+    let index = |col: &str| header.iter().position(|h| h == col);
+    let mut idx = [0usize; 6];
+    for (k, col) in COLUMNS.iter().enumerate() {
+        idx[k] = index(col).with_context(|| {
+            format!("{name}: line 1: missing column `{col}` (need {} and optionally h)", COLUMNS.join(","))
+        })?;
+    }
+    let h_idx = index("h");
+    let mut writer = csv::Writer::from_writer(Vec::new());
+    let mut out_header: Vec<&str> = header.iter().collect();
+    out_header.extend(["f_r", "f_g", "f_b", "pdf"]);
+    writer.write_record(&out_header)?;
+    for record in reader.records() {
+        let record = record.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            anyhow::anyhow!("{name}: line {line}: malformed CSV record: {e}")
+        })?;
+        let line = record.position().map_or(0, |p| p.line());
+        let field = |i: usize| -> anyhow::Result<f64> {
+            let text = record.get(i).unwrap_or("");
+            match text.parse::<f64>() {
+                Ok(v) if v.is_finite() => Ok(v),
+                _ => bail!(
+                    "{name}: line {line}, column {} (`{}`): expected a finite number, got `{text}`",
+                    i + 1,
+                    header.get(i).unwrap_or("?")
+                ),
+            }
+        };
+        let v: Vec<f64> = idx.iter().map(|&i| field(i)).collect::<anyhow::Result<_>>()?;
+        let wi = require_unit(DVec3::new(v[0], v[1], v[2]), &format!("{name}: line {line}, columns wi_x..wi_z"))?;
+        let wo = require_unit(DVec3::new(v[3], v[4], v[5]), &format!("{name}: line {line}, columns wo_x..wo_z"))?;
+        let h = match h_idx {
+            Some(i) => {
+                let h = field(i)?;
+                if !(-1.0..=1.0).contains(&h) {
+                    bail!("{name}: line {line}, column {} (`h`): expected a value in [-1, 1], got {h}", i + 1);
+                }
+                h
+            }
+            None => 0.0,
+        };
+        let f = model.eval(wi, wo, h);
+        let pdf = model.pdf(wi, wo, h);
+        let mut out: Vec<String> = record.iter().map(str::to_string).collect();
+        out.extend([f[0], f[1], f[2], pdf].iter().map(|x| x.to_string()));
+        writer.write_record(&out)?;
+    }
+    Ok(writer.into_inner()?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn errors_name_line_and_column() {
+        let m = fiberlab_scatter::build::<&str, &str>("diffuse", &[]).unwrap();
+        let ok = "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,1,0,0,0,1\n";
+        let out = String::from_utf8(evaluate(&m, "t.csv", ok).unwrap()).unwrap();
+        assert!(out.starts_with("wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,f_r,f_g,f_b,pdf\n"), "{out}");
+        let bad = "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,1,0,0,0,1\n0,1,x,0,0,1\n";
+        let e = evaluate(&m, "t.csv", bad).unwrap_err().to_string();
+        assert!(e.contains("t.csv: line 3, column 3 (`wi_z`)"), "{e}");
+        let e = evaluate(&m, "t.csv", "wi_x,wi_y\n1,2\n").unwrap_err().to_string();
+        assert!(e.contains("missing column `wi_z`"), "{e}");
+        let e = evaluate(&m, "t.csv", "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,2,0,0,0,1\n").unwrap_err().to_string();
+        assert!(e.contains("unit vector"), "{e}");
+        let e = evaluate(&m, "t.csv", "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,h\n0,1,0,0,0,1,1.5\n").unwrap_err().to_string();
+        assert!(e.contains("column 7 (`h`)"), "{e}");
+    }
+}

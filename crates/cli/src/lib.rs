@@ -1,1 +1,0 @@
-//! The fiberlab command line (placeholder).

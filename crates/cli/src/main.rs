@@ -1,0 +1,66 @@
+//! `fiberlab`: light scattering by fibers from the command line. One module per verb; each
+//! parses its flags into an `Args` struct and runs it (`run(&Args) -> anyhow::Result<()>`).
+#![forbid(unsafe_code)]
+
+mod bench;
+mod check;
+mod eval;
+mod files;
+mod hair;
+mod merge;
+mod model_args;
+mod models;
+mod plot;
+mod render;
+mod sample;
+
+use clap::{Parser, Subcommand};
+
+/// fiberlab: scattering functions for hair, fur and other fibers.
+#[derive(Parser)]
+#[command(name = "fiberlab", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Validate every model (furnace, reciprocity, pdf, χ², finiteness); non-zero exit on failure.
+    Check(check::Args),
+    /// List models with their parameters, units, defaults and valid ranges.
+    Models(models::Args),
+    /// Evaluate f_s and pdf for direction pairs read as CSV.
+    Eval(eval::Args),
+    /// Draw importance samples of ω_i for a given ω_o.
+    Sample(sample::Args),
+    /// Plot a scattering function over (φ, θ_r) at fixed θ_i, with polar slices.
+    Plot(plot::Args),
+    /// Measure eval and sample throughput of the models (ns/call).
+    Bench(bench::Args),
+    /// Path-trace a scene (default: a head with generated hair) to EXR and PNG.
+    Render(render::Args),
+    /// Merge parts rendered with --tile I/N into one image (bit-exact).
+    Merge(merge::Args),
+    /// Generate or inspect .hair files.
+    Hair(hair::Args),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Check(a) => check::run(a),
+        Command::Models(a) => models::run(a),
+        Command::Eval(a) => eval::run(a),
+        Command::Sample(a) => sample::run(a),
+        Command::Plot(a) => plot::run(a),
+        Command::Bench(a) => bench::run(a),
+        Command::Render(a) => render::run(a),
+        Command::Merge(a) => merge::run(a),
+        Command::Hair(a) => hair::run(a),
+    };
+    if let Err(e) = result {
+        eprintln!("fiberlab: error: {e:#}");
+        std::process::exit(1);
+    }
+}

@@ -1,0 +1,274 @@
+//! `fiberlab plot`: a scattering function as an image over (φ, θ_r) at fixed θ_i, like the
+//! figures of Marschner et al. 2003, beside polar plots of its azimuthal distribution.
+
+use crate::files::write_atomically;
+use crate::model_args::ModelArgs;
+use anyhow::Context;
+use fiberlab_math::frame::direction;
+use fiberlab_scatter::{Field, Lobes, Model, ScatteringFunction};
+use plotters::prelude::*;
+use plotters::style::colors::colormaps::ViridisRGB;
+use std::f64::consts::{FRAC_PI_2, PI};
+use std::path::{Path, PathBuf};
+
+/// Flags of `fiberlab plot`.
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Inclination θ_i of the light from the normal plane, degrees (positive toward the tip).
+    #[arg(long, allow_hyphen_values = true)]
+    theta_i: f64,
+    /// Output file; the extension (.png or .svg) selects the format.
+    #[arg(long)]
+    out: PathBuf,
+    /// Colour scale of the image.
+    #[arg(long, value_enum, default_value_t = Scale::Log)]
+    scale: Scale,
+    /// Decades shown by the log scale.
+    #[arg(long, default_value_t = 4.0)]
+    decades: f64,
+}
+
+/// Colour scale of the (φ, θ_r) image.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum Scale {
+    /// Linear in f_s.
+    Linear,
+    /// Logarithmic in f_s.
+    Log,
+}
+
+const COLS: usize = 180; // 2° in φ
+const ROWS: usize = 90; // 2° in θ_r
+
+/// The far-field value at (ω_i, ω_r): near-field models are averaged over h.
+fn far_field(model: &Model, wi: fiberlab_math::DVec3, wr: fiberlab_math::DVec3) -> f64 {
+    if model.properties().field == Field::Near {
+        let n = 16;
+        (0..n).map(|k| model.eval(wi, wr, -1.0 + (k as f64 + 0.5) * 2.0 / n as f64).luminance()).sum::<f64>() / n as f64
+    } else {
+        model.eval(wi, wr, 0.0).luminance()
+    }
+}
+
+struct Grids {
+    /// f_s luminance, `[row][col]`, row = θ_r from −90° up.
+    image: Vec<Vec<f64>>,
+    /// Azimuthal distribution ∫ f_s cos²θ_r dθ_r (scattered power per unit φ).
+    azimuthal: Vec<f64>,
+    /// f_s on the specular cone θ_r = −θ_i.
+    cone: Vec<f64>,
+}
+
+fn compute(model: &Model, theta_i: f64) -> Grids {
+    let wi = direction(theta_i, 0.0);
+    let n_phi = 720;
+    let phi_at = |j: usize, n: usize| -PI + (j as f64 + 0.5) * 2.0 * PI / n as f64;
+    if model.properties().lobes == Lobes::Delta {
+        let cone: Vec<f64> = (0..n_phi).map(|j| model.cone(theta_i, phi_at(j, n_phi)).value.luminance()).collect();
+        return Grids { image: vec![vec![0.0; COLS]; ROWS], azimuthal: cone.clone(), cone };
+    }
+    let image = (0..ROWS)
+        .map(|r| {
+            let tr = -FRAC_PI_2 + (r as f64 + 0.5) * PI / ROWS as f64;
+            (0..COLS).map(|c| far_field(model, wi, direction(tr, phi_at(c, COLS)))).collect()
+        })
+        .collect();
+    let n_theta = 360;
+    let azimuthal = (0..n_phi)
+        .map(|j| {
+            let p = phi_at(j, n_phi);
+            (0..n_theta)
+                .map(|k| {
+                    let tr = -FRAC_PI_2 + (k as f64 + 0.5) * PI / n_theta as f64;
+                    far_field(model, wi, direction(tr, p)) * tr.cos().powi(2) * PI / n_theta as f64
+                })
+                .sum()
+        })
+        .collect();
+    let cone = (0..n_phi).map(|j| far_field(model, wi, direction(-theta_i, phi_at(j, n_phi)))).collect();
+    Grids { image, azimuthal, cone }
+}
+
+/// Draws the figure.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    anyhow::ensure!(args.theta_i.abs() < 90.0 && args.theta_i.is_finite(), "--theta-i must lie in (-90, 90) degrees");
+    anyhow::ensure!(args.decades > 0.0, "--decades must be positive");
+    let model = args.model.build()?;
+    let grids = compute(&model, args.theta_i.to_radians());
+    let title = format!("{}   θ_i = {}°", args.model.label(), args.theta_i);
+    let ext = args.out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    register_font();
+    let size = (1500u32, 620u32);
+    match ext.as_deref() {
+        Some("svg") => {
+            let mut svg = String::new();
+            draw(SVGBackend::with_string(&mut svg, size).into_drawing_area(), &grids, &title, args)?;
+            write_atomically(&args.out, svg.as_bytes())
+        }
+        Some("png") => {
+            let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
+            draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area(), &grids, &title, args)?;
+            write_png(&args.out, &buf, size)
+        }
+        _ => anyhow::bail!("--out {}: expected a .png or .svg file name", args.out.display()),
+    }
+}
+
+fn register_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+    });
+}
+
+fn write_png(path: &Path, rgb: &[u8], (w, h): (u32, u32)) -> anyhow::Result<()> {
+    let mut bytes = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut bytes, w, h);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.write_header()?.write_image_data(rgb).context("encoding PNG")?;
+    }
+    write_atomically(path, &bytes)
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    g: &Grids,
+    title: &str,
+    args: &Args,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("drawing: {e:?}");
+    root.fill(&WHITE).map_err(err)?;
+    let root = root.titled(title, ("sans-serif", 24)).map_err(err)?;
+    let (left, right) = root.split_horizontally(950);
+    let (heat, bar) = left.split_horizontally(860);
+
+    // Image over (φ, θ_r).
+    let max = g.image.iter().flatten().copied().fold(0.0, f64::max);
+    let (lo, hi) = match args.scale {
+        Scale::Linear => (0.0, max.max(1e-300)),
+        Scale::Log => {
+            let hi = max.max(1e-300).log10();
+            (hi - args.decades, hi)
+        }
+    };
+    let map = |v: f64| match args.scale {
+        Scale::Linear => v,
+        Scale::Log => v.max(1e-300).log10(),
+    };
+    let mut chart = ChartBuilder::on(&heat)
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .caption("f_s (luminance, 1/sr) over relative azimuth φ and θ_r", ("sans-serif", 18))
+        .build_cartesian_2d(-180.0..180.0, -90.0..90.0)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("φ = φ_r − φ_i (degrees; 0 = backscatter)")
+        .y_desc("θ_r (degrees; + toward tip)")
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 14))
+        .disable_mesh()
+        .draw()
+        .map_err(err)?;
+    let (dx, dy) = (360.0 / COLS as f64, 180.0 / ROWS as f64);
+    chart
+        .draw_series(g.image.iter().enumerate().flat_map(|(r, row)| {
+            row.iter().enumerate().map(move |(c, &v)| {
+                let x0 = -180.0 + c as f64 * dx;
+                let y0 = -90.0 + r as f64 * dy;
+                let color = ViridisRGB::get_color_normalized(map(v).clamp(lo, hi), lo, hi);
+                Rectangle::new([(x0, y0), (x0 + dx, y0 + dy)], color.filled())
+            })
+        }))
+        .map_err(err)?;
+
+    // Colour bar.
+    let mut cb = ChartBuilder::on(&bar)
+        .margin_top(45)
+        .margin_bottom(50)
+        .y_label_area_size(55)
+        .build_cartesian_2d(0.0..1.0, lo..hi)
+        .map_err(err)?;
+    let ydesc = match args.scale {
+        Scale::Linear => "f_s",
+        Scale::Log => "log10 f_s",
+    };
+    cb.configure_mesh()
+        .disable_x_axis()
+        .disable_mesh()
+        .y_desc(ydesc)
+        .y_label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 14))
+        .draw()
+        .map_err(err)?;
+    let steps = 100;
+    cb.draw_series((0..steps).map(|k| {
+        let a = lo + (hi - lo) * k as f64 / steps as f64;
+        let b = lo + (hi - lo) * (k + 1) as f64 / steps as f64;
+        Rectangle::new([(0.0, a), (1.0, b)], ViridisRGB::get_color_normalized(a, lo, hi).filled())
+    }))
+    .map_err(err)?;
+
+    // Polar plots of the azimuthal distributions, each normalized to its maximum.
+    let mut polar = ChartBuilder::on(&right)
+        .margin(20)
+        .caption("azimuthal distribution (polar, φ = 0 at right)", ("sans-serif", 18))
+        .build_cartesian_2d(-1.15..1.15, -1.15..1.15)
+        .map_err(err)?;
+    for r in [0.25, 0.5, 0.75, 1.0] {
+        polar
+            .draw_series(LineSeries::new(
+                (0..=120).map(|k| {
+                    let a = 2.0 * PI * k as f64 / 120.0;
+                    (r * a.cos(), r * a.sin())
+                }),
+                RGBColor(200, 200, 200),
+            ))
+            .map_err(err)?;
+    }
+    for k in 0..12 {
+        let a = PI * k as f64 / 6.0;
+        polar.draw_series(LineSeries::new([(0.0, 0.0), (a.cos(), a.sin())], RGBColor(220, 220, 220))).map_err(err)?;
+    }
+    let curves: [(&[f64], RGBColor, &str); 2] = [
+        (&g.azimuthal, RGBColor(31, 119, 180), "∫ f_s cos²θ_r dθ_r"),
+        (&g.cone, RGBColor(214, 39, 40), "f_s on the specular cone θ_r = −θ_i"),
+    ];
+    for (data, color, label) in curves {
+        let m = data.iter().copied().fold(0.0, f64::max);
+        if m <= 0.0 {
+            continue;
+        }
+        let n = data.len();
+        let pts: Vec<(f64, f64)> = (0..=n)
+            .map(|j| {
+                let v = data[j % n] / m;
+                let a = -PI + (j % n) as f64 / n as f64 * 2.0 * PI + PI / n as f64;
+                (v * a.cos(), v * a.sin())
+            })
+            .collect();
+        polar
+            .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+            .map_err(err)?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+    }
+    polar
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerLeft)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 14))
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}

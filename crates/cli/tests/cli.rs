@@ -1,0 +1,132 @@
+//! End-to-end tests of the `fiberlab` binary's documented interfaces.
+
+use assert_cmd::Command;
+
+fn fiberlab() -> Command {
+    Command::cargo_bin("fiberlab").expect("binary builds")
+}
+
+fn stdout_of(cmd: &mut Command) -> String {
+    let out = cmd.output().expect("runs");
+    assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).expect("utf-8")
+}
+
+#[test]
+fn models_lists_every_registered_model_with_parameters() {
+    let out = stdout_of(fiberlab().arg("models"));
+    for spec in fiberlab_scatter::MODELS {
+        assert!(out.contains(spec.name), "{} missing", spec.name);
+        for p in spec.params {
+            assert!(out.contains(p.key), "{}: {} missing", spec.name, p.key);
+        }
+    }
+}
+
+#[test]
+fn eval_reads_csv_and_appends_values() {
+    let input = "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,h,tag\n0,1,0,0,0,1,0.5,a\n0.6,0.8,0,-0.6,0.8,0,-1,b\n";
+    let out =
+        stdout_of(fiberlab().args(["eval", "--model", "diffuse", "--param", "albedo=0.5,0.25,1"]).write_stdin(input));
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines[0], "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,h,tag,f_r,f_g,f_b,pdf");
+    assert_eq!(lines.len(), 3);
+    let f_r: f64 = lines[1].split(',').nth(8).unwrap().parse().unwrap();
+    assert!((f_r - 0.5 / (std::f64::consts::PI.powi(2))).abs() < 1e-15);
+    assert!(lines[2].contains(",b,"));
+}
+
+#[test]
+fn eval_errors_name_line_and_column_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.csv");
+    let input = "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,1,0,0,0,1\n0,1,0,0,0,oops\n";
+    let res = fiberlab()
+        .args(["eval", "--model", "kajiya-kay", "--output", out.to_str().unwrap()])
+        .write_stdin(input)
+        .output()
+        .unwrap();
+    assert!(!res.status.success());
+    let err = String::from_utf8_lossy(&res.stderr);
+    assert!(err.contains("line 3, column 6 (`wo_z`)"), "{err}");
+    assert!(!out.exists(), "partial output written");
+}
+
+#[test]
+fn bad_parameters_name_the_key() {
+    let res = fiberlab()
+        .args(["sample", "--model", "kajiya-kay", "--param", "p=nan", "--wo", "0,1,0", "--count", "1"])
+        .output()
+        .unwrap();
+    assert!(!res.status.success());
+    assert!(String::from_utf8_lossy(&res.stderr).contains("`p`"));
+    let res = fiberlab().args(["eval", "--model", "specular", "--param", "bogus=1"]).write_stdin("").output().unwrap();
+    assert!(String::from_utf8_lossy(&res.stderr).contains("no parameter `bogus`"));
+}
+
+#[test]
+fn sample_weights_match_eval() {
+    let out = stdout_of(fiberlab().args([
+        "sample",
+        "--model",
+        "lambertian-cylinder",
+        "--wo",
+        "0,0.6,0.8",
+        "--count",
+        "100",
+        "--seed",
+        "3",
+    ]));
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines[0], "wi_x,wi_y,wi_z,weight_r,weight_g,weight_b,pdf");
+    assert_eq!(lines.len(), 101);
+    for l in &lines[1..] {
+        let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+        assert!((v[3] - 0.8).abs() < 1e-12, "weight = albedo: {l}");
+        assert!(((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt() - 1.0).abs() < 1e-9);
+        assert!(v[6] > 0.0);
+    }
+    // Same seed, same samples.
+    let again = stdout_of(fiberlab().args([
+        "sample",
+        "--model",
+        "lambertian-cylinder",
+        "--wo",
+        "0,0.6,0.8",
+        "--count",
+        "100",
+        "--seed",
+        "3",
+    ]));
+    assert_eq!(out, again);
+}
+
+#[test]
+fn check_passes_and_prints_json() {
+    let out = stdout_of(fiberlab().args(["check", "--model", "diffuse", "--json"]));
+    let rows: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert!(rows.len() > 20);
+    for key in ["model", "test", "value", "expected", "tolerance", "pass"] {
+        assert!(rows[0].get(key).is_some(), "missing {key}");
+    }
+    assert!(rows.iter().all(|r| r["pass"] == true));
+}
+
+#[test]
+fn plot_writes_png_and_svg() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["f.png", "f.svg"] {
+        let path = dir.path().join(name);
+        stdout_of(fiberlab().args(["plot", "--model", "goldman", "--theta-i", "20", "--out", path.to_str().unwrap()]));
+        let bytes = std::fs::read(&path).unwrap();
+        assert!(bytes.len() > 1000);
+        if name.ends_with("png") {
+            assert_eq!(&bytes[1..4], b"PNG");
+        } else {
+            assert!(String::from_utf8_lossy(&bytes).contains("<svg"));
+        }
+    }
+    let res = fiberlab().args(["plot", "--model", "diffuse", "--theta-i", "20", "--out", "x.jpg"]).output().unwrap();
+    assert!(!res.status.success());
+}

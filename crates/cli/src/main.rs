@@ -7,6 +7,7 @@ mod check;
 mod eval;
 mod files;
 mod hair;
+mod measure;
 mod merge;
 mod model_args;
 mod models;
@@ -38,6 +39,8 @@ enum Command {
     Plot(plot::Args),
     /// Measure eval and sample throughput of the models (ns/call).
     Bench(bench::Args),
+    /// Virtual goniophotometer: measure f_s by ray tracing an explicit fiber.
+    Measure(measure::Args),
     /// Path-trace a scene (default: a head with generated hair) to EXR and PNG.
     Render(render::Args),
     /// Merge parts rendered with --tile I/N into one image (bit-exact).
@@ -55,6 +58,7 @@ fn main() {
         Command::Sample(a) => sample::run(a),
         Command::Plot(a) => plot::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Measure(a) => measure::run(a),
         Command::Render(a) => render::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Hair(a) => hair::run(a),

@@ -31,7 +31,7 @@ pub struct Args {
 }
 
 /// Colour scale of the (φ, θ_r) image.
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Scale {
     /// Linear in f_s.
     Linear,
@@ -52,13 +52,14 @@ fn far_field(model: &Model, wi: fiberlab_math::DVec3, wr: fiberlab_math::DVec3) 
     }
 }
 
-struct Grids {
-    /// f_s luminance, `[row][col]`, row = θ_r from −90° up.
-    image: Vec<Vec<f64>>,
+/// What a figure shows; shared with `fiberlab measure`.
+pub(crate) struct Grids {
+    /// f_s luminance, `[row][col]`, row = θ_r from −90° up, col = φ from −180°.
+    pub image: Vec<Vec<f64>>,
     /// Azimuthal distribution ∫ f_s cos²θ_r dθ_r (scattered power per unit φ).
-    azimuthal: Vec<f64>,
-    /// f_s on the specular cone θ_r = −θ_i.
-    cone: Vec<f64>,
+    pub azimuthal: Vec<f64>,
+    /// f_s on the specular cone θ_r = −θ_i, over φ from −180°.
+    pub cone: Vec<f64>,
 }
 
 fn compute(model: &Model, theta_i: f64) -> Grids {
@@ -98,21 +99,26 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let model = args.model.build()?;
     let grids = compute(&model, args.theta_i.to_radians());
     let title = format!("{}   θ_i = {}°", args.model.label(), args.theta_i);
-    let ext = args.out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    write_figure(&args.out, &grids, &title, args.scale, args.decades)
+}
+
+/// Writes the figure as PNG or SVG according to the extension of `path`.
+pub(crate) fn write_figure(path: &Path, grids: &Grids, title: &str, scale: Scale, decades: f64) -> anyhow::Result<()> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     register_font();
     let size = (1500u32, 620u32);
     match ext.as_deref() {
         Some("svg") => {
             let mut svg = String::new();
-            draw(SVGBackend::with_string(&mut svg, size).into_drawing_area(), &grids, &title, args)?;
-            write_atomically(&args.out, svg.as_bytes())
+            draw(SVGBackend::with_string(&mut svg, size).into_drawing_area(), grids, title, scale, decades)?;
+            write_atomically(path, svg.as_bytes())
         }
         Some("png") => {
             let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
-            draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area(), &grids, &title, args)?;
-            write_png(&args.out, &buf, size)
+            draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area(), grids, title, scale, decades)?;
+            write_png(path, &buf, size)
         }
-        _ => anyhow::bail!("--out {}: expected a .png or .svg file name", args.out.display()),
+        _ => anyhow::bail!("--out {}: expected a .png or .svg file name", path.display()),
     }
 }
 
@@ -138,7 +144,8 @@ fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
     g: &Grids,
     title: &str,
-    args: &Args,
+    scale: Scale,
+    decades: f64,
 ) -> anyhow::Result<()>
 where
     DB::ErrorType: 'static,
@@ -151,14 +158,14 @@ where
 
     // Image over (φ, θ_r).
     let max = g.image.iter().flatten().copied().fold(0.0, f64::max);
-    let (lo, hi) = match args.scale {
+    let (lo, hi) = match scale {
         Scale::Linear => (0.0, max.max(1e-300)),
         Scale::Log => {
             let hi = max.max(1e-300).log10();
-            (hi - args.decades, hi)
+            (hi - decades, hi)
         }
     };
-    let map = |v: f64| match args.scale {
+    let map = |v: f64| match scale {
         Scale::Linear => v,
         Scale::Log => v.max(1e-300).log10(),
     };
@@ -178,7 +185,9 @@ where
         .disable_mesh()
         .draw()
         .map_err(err)?;
-    let (dx, dy) = (360.0 / COLS as f64, 180.0 / ROWS as f64);
+    let rows = g.image.len().max(1);
+    let cols = g.image.first().map_or(1, Vec::len).max(1);
+    let (dx, dy) = (360.0 / cols as f64, 180.0 / rows as f64);
     chart
         .draw_series(g.image.iter().enumerate().flat_map(|(r, row)| {
             row.iter().enumerate().map(move |(c, &v)| {
@@ -197,7 +206,7 @@ where
         .y_label_area_size(55)
         .build_cartesian_2d(0.0..1.0, lo..hi)
         .map_err(err)?;
-    let ydesc = match args.scale {
+    let ydesc = match scale {
         Scale::Linear => "f_s",
         Scale::Log => "log10 f_s",
     };

@@ -130,3 +130,43 @@ fn plot_writes_png_and_svg() {
     let res = fiberlab().args(["plot", "--model", "diffuse", "--theta-i", "20", "--out", "x.jpg"]).output().unwrap();
     assert!(!res.status.success());
 }
+
+#[test]
+fn measure_writes_the_documented_csv_and_a_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let prefix = dir.path().join("m");
+    let out = stdout_of(fiberlab().args([
+        "measure",
+        "--theta-i",
+        "20",
+        "--rays",
+        "20000",
+        "--bins",
+        "6,12",
+        "--param",
+        "sigma_a=0.3",
+        "--out",
+        prefix.to_str().unwrap(),
+    ]));
+    assert!(out.contains("Mrays/s"), "{out}");
+    let csv = std::fs::read_to_string(prefix.with_extension("csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next().unwrap(), "lobe,theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b,std_r,std_g,std_b");
+    assert_eq!(lines.count(), 6 * 6 * 12);
+    assert!(std::fs::metadata(prefix.with_extension("png")).unwrap().len() > 1000);
+    // Fiber files: errors name file, line and column, or the bad key.
+    let fiber = dir.path().join("f.toml");
+    std::fs::write(&fiber, "eta = 1.5\naspect = = 2\n").unwrap();
+    let res = fiberlab()
+        .args(["measure", "--theta-i", "0", "--rays", "10", "--fiber", fiber.to_str().unwrap(), "--out", "x"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&res.stderr);
+    assert!(!res.status.success() && err.contains("f.toml: line 2"), "{err}");
+    std::fs::write(&fiber, "eta = 1.5\nradius = 2\n").unwrap();
+    let res = fiberlab()
+        .args(["measure", "--theta-i", "0", "--rays", "10", "--fiber", fiber.to_str().unwrap(), "--out", "x"])
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&res.stderr).contains("unknown key `radius`"));
+}

@@ -243,7 +243,7 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
         let (p, local) = match hit {
             Hit::Fiber { hit, material } => {
                 let local = match &scene.materials[material] {
-                    Material::Fiber(m) => Local::fiber(m, &hit, ray.d),
+                    Material::Fiber(m) => Local::fiber(m.as_ref(), &hit, ray.d),
                     _ => Local::Black,
                 };
                 (hit.p, local)
@@ -486,7 +486,7 @@ mod tests {
         Scene {
             camera: Camera::look_at(DVec3::new(0.0, 0.3, 5.0), DVec3::new(0.0, 0.0, 0.0), DVec3::Y, 40.0, 24, 24)
                 .unwrap(),
-            materials: vec![Material::Fiber(fiber), Material::Lambert(Rgb::splat(albedo))],
+            materials: vec![Material::Fiber(Box::new(fiber)), Material::Lambert(Rgb::splat(albedo))],
             fibers: vec![Fibers { curves: CurveSet::from_hair(&hair), material: 0 }],
             spheres: if head {
                 vec![Sphere { center: DVec3::ZERO, radius: 1.0, material: 1, light: None }]

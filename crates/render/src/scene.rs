@@ -12,7 +12,7 @@ use fiberlab_scatter::Model;
 #[derive(Clone, Debug)]
 pub enum Material {
     /// A fiber scattering function (any registered model), for curves.
-    Fiber(Model),
+    Fiber(Box<Model>),
     /// Lambertian surface: `f = albedo/π`.
     Lambert(Rgb),
     /// Perfect mirror with reflectance.

@@ -331,7 +331,7 @@ impl SceneFile {
                     };
                     self.error(span, format!("material `{name}`: {e}"))
                 })?;
-                Material::Fiber(model)
+                Material::Fiber(Box::new(model))
             } else if let Some(a) = md.lambert {
                 if !a.iter().all(|x| (0.0..=1.0).contains(x)) {
                     return Err(self.error(m.span(), format!("material `{name}`: lambert = {a:?} must be in [0, 1]")));

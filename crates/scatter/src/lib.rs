@@ -12,6 +12,8 @@ pub mod params;
 pub mod radiometry;
 pub mod sampling;
 
+pub mod chiang_2016;
+pub mod deon_2011;
 pub mod goldman_1997;
 pub mod ideal_diffuse;
 pub mod ideal_specular;

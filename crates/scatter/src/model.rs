@@ -66,6 +66,8 @@ models! {
     Specular(crate::ideal_specular::IdealSpecular) = crate::ideal_specular::SPEC,
     KajiyaKay(crate::kajiya_kay_1989::KajiyaKay) = crate::kajiya_kay_1989::SPEC,
     Goldman(crate::goldman_1997::Goldman) = crate::goldman_1997::SPEC,
+    Chiang(crate::chiang_2016::Chiang) = crate::chiang_2016::SPEC,
+    Deon(crate::deon_2011::Deon) = crate::deon_2011::SPEC,
 }
 
 /// The registry entry called `name`.

@@ -1,0 +1,381 @@
+//! The virtual goniophotometer: the full scattering distribution of a fiber measured by
+//! tracing rays through explicit geometry (elliptical cross-section, tilted cuticle scales,
+//! absorbing interior, scattering medulla), binned per path class into tables of `f_s`
+//! with curve-radiometric normalization (models.md §2.1).
+//!
+//! A collimated beam from `ω_i` illuminates the fiber uniformly over its projected width
+//! and along one scale period; each bin's `f_s` is the fraction of intercepted power that
+//! leaves through the bin divided by `∫_bin cosθ_r dω_r`, with a Monte Carlo standard error.
+//! Measurements are deterministic for a seed, whatever the thread count. Pure: no I/O.
+#![forbid(unsafe_code)]
+
+pub mod fiber;
+pub mod surface;
+pub mod trace;
+
+pub use fiber::{FIBER_KEYS, Fiber, FiberError, FiberKeyError, Medulla, Orientation, SurfaceKind};
+pub use trace::{Lobe, Outcome};
+
+use fiberlab_math::frame::{direction, phi, theta, wrap_pi};
+use fiberlab_math::{DVec3, Rgb};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use rayon::prelude::*;
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::sync::atomic::{AtomicBool, Ordering};
+use surface::Surface;
+
+/// Rays traced per independently seeded chunk.
+const CHUNK: usize = 1 << 16;
+
+/// What to measure.
+#[derive(Clone, Copy, Debug)]
+pub struct Setup {
+    /// Light inclination θ_i (radians), |θ_i| < π/2.
+    pub theta_i: f64,
+    /// Light azimuth φ_i (radians) relative to the frame's `y` axis (matters for ellipses).
+    pub phi_i: f64,
+    /// Number of rays.
+    pub rays: usize,
+    /// Bins in θ_r over [−π/2, π/2].
+    pub bins_theta: usize,
+    /// Bins in φ = φ_r − φ_i over [−π, π].
+    pub bins_phi: usize,
+    /// Seed of the ray streams.
+    pub seed: u64,
+}
+
+/// One path class's table: per-bin `f_s` (sr⁻¹) and standard error, row-major `[θ][φ]`.
+#[derive(Clone, Debug)]
+pub struct LobeTable {
+    /// Bin-averaged `f_s`.
+    pub f: Vec<Rgb>,
+    /// Monte Carlo standard error of `f`.
+    pub std: Vec<Rgb>,
+    /// Fraction of the intercepted power in this class (its albedo at θ_i).
+    pub albedo: Rgb,
+}
+
+/// A measured scattering distribution.
+#[derive(Clone, Debug)]
+pub struct Measurement {
+    /// The setup it was measured with.
+    pub setup: Setup,
+    /// Tables for `r, tt, trt, higher, medulla` (index = [`Lobe`] as usize) and `all` (index 5).
+    pub lobes: Vec<LobeTable>,
+    /// Rays that missed the fiber (sampled beam slightly wider than the mean fiber width).
+    pub missed: usize,
+    /// Paths dropped after too many events.
+    pub dropped: usize,
+    /// Rays actually traced (fewer than requested if interrupted).
+    pub traced: usize,
+}
+
+impl Measurement {
+    /// Lobe names in table order.
+    pub const LOBE_NAMES: [&'static str; 6] = ["r", "tt", "trt", "higher", "medulla", "all"];
+
+    /// Centre (θ_r, φ) in radians of bin `(i, j)`.
+    #[must_use]
+    pub fn bin_centre(&self, i: usize, j: usize) -> (f64, f64) {
+        let s = &self.setup;
+        (-FRAC_PI_2 + (i as f64 + 0.5) * PI / s.bins_theta as f64, -PI + (j as f64 + 0.5) * TAU / s.bins_phi as f64)
+    }
+
+    /// Table of lobe `name` (`r`, `tt`, `trt`, `higher`, `medulla`, `all`).
+    #[must_use]
+    pub fn lobe(&self, name: &str) -> Option<&LobeTable> {
+        Self::LOBE_NAMES.iter().position(|n| *n == name).map(|k| &self.lobes[k])
+    }
+}
+
+/// `∫_bin cosθ dω` for the θ-row `i` (all φ-bins of a row are equal).
+fn cos_weighted_solid_angle(i: usize, bins_theta: usize, bins_phi: usize) -> f64 {
+    let a = -FRAC_PI_2 + i as f64 * PI / bins_theta as f64;
+    let b = a + PI / bins_theta as f64;
+    let prim = |t: f64| 0.5 * t + 0.25 * (2.0 * t).sin();
+    (prim(b) - prim(a)) * TAU / bins_phi as f64
+}
+
+/// Half-width of the nominal cross-section seen across direction `e` (unit, normal plane).
+fn half_width(fiber: &Fiber, psi: f64, e: DVec3) -> f64 {
+    let (s, c) = psi.sin_cos();
+    let ev = e.y * c + e.z * s;
+    let ew = -e.y * s + e.z * c;
+    (ev * ev + fiber.aspect * fiber.aspect * ew * ew).sqrt()
+}
+
+/// One ray's contribution: bin, lobe and weight (weight already includes the beam factor).
+struct Record {
+    bin: u32,
+    lobe: u8,
+    w: Rgb,
+}
+
+/// Measures the scattering distribution of `fiber` for `setup`. `progress(rays_done)` is
+/// called after each chunk; setting `stop` ends the measurement early (what was traced is
+/// kept and normalized by the rays actually traced).
+pub fn measure(
+    fiber: &Fiber,
+    setup: &Setup,
+    stop: &AtomicBool,
+    progress: impl Fn(usize) + Sync,
+) -> Result<Measurement, FiberError> {
+    fiber.validate()?;
+    if setup.theta_i.is_nan() || setup.theta_i.abs() >= 89.9f64.to_radians() {
+        return Err(FiberError::OutOfRange { key: "theta_i", value: setup.theta_i, range: "(−89.9°, 89.9°)" });
+    }
+    let (nt, np) = (setup.bins_theta.max(1), setup.bins_phi.max(1));
+    let wi = direction(setup.theta_i, setup.phi_i);
+    let d = -wi;
+    let e = DVec3::X.cross(d).normalize(); // across the beam, in the normal plane
+    let half_scale = if fiber.has_scales() { 0.5 * fiber.scale_length * fiber.scale_angle.tan().abs() } else { 0.0 };
+    let s_max = 1.0 + half_scale;
+    // Mean nominal half-width over orientations (one value for a fixed orientation).
+    let mean_half = match fiber.orientation {
+        Orientation::Fixed(psi) => half_width(fiber, psi, e),
+        Orientation::Average => (0..4096).map(|k| half_width(fiber, TAU * k as f64 / 4096.0, e)).sum::<f64>() / 4096.0,
+    };
+    let chunks = setup.rays.div_ceil(CHUNK);
+    let mut sums = vec![[Rgb::ZERO; 2]; 6 * nt * np];
+    let (mut missed, mut dropped, mut traced) = (0usize, 0usize, 0usize);
+    let batch = 2 * rayon::current_num_threads().max(1);
+    let mut next = 0;
+    while next < chunks && !stop.load(Ordering::Relaxed) {
+        let end = (next + batch).min(chunks);
+        let results: Vec<(Vec<Record>, usize, usize, usize)> = (next..end)
+            .into_par_iter()
+            .map(|c| {
+                let n = CHUNK.min(setup.rays - c * CHUNK);
+                let mut rng = Pcg64::seed_from_u64(setup.seed ^ (c as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+                let mut records = Vec::with_capacity(n);
+                let (mut miss, mut drop) = (0, 0);
+                for _ in 0..n {
+                    let psi = match fiber.orientation {
+                        Orientation::Fixed(p) => p,
+                        Orientation::Average => TAU * rng.random::<f64>(),
+                    };
+                    let surface = Surface::new(psi, fiber.aspect, fiber.scale_angle, fiber.scale_length);
+                    let half = half_width(fiber, psi, e);
+                    let offset = (2.0 * rng.random::<f64>() - 1.0) * half * s_max;
+                    let x0 = rng.random::<f64>() * fiber.scale_length;
+                    let origin = DVec3::X * x0 + e * offset - d * 4.0;
+                    match trace::trace(fiber, &surface, origin, d, &mut rng) {
+                        Outcome::Missed => miss += 1,
+                        Outcome::Dropped => drop += 1,
+                        Outcome::Exit(x) => {
+                            let (tr, rel) = (theta(x.direction), wrap_pi(phi(x.direction) - setup.phi_i));
+                            let i = (((tr + FRAC_PI_2) / PI * nt as f64) as usize).min(nt - 1);
+                            let j = (((rel + PI) / TAU * np as f64) as usize).min(np - 1);
+                            // Each ray carries the beam power of its width: s_max·half/mean_half.
+                            let beam = s_max * half / mean_half;
+                            records.push(Record { bin: (i * np + j) as u32, lobe: x.lobe as u8, w: x.weight * beam });
+                        }
+                    }
+                }
+                progress(n);
+                (records, miss, drop, n)
+            })
+            .collect();
+        // Merge in chunk order: the sums do not depend on the thread count.
+        for (records, miss, drop, n) in results {
+            for r in records {
+                for lobe in [r.lobe as usize, 5] {
+                    let cell = &mut sums[lobe * nt * np + r.bin as usize];
+                    cell[0] += r.w;
+                    cell[1] += r.w * r.w;
+                }
+            }
+            missed += miss;
+            dropped += drop;
+            traced += n;
+        }
+        next = end;
+    }
+    let n = traced.max(1) as f64;
+    let lobes = (0..6)
+        .map(|lobe| {
+            let mut f = Vec::with_capacity(nt * np);
+            let mut std = Vec::with_capacity(nt * np);
+            let mut albedo = Rgb::ZERO;
+            for i in 0..nt {
+                let omega = cos_weighted_solid_angle(i, nt, np);
+                for j in 0..np {
+                    let [s, s2] = sums[lobe * nt * np + i * np + j];
+                    albedo += s / n;
+                    let mean = s / n;
+                    let var = (s2 / n - mean * mean).map(|v| v.max(0.0)) / n;
+                    f.push(mean / omega);
+                    std.push(var.map(f64::sqrt) / omega);
+                }
+            }
+            LobeTable { f, std, albedo }
+        })
+        .collect();
+    Ok(Measurement { setup: *setup, lobes, missed, dropped, traced })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fiberlab_math::fresnel;
+
+    fn run(fiber: &Fiber, theta_i: f64, rays: usize, bins: (usize, usize)) -> Measurement {
+        let setup = Setup { theta_i, phi_i: 0.0, rays, bins_theta: bins.0, bins_phi: bins.1, seed: 7 };
+        measure(fiber, &setup, &AtomicBool::new(false), |_| {}).unwrap()
+    }
+
+    #[test]
+    fn lossless_smooth_fiber_conserves_energy() {
+        let m = run(&Fiber::default(), 0.4, 200_000, (36, 72));
+        let all = m.lobe("all").unwrap().albedo;
+        let kept = 1.0 - m.dropped as f64 / m.traced as f64;
+        assert!((all[0] - kept).abs() < 1e-12, "albedo {all:?}, dropped {}", m.dropped);
+        assert!(m.dropped < 20);
+        let sum: f64 = (0..5).map(|k| m.lobes[k].albedo[1]).sum();
+        assert!((sum - all[1]).abs() < 1e-12);
+        assert_eq!(m.missed, 0);
+    }
+
+    #[test]
+    fn smooth_reflection_matches_fresnel_weighted_mirror_cone() {
+        // R lands exactly on θ_r = −θ_i; per φ-column the power is
+        // ∫_col F(η, cosθ_i cos(φ/2)) cos(φ/2)/4 dφ (models.md §2.4).
+        let theta_i = 0.3;
+        let (nt, np) = (180, 36);
+        let m = run(&Fiber::default(), theta_i, 2_000_000, (nt, np));
+        let r = m.lobe("r").unwrap();
+        let row = (((-theta_i + FRAC_PI_2) / PI) * nt as f64) as usize;
+        let omega = cos_weighted_solid_angle(row, nt, np);
+        for j in 0..np {
+            let (a, b) = (-PI + j as f64 * TAU / np as f64, -PI + (j + 1) as f64 * TAU / np as f64);
+            let k = 2000;
+            let expected: f64 = (0..k)
+                .map(|s| {
+                    let p = a + (s as f64 + 0.5) * (b - a) / k as f64;
+                    fresnel::dielectric(theta_i.cos() * (0.5 * p).cos(), 1.55) * (0.5 * p).cos() / 4.0 * (b - a)
+                        / k as f64
+                })
+                .sum();
+            let got = r.f[row * np + j][0] * omega;
+            let se = r.std[row * np + j][0] * omega;
+            assert!((got - expected).abs() < 5.0 * se + 1e-6, "column {j}: {got} vs {expected} ± {se}");
+        }
+        // Nothing of R outside that row.
+        let elsewhere: f64 =
+            (0..nt).filter(|&i| i != row).map(|i| (0..np).map(|j| r.f[i * np + j][0]).sum::<f64>()).sum();
+        assert_eq!(elsewhere, 0.0);
+    }
+
+    /// Peak of the θ-marginal of a lobe, restricted to |φ| in [lo, hi] (degrees), as θ_r + θ_i
+    /// (radians), with parabolic interpolation between bins.
+    fn peak_shift(m: &Measurement, lobe: &str, lo: f64, hi: f64) -> f64 {
+        let t = m.lobe(lobe).unwrap();
+        let (nt, np) = (m.setup.bins_theta, m.setup.bins_phi);
+        let marginal: Vec<f64> = (0..nt)
+            .map(|i| {
+                (0..np)
+                    .filter(|&j| (lo..=hi).contains(&m.bin_centre(i, j).1.to_degrees().abs()))
+                    .map(|j| t.f[i * np + j][0] * cos_weighted_solid_angle(i, nt, np))
+                    .sum()
+            })
+            .collect();
+        let k = (1..nt - 1).max_by(|&a, &b| marginal[a].total_cmp(&marginal[b])).unwrap();
+        let (a, b, c) = (marginal[k - 1], marginal[k], marginal[k + 1]);
+        let offset = if a - 2.0 * b + c != 0.0 { 0.5 * (a - c) / (a - 2.0 * b + c) } else { 0.0 };
+        m.bin_centre(k, 0).0 + offset * PI / nt as f64 + m.setup.theta_i
+    }
+
+    #[test]
+    fn tilted_scales_shift_r_toward_the_root_and_tt_trt_toward_the_tip() {
+        let alpha = 3f64.to_radians();
+        let fiber = Fiber { scale_angle: alpha, scale_length: 0.3, ..Fiber::default() };
+        let m = run(&fiber, 0.3, 2_000_000, (720, 72));
+        let smooth = run(&Fiber::default(), 0.3, 2_000_000, (720, 72));
+        let shift =
+            |lobe: &str, lo: f64, hi: f64| (peak_shift(&m, lobe, lo, hi) - peak_shift(&smooth, lobe, lo, hi)) / alpha;
+        let (r_back, r_all) = (shift("r", 0.0, 30.0), shift("r", 0.0, 180.0));
+        let (tt, trt) = (shift("tt", 150.0, 180.0), shift("trt", 0.0, 60.0));
+        eprintln!("peak shifts / α: R(|φ|<30°) {r_back:.2} R(all) {r_all:.2} TT(forward) {tt:.2} TRT {trt:.2}");
+        assert!((r_back + 2.0).abs() < 0.3, "R shift {r_back}");
+        assert!(r_all < -1.0, "R shift {r_all}");
+        assert!(tt > 0.3 && tt < 2.0, "TT shift {tt}");
+        assert!(trt > 2.0 && trt < 5.0, "TRT shift {trt}");
+    }
+
+    /// `½∫ A(p, h) dh` for p = 1 (TT) and 2 (TRT) with exact 3D Fresnel and absorption
+    /// `exp(−σ_a·path)`, where `path(γ_t, θ_t)` is the internal path of one chord.
+    fn lobe_albedo(theta: f64, sigma: f64, p: i32, path: impl Fn(f64, f64) -> f64) -> f64 {
+        let (eta, (st, ct)) = (1.55, theta.sin_cos());
+        let n = 20_000;
+        (0..n)
+            .map(|k| {
+                let h = -1.0 + (k as f64 + 0.5) * 2.0 / n as f64;
+                let f = fresnel::dielectric(ct * (1.0 - h * h).sqrt(), eta);
+                let gamma_t = fiberlab_math::bravais::sin_gamma_t(h, eta, st, ct).asin();
+                let cos_theta_t = fiberlab_math::bravais::cos_theta_t(eta, st);
+                let t = (-sigma * path(gamma_t, cos_theta_t)).exp();
+                (1.0 - f).powi(2) * f.powi(p - 1) * t.powi(p) / n as f64
+            })
+            .sum()
+    }
+
+    #[test]
+    fn absorption_follows_the_chord_length_not_the_printed_path() {
+        let (theta, sigma) = (0.4, 0.6);
+        let fiber = Fiber { sigma_a: Rgb::splat(sigma), ..Fiber::default() };
+        let m = run(&fiber, theta, 2_000_000, (18, 36));
+        for (lobe, p) in [("tt", 1), ("trt", 2)] {
+            let measured = m.lobe(lobe).unwrap().albedo[0];
+            // Standard error of a fraction estimated from N Bernoulli-like weights ≤ 1.
+            let se = (measured * (1.0 - measured) / m.traced as f64).sqrt();
+            let chord = lobe_albedo(theta, sigma, p, |g, ct| 2.0 * g.cos() / ct);
+            let printed = lobe_albedo(theta, sigma, p, |g, ct| 2.0 * (1.0 + (2.0 * g).cos()) / ct);
+            eprintln!("{lobe}: measured {measured:.5} ± {se:.5}, chord {chord:.5}, printed {printed:.5}");
+            assert!((measured - chord).abs() < 5.0 * se, "{lobe}: {measured} vs chord {chord}");
+            assert!((measured - printed).abs() > 20.0 * se, "{lobe}: cannot tell the formulas apart");
+        }
+    }
+
+    #[test]
+    fn lambertian_surface_reproduces_the_analytic_lambertian_cylinder() {
+        // f_s = (ρ/4π)·[(π − |φ|)cosφ + sin|φ|], independent of θ (models.md §2.3).
+        let rho = 0.7;
+        let fiber = Fiber { surface: SurfaceKind::Lambertian(Rgb::splat(rho)), ..Fiber::default() };
+        let (nt, np) = (12, 24);
+        let m = run(&fiber, 0.5, 4_000_000, (nt, np));
+        let all = m.lobe("all").unwrap();
+        assert!((all.albedo[0] - rho).abs() < 1e-12);
+        let mut worst: f64 = 0.0;
+        for i in 0..nt {
+            for j in 0..np {
+                let (a, b) = (-PI + j as f64 * TAU / np as f64, -PI + (j + 1) as f64 * TAU / np as f64);
+                let k = 400;
+                let expected: f64 = (0..k)
+                    .map(|s| {
+                        let p: f64 = a + (s as f64 + 0.5) * (b - a) / k as f64;
+                        let g = (PI - p.abs()) * p.cos() + p.abs().sin();
+                        rho / (4.0 * PI) * g / k as f64
+                    })
+                    .sum();
+                let (got, se) = (all.f[i * np + j][0], all.std[i * np + j][0]);
+                // Error expected from the analytic value itself (each hit carries weight ρ).
+                let omega = cos_weighted_solid_angle(i, nt, np);
+                let se_expected = (expected * omega * rho / m.traced as f64).sqrt() / omega;
+                let z = (got - expected) / se.max(se_expected);
+                worst = worst.max(z.abs());
+                assert!(z.abs() < 5.0, "bin ({i}, {j}): {got} vs {expected} ± {se}");
+            }
+        }
+        eprintln!("worst |z| = {worst:.2}");
+    }
+
+    #[test]
+    fn deterministic_for_a_seed_whatever_the_threads() {
+        let fiber = Fiber { scale_angle: 3f64.to_radians(), sigma_a: Rgb::new(0.2, 0.4, 0.8), ..Fiber::default() };
+        let a = run(&fiber, 0.2, 150_000, (18, 36));
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let b = pool.install(|| run(&fiber, 0.2, 150_000, (18, 36)));
+        assert_eq!(a.lobes[5].f, b.lobes[5].f);
+    }
+}

@@ -1,0 +1,198 @@
+//! Tracing one ray through the explicit fiber: Fresnel splitting at every interface by
+//! stochastic branch selection (reflect with probability F, so weights stay 1), total
+//! internal reflection, path-length absorption, Henyey–Greenstein scattering in the
+//! medulla, and classification of the path by its sequence of events.
+
+use crate::fiber::{Fiber, SurfaceKind};
+use crate::surface::Surface;
+use fiberlab_math::{DVec3, FiberFrame, Rgb, fresnel};
+use rand::Rng;
+use std::f64::consts::TAU;
+
+/// Path classes (models.md §4: p = 0, 1, 2 and the rest).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lobe {
+    /// One external reflection.
+    R = 0,
+    /// Refract in, refract out.
+    TT = 1,
+    /// Refract in, one internal reflection, refract out.
+    TRT = 2,
+    /// Any other sequence without medulla scattering.
+    Higher = 3,
+    /// At least one scattering event in the medulla.
+    Medulla = 4,
+}
+
+impl Lobe {
+    /// All classes, in index order.
+    pub const ALL: [Lobe; 5] = [Lobe::R, Lobe::TT, Lobe::TRT, Lobe::Higher, Lobe::Medulla];
+
+    /// Lower-case name used in tables (`r`, `tt`, `trt`, `higher`, `medulla`).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        ["r", "tt", "trt", "higher", "medulla"][self as usize]
+    }
+}
+
+/// A ray leaving the fiber for good.
+#[derive(Clone, Copy, Debug)]
+pub struct Exit {
+    /// Exit direction (unit, fiber frame).
+    pub direction: DVec3,
+    /// Throughput after absorption.
+    pub weight: Rgb,
+    /// Path class.
+    pub lobe: Lobe,
+}
+
+/// Outcome of one traced ray.
+#[derive(Clone, Copy, Debug)]
+pub enum Outcome {
+    /// The ray missed the fiber.
+    Missed,
+    /// The path exceeded [`MAX_EVENTS`] interactions and was dropped (its power is lost).
+    Dropped,
+    /// The ray left the fiber.
+    Exit(Exit),
+}
+
+/// Interactions after which a path is dropped (reported as lost energy).
+pub const MAX_EVENTS: usize = 200;
+/// Self-intersection guard (radii).
+const EPS: f64 = 1e-7;
+
+/// Refraction of `d` through a surface whose unit normal `n` faces the incident side,
+/// with `eta = n_incident/n_transmitted`; `None` under total internal reflection.
+fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
+    let cos_i = -d.dot(n);
+    let sin2_t = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    Some((d * eta + n * (eta * cos_i - (1.0 - sin2_t).sqrt())).normalize())
+}
+
+/// Cosine-weighted direction about the frame's first axis.
+fn cosine_about(frame: &FiberFrame, u0: f64, u1: f64) -> DVec3 {
+    let r = u0.sqrt();
+    let (sp, cp) = (TAU * u1).sin_cos();
+    frame.to_world(DVec3::new((1.0 - u0).max(0.0).sqrt(), r * cp, r * sp))
+}
+
+/// Henyey–Greenstein direction about `d` with asymmetry `g`.
+fn henyey_greenstein(d: DVec3, g: f64, u0: f64, u1: f64) -> DVec3 {
+    let cos_t = if g.abs() < 1e-4 {
+        1.0 - 2.0 * u0
+    } else {
+        let s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u0);
+        ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
+    };
+    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+    let frame = FiberFrame::from_tangent(d);
+    let (sp, cp) = (TAU * u1).sin_cos();
+    frame.to_world(DVec3::new(cos_t, sin_t * cp, sin_t * sp))
+}
+
+/// Event counts along a path.
+#[derive(Default)]
+struct Events {
+    external_reflections: u32,
+    transmissions: u32,
+    internal_reflections: u32,
+    medulla: bool,
+}
+
+impl Events {
+    fn lobe(&self) -> Lobe {
+        match (self.medulla, self.external_reflections, self.transmissions, self.internal_reflections) {
+            (true, ..) => Lobe::Medulla,
+            (false, 1, 0, 0) => Lobe::R,
+            (false, 0, 2, 0) => Lobe::TT,
+            (false, 0, 2, 1) => Lobe::TRT,
+            _ => Lobe::Higher,
+        }
+    }
+}
+
+/// Traces a ray from `origin` along `dir` (outside the fiber) until it leaves for good.
+pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &mut impl Rng) -> Outcome {
+    let (mut p, mut d) = (origin, dir);
+    let mut weight = Rgb::ONE;
+    let mut ev = Events::default();
+    let mut outside = true;
+    let medulla = fiber.medulla.map(|m| (m, Surface::new_smooth_scaled(surface, m.radius)));
+    for _ in 0..MAX_EVENTS {
+        if outside {
+            let Some(hit) = surface.intersect(p, d, EPS) else {
+                if ev.transmissions == 0 && ev.external_reflections == 0 {
+                    return Outcome::Missed;
+                }
+                return Outcome::Exit(Exit { direction: d, weight, lobe: ev.lobe() });
+            };
+            p += d * hit.t;
+            if let SurfaceKind::Lambertian(albedo) = fiber.surface {
+                // Opaque diffuse surface: cosine-weighted reflection about the normal.
+                let frame = FiberFrame::from_tangent(hit.normal);
+                d = cosine_about(&frame, rng.random(), rng.random());
+                weight *= albedo;
+                ev.external_reflections += 1;
+                continue;
+            }
+            let cos_i = -d.dot(hit.normal);
+            if rng.random::<f64>() < fresnel::dielectric(cos_i, fiber.eta) {
+                d = (d + hit.normal * (2.0 * cos_i)).normalize();
+                ev.external_reflections += 1;
+            } else {
+                d = refract(d, hit.normal, 1.0 / fiber.eta).expect("no TIR entering a denser medium");
+                ev.transmissions += 1;
+                outside = false;
+            }
+            continue;
+        }
+        // Inside: the next surface hit, unless the medulla scatters first.
+        let Some(hit) = surface.intersect(p, d, EPS) else { return Outcome::Dropped };
+        if let Some((m, core)) = &medulla {
+            let in_core = core.radius(p) < 1.0;
+            let boundary = core.intersect(p, d, EPS).map_or(f64::INFINITY, |h| h.t);
+            if in_core {
+                let leave = boundary.min(hit.t);
+                let t_s = if m.sigma_s > 0.0 { -(1.0 - rng.random::<f64>()).ln() / m.sigma_s } else { f64::INFINITY };
+                if t_s < leave {
+                    weight *= (m.sigma_a * -t_s).exp();
+                    p += d * t_s;
+                    d = henyey_greenstein(d, m.g, rng.random(), rng.random());
+                    ev.medulla = true;
+                } else {
+                    weight *= (m.sigma_a * -leave).exp();
+                    p += d * leave;
+                }
+                continue;
+            } else if boundary < hit.t {
+                weight *= (fiber.sigma_a * -boundary).exp();
+                p += d * boundary;
+                continue;
+            }
+        }
+        weight *= (fiber.sigma_a * -hit.t).exp();
+        p += d * hit.t;
+        let cos_i = d.dot(hit.normal);
+        if cos_i <= 0.0 || rng.random::<f64>() < fresnel::dielectric(cos_i, 1.0 / fiber.eta) {
+            d = (d - hit.normal * (2.0 * d.dot(hit.normal))).normalize();
+            ev.internal_reflections += 1;
+        } else {
+            match refract(d, -hit.normal, fiber.eta) {
+                Some(t) => {
+                    d = t;
+                    ev.transmissions += 1;
+                    outside = true;
+                }
+                None => {
+                    d = (d - hit.normal * (2.0 * cos_i)).normalize();
+                    ev.internal_reflections += 1;
+                }
+            }
+        }
+    }
+    Outcome::Dropped
+}

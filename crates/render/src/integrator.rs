@@ -528,6 +528,50 @@ mod tests {
         }
     }
 
+    /// A Lambertian floor under a constant sky `L` and a sun of irradiance `E` at elevation
+    /// cosine `c` has radiance `ρ(L + E·c/π)` exactly (∫_cone ω dω = axis·π sin²α). Tests the
+    /// MIS weights of two overlapping lights with both strategies.
+    #[test]
+    fn lambert_floor_under_sky_and_sun_matches_closed_form() {
+        let sun_dir = DVec3::new(1.0, 2.0, 0.5).normalize();
+        let scene = Scene {
+            camera: Camera::look_at(DVec3::new(0.0, 3.0, 0.0), DVec3::ZERO, DVec3::Z, 30.0, 8, 8).unwrap(),
+            materials: vec![Material::Lambert(Rgb::splat(0.5))],
+            fibers: vec![],
+            spheres: vec![],
+            meshes: vec![crate::scene::Mesh { mesh: crate::shapes::TriangleMesh::floor(0.0, 100.0), material: 0 }],
+            lights: vec![Light::Constant { radiance: Rgb::splat(0.3) }, Light::sun(sun_dir, 0.1, Rgb::splat(2.0))],
+        };
+        let out = render(&scene, &settings(256), &|_, _| {}, &AtomicBool::new(false));
+        let px = out.image.pixels();
+        let mean: f64 = px.iter().map(|p| f64::from(p[0])).sum::<f64>() / px.len() as f64;
+        let expected = 0.5 * (0.3 + 2.0 * sun_dir.y / PI);
+        assert!((mean / expected - 1.0).abs() < 0.01, "{mean} vs {expected}");
+    }
+
+    /// A point on a Lambertian floor straight below an emitting sphere (radius r, centre at
+    /// height d, radiance L) receives `E = π L r²/d²` exactly: radiance `ρ L r²/d²`. The camera
+    /// looks straight down past the sphere through a narrow field of view.
+    #[test]
+    fn lambert_floor_under_a_sphere_light_matches_closed_form() {
+        let (r, d, l) = (0.5, 2.0, 8.0);
+        let scene = Scene {
+            camera: Camera::look_at(DVec3::new(0.0, 1.0, 0.0), DVec3::ZERO, DVec3::Z, 0.5, 4, 4).unwrap(),
+            materials: vec![Material::Lambert(Rgb::splat(0.5))],
+            fibers: vec![],
+            spheres: vec![Sphere { center: DVec3::new(0.0, d, 0.0), radius: r, material: 0, light: Some(0) }],
+            meshes: vec![crate::scene::Mesh { mesh: crate::shapes::TriangleMesh::floor(0.0, 100.0), material: 0 }],
+            lights: vec![Light::Sphere { center: DVec3::new(0.0, d, 0.0), radius: r, radiance: Rgb::splat(l) }],
+        };
+        // Depth 1: direct light only (the lit sphere's diffuse bounce would add more).
+        let s = RenderSettings { max_depth: 1, ..settings(256) };
+        let out = render(&scene, &s, &|_, _| {}, &AtomicBool::new(false));
+        let px = out.image.pixels();
+        let mean: f64 = px.iter().map(|p| f64::from(p[0])).sum::<f64>() / px.len() as f64;
+        let expected = 0.5 * l * r * r / (d * d);
+        assert!((mean / expected - 1.0).abs() < 0.01, "{mean} vs {expected}");
+    }
+
     fn settings(spp: u32) -> RenderSettings {
         RenderSettings { spp, max_depth: u32::MAX, seed: 7, ..RenderSettings::default() }
     }

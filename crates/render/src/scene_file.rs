@@ -500,6 +500,29 @@ mod tests {
     }
 
     #[test]
+    fn envmap_obj_and_hair_files_resolve_relative_to_the_scene() {
+        let dir = tempfile::tempdir().unwrap();
+        let sky = LinearImage::from_pixels(8, 4, (0..32).map(|i| [i as f32 * 0.1, 0.5, 0.2]).collect()).unwrap();
+        sky.write_exr(&dir.path().join("sky.exr")).unwrap();
+        std::fs::write(dir.path().join("q.obj"), "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n").unwrap();
+        let hair = HairParams { strands: 20, ..HairParams::default() }.generate().unwrap();
+        hair.write(&dir.path().join("h.hair")).unwrap();
+        let text = format!(
+            "{CAMERA}[materials.h]\nmodel = \"chiang\"\nparams = {{ eumelanin = 0.5 }}\n[materials.s]\nmirror = [0.9, 0.9, 0.9]\n\
+             [[hair]]\nmaterial = \"h\"\nfile = \"h.hair\"\n[[mesh]]\nfile = \"q.obj\"\nmaterial = \"s\"\n\
+             [[sphere]]\ncenter = [0, 5, 0]\nradius = 0.5\nmaterial = \"s\"\nemission = [10, 10, 10]\n\
+             [[light]]\ntype = \"envmap\"\nfile = \"sky.exr\"\nscale = 2.0\n"
+        );
+        let path = dir.path().join("s.toml");
+        std::fs::write(&path, text).unwrap();
+        let (scene, _) = SceneFile::read(&path).unwrap().build().unwrap();
+        assert_eq!(scene.fibers[0].curves.strand_count(), 20);
+        assert_eq!(scene.meshes[0].mesh.len(), 1);
+        assert_eq!(scene.lights.len(), 2, "envmap + emitting sphere");
+        assert!(matches!(scene.lights[0], Light::Map(_)));
+    }
+
+    #[test]
     fn unknown_material_reference_and_missing_file() {
         let e = err(&format!("{CAMERA}[[sphere]]\ncenter = [0,0,0]\nradius = 1\nmaterial = \"skin\"\n"));
         assert!(e.to_string().contains("unknown material `skin`") && e.line == 10, "{e}");

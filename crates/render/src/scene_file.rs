@@ -40,7 +40,7 @@ width = 512
 height = 512
 
 [render]
-spp = 16
+spp = 32
 max_depth = 64
 seed = 0
 exposure = 0.0
@@ -474,6 +474,21 @@ mod tests {
         assert_eq!(scene.fibers[0].curves.strand_count(), 200);
         assert_eq!(scene.lights.len(), 2);
         assert_eq!(settings.max_depth, 64);
+    }
+
+    #[test]
+    fn example_scenes_in_the_repository_build() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let mut f = SceneFile::read(&path).unwrap_or_else(|e| panic!("{e}"));
+            for h in &mut f.desc.hair {
+                if let Some(g) = h.get_mut().generator.as_mut() {
+                    g.get_mut().strands = 100;
+                }
+            }
+            f.build().unwrap_or_else(|e| panic!("{e}"));
+        }
     }
 
     #[test]

@@ -471,19 +471,22 @@ mod tests {
     use crate::light::Light;
     use crate::scene::{Fibers, Sphere};
 
-    /// A lossless near-field model: Chiang 2016 with σ_a = 0 conserves energy on the camera
-    /// side (its sample weight is exactly 1), so a hair-only white furnace renders 1 too.
+    /// Lossless models of every kind: Chiang 2016 with σ_a = 0 (near-field; its sample weight is
+    /// exactly 1 on the camera side) and the ideal specular fiber (a delta lobe: no light
+    /// sampling, no MIS). A hair-only white furnace renders 1 in every fiber pixel.
     #[test]
-    fn white_furnace_with_lossless_chiang_hair() {
-        let mut scene = furnace_scene(1.0, false);
-        let chiang = fiberlab_scatter::build("chiang", &[("sigma_a", "0")]).unwrap();
-        scene.materials[0] = Material::Fiber(Box::new(chiang));
-        let out = render(&scene, &settings(32), &|_, _| {}, &AtomicBool::new(false));
-        assert_eq!(out.stats.nonfinite_samples, 0);
-        let (mean, n) = fiber_pixel_mean(&scene, &out.image);
-        eprintln!("chiang furnace: {n} fiber pixels, mean {mean}");
-        assert!(n > 100, "only {n} fiber pixels");
-        assert!((mean - 1.0).abs() < 0.01, "mean over {n} fiber pixels {mean}");
+    fn white_furnace_with_lossless_chiang_and_specular_hair() {
+        for (name, params) in [("chiang", vec![("sigma_a", "0")]), ("specular", vec![("azimuth", "mirror")])] {
+            let mut scene = furnace_scene(1.0, false);
+            let model = fiberlab_scatter::build(name, &params).unwrap();
+            scene.materials[0] = Material::Fiber(Box::new(model));
+            let out = render(&scene, &settings(32), &|_, _| {}, &AtomicBool::new(false));
+            assert_eq!(out.stats.nonfinite_samples, 0);
+            let (mean, n) = fiber_pixel_mean(&scene, &out.image);
+            eprintln!("{name} furnace: {n} fiber pixels, mean {mean}");
+            assert!(n > 100, "only {n} fiber pixels");
+            assert!((mean - 1.0).abs() < 0.01, "{name}: mean over {n} fiber pixels {mean}");
+        }
     }
 
     /// Mean green value over pixels whose centre ray hits a fiber, and how many there are.

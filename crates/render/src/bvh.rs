@@ -364,6 +364,32 @@ mod tests {
     use super::*;
 
     #[test]
+    fn degenerate_inputs_build_and_traverse() {
+        let ray = Ray::new(DVec3::new(0.0, 0.0, -5.0), DVec3::Z);
+        assert_eq!(Bvh::build(&[]).traverse(&ray, |_, _| Some(1.0)), f64::INFINITY);
+        // Many identical boxes: every one must still be reported.
+        let same = vec![Aabb::sphere(DVec3::ZERO, 1.0); 1000];
+        let bvh = Bvh::build(&same);
+        let mut seen = vec![false; 1000];
+        bvh.traverse(&ray, |p, _| {
+            seen[p as usize] = true;
+            None
+        });
+        assert!(seen.iter().all(|&s| s));
+        assert!(bvh.any(&ray, |p| p == 999));
+        assert!(!bvh.any(&Ray::new(DVec3::new(5.0, 5.0, -5.0), DVec3::Z), |_| true));
+        // Axis-parallel rays with zero direction components.
+        let flat: Vec<Aabb> = (0..100).map(|i| Aabb::sphere(DVec3::new(i as f64, 0.0, 0.0), 0.1)).collect();
+        let bvh = Bvh::build(&flat);
+        let mut hits = Vec::new();
+        bvh.traverse(&Ray::new(DVec3::new(-1.0, 0.0, 0.0), DVec3::X), |p, _| {
+            hits.push(p);
+            None
+        });
+        assert_eq!(hits.len(), 100);
+    }
+
+    #[test]
     fn finds_the_nearest_of_many_random_spheres_like_brute_force() {
         let mut state = 12345u64;
         let mut rnd = || {

@@ -471,6 +471,23 @@ mod tests {
     }
 
     #[test]
+    fn degenerate_strands_are_skipped() {
+        let one = [DVec3::ZERO];
+        let dup = [DVec3::ZERO, DVec3::ZERO, DVec3::X];
+        let nan = [DVec3::ZERO, DVec3::splat(f64::NAN)];
+        let ok = [DVec3::Y, DVec3::Y * 2.0];
+        let set = CurveSet::from_polylines([
+            (&one[..], &[0.1][..]),
+            (&dup[..], &[0.1; 3][..]),
+            (&nan[..], &[0.1; 2][..]),
+            (&ok[..], &[0.0; 2][..]),
+        ]);
+        // The duplicate point's zero-length segment and the zero-radius strand are dropped.
+        assert_eq!(set.segment_count(), 1);
+        assert!(set.intersect(&Ray::new(DVec3::new(0.5, 0.0, 5.0), -DVec3::Z)).is_some());
+    }
+
+    #[test]
     fn mitered_joint_is_watertight() {
         // A bent strand; rays aimed at the outer side of the joint must hit.
         let pts = [DVec3::new(0.0, -1.0, 0.0), DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0).normalize()];

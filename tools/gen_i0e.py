@@ -1,17 +1,17 @@
 #!/usr/bin/env python3
 """Generate the Chebyshev coefficients used by `fiberlab_math::special::i0e`.
 
-i0e(x) = exp(-x) I0(x) is approximated on two pieces:
-  * x in [0, 8]:  i0e(x)         = sum_k a_k T_k(x/4 - 1)
-  * x > 8:        sqrt(x) i0e(x) = sum_k b_k T_k(16/x - 1)
-Coefficients come from Chebyshev interpolation of 50-digit mpmath values and are
-truncated where they drop below 1e-18 of the function's magnitude.
+i0e(x) = exp(-x) I0(x) is approximated piecewise:
+  * x in [a, b] for [0,2], [2,4], [4,8], [8,16]:  i0e(x) = sum_k c_k T_k((2x - a - b)/(b - a))
+  * x > 16:  sqrt(x) i0e(x) = sum_k c_k T_k(32/x - 1)
+Coefficients come from Chebyshev interpolation of 40-digit mpmath values and are
+truncated where they drop below 1e-17 of the function's magnitude on the piece.
 Run: python3 tools/gen_i0e.py  (needs mpmath)
 """
 import mpmath as mp
 
-mp.mp.dps = 50
-N = 60
+mp.mp.dps = 40
+N = 48
 
 
 def cheb_coeffs(f):
@@ -34,11 +34,16 @@ def i0e(x):
     return mp.besseli(0, x) * mp.exp(-x)
 
 
-small = trim(cheb_coeffs(lambda t: i0e(4 * (t + 1))), mp.mpf("1e-18"))
-large = trim(cheb_coeffs(lambda t: mp.sqrt(16 / (t + 1)) * i0e(16 / (t + 1)) if t > -1 else 1 / mp.sqrt(2 * mp.pi)), mp.mpf("1e-18"))
-
-for name, cs in (("I0E_SMALL", small), ("I0E_LARGE", large)):
+def emit(name, cs):
     print(f"const {name}: [f64; {len(cs)}] = [")
     for c in cs:
         print(f"    {float(c)!r},")
     print("];")
+
+
+for a, b in ((0, 2), (2, 4), (4, 8), (8, 16)):
+    cs = cheb_coeffs(lambda t: i0e((b - a) / 2 * t + (a + b) / 2))
+    emit(f"I0E_{a}_{b}", trim(cs, mp.mpf("1e-17") * i0e(b)))
+
+tail = cheb_coeffs(lambda t: mp.sqrt(32 / (t + 1)) * i0e(32 / (t + 1)) if t > -1 else 1 / mp.sqrt(2 * mp.pi))
+emit("I0E_TAIL", trim(tail, mp.mpf("1e-17") * 0.4))

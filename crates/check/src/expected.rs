@@ -3,6 +3,7 @@
 
 use fiberlab_math::{Rgb, fresnel};
 use fiberlab_scatter::Model;
+use fiberlab_scatter::deon_2011::AzimuthalInclination;
 use fiberlab_scatter::ideal_specular::Azimuth;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -55,6 +56,21 @@ pub fn albedo(model: &Model, theta_i: f64) -> Option<Rgb> {
             Some((r + t) * 0.5 * (kk.k_d() * (PI * PI) + kk.k_s() * kajiya_kay_energy(kk.p(), theta_i)))
         }
         #[allow(unreachable_patterns)]
+        _ => None,
+    }
+}
+
+/// The camera-side white furnace `∫ f_s(ω_i, ω_o) cosθ_i dω_i` a model must have for every
+/// `ω_o` (and h), when it claims exact camera-side energy conservation: 1 for lossless
+/// Chiang (Σ_p A_p = 1, models.md §5.3) and for lossless d'Eon with the camera-side azimuthal
+/// inclination.
+#[must_use]
+pub fn camera_furnace(model: &Model) -> Option<Rgb> {
+    match model {
+        Model::Chiang(m) if m.sigma_a().is_black() => Some(Rgb::ONE),
+        Model::Deon(m) if m.sigma_a().is_black() && m.azimuthal_inclination() == AzimuthalInclination::Camera => {
+            Some(Rgb::ONE)
+        }
         _ => None,
     }
 }

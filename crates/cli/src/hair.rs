@@ -37,6 +37,27 @@ struct GenerateArgs {
     /// Strand length (head radius = 1).
     #[arg(long, default_value_t = 1.6)]
     length: f64,
+    /// Wave/curl amplitude (head radius = 1).
+    #[arg(long, default_value_t = 0.03)]
+    amplitude: f64,
+    /// Wave/curl length (pitch).
+    #[arg(long, default_value_t = 0.35)]
+    wavelength: f64,
+    /// Number of clumps (0: none).
+    #[arg(long, default_value_t = 400)]
+    clumps: usize,
+    /// Blend toward the clump guide at the tip, [0, 1].
+    #[arg(long, default_value_t = 0.35)]
+    clumping: f64,
+    /// Pull toward −y per unit length.
+    #[arg(long, default_value_t = 3.0)]
+    gravity: f64,
+    /// Random direction jitter per step.
+    #[arg(long, default_value_t = 0.04)]
+    noise: f64,
+    /// Root diameter.
+    #[arg(long, default_value_t = 0.002)]
+    root_diameter: f64,
     /// Random seed.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -54,6 +75,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 strands: g.strands,
                 segments: g.segments,
                 length: g.length,
+                amplitude: g.amplitude,
+                wavelength: g.wavelength,
+                clumps: g.clumps,
+                clumping: g.clumping,
+                gravity: g.gravity,
+                noise: g.noise,
+                root_diameter: g.root_diameter,
                 seed: g.seed,
                 ..HairParams::default()
             };

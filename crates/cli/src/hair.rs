@@ -26,40 +26,40 @@ enum HairCommand {
 #[derive(clap::Args)]
 struct GenerateArgs {
     /// straight, wavy or curly.
-    #[arg(long, default_value = "wavy")]
+    #[arg(long, default_value_t = HairParams::default().style)]
     style: Style,
     /// Number of strands.
-    #[arg(long, default_value_t = 20_000)]
+    #[arg(long, default_value_t = HairParams::default().strands)]
     strands: usize,
     /// Segments per strand.
-    #[arg(long, default_value_t = 24)]
+    #[arg(long, default_value_t = HairParams::default().segments)]
     segments: usize,
     /// Strand length (head radius = 1).
-    #[arg(long, default_value_t = 1.6)]
+    #[arg(long, default_value_t = HairParams::default().length)]
     length: f64,
     /// Wave/curl amplitude (head radius = 1).
-    #[arg(long, default_value_t = 0.03)]
+    #[arg(long, default_value_t = HairParams::default().amplitude)]
     amplitude: f64,
     /// Wave/curl length (pitch).
-    #[arg(long, default_value_t = 0.35)]
+    #[arg(long, default_value_t = HairParams::default().wavelength)]
     wavelength: f64,
     /// Number of clumps (0: none).
-    #[arg(long, default_value_t = 400)]
+    #[arg(long, default_value_t = HairParams::default().clumps)]
     clumps: usize,
     /// Blend toward the clump guide at the tip, [0, 1].
-    #[arg(long, default_value_t = 0.35)]
+    #[arg(long, default_value_t = HairParams::default().clumping)]
     clumping: f64,
     /// Pull toward −y per unit length.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = HairParams::default().gravity)]
     gravity: f64,
     /// Random direction jitter per step.
-    #[arg(long, default_value_t = 0.04)]
+    #[arg(long, default_value_t = HairParams::default().noise)]
     noise: f64,
     /// Root diameter.
-    #[arg(long, default_value_t = 0.002)]
+    #[arg(long, default_value_t = HairParams::default().root_diameter)]
     root_diameter: f64,
     /// Random seed.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = HairParams::default().seed)]
     seed: u64,
     /// Output file.
     #[arg(long)]

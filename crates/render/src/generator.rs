@@ -43,6 +43,16 @@ pub enum Style {
     Curly,
 }
 
+impl std::fmt::Display for Style {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Style::Straight => "straight",
+            Style::Wavy => "wavy",
+            Style::Curly => "curly",
+        })
+    }
+}
+
 impl std::str::FromStr for Style {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {

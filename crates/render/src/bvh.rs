@@ -7,7 +7,8 @@
 //!
 //! Build: top-down, 16 centroid bins per axis, surface-area heuristic with traversal cost 1
 //! and intersection cost 1 (Wald 2007, "On fast construction of SAH-based bounding volume
-//! hierarchies"); leaves hold at most [`MAX_LEAF`] primitives.
+//! hierarchies"); leaves hold at most [`MAX_LEAF`] primitives. Large subtrees are built in
+//! parallel (rayon); the tree is the same for any thread count.
 
 use fiberlab_math::DVec3;
 
@@ -90,6 +91,9 @@ impl Aabb {
     }
 }
 
+/// Subtrees with at least this many primitives on both sides are built in parallel.
+const PARALLEL_BUILD_MIN: usize = 20_000;
+
 /// Most primitives in one leaf.
 pub const MAX_LEAF: usize = 8;
 const BINS: usize = 16;
@@ -123,7 +127,7 @@ fn round_up(x: f64) -> f32 {
 
 struct Builder<'a> {
     bounds: &'a [Aabb],
-    centroids: Vec<DVec3>,
+    centroids: &'a [DVec3],
     nodes: Vec<Node>,
 }
 
@@ -221,9 +225,31 @@ impl Builder<'_> {
 
     fn split_children(&mut self, node: usize, prims: &mut [u32], mid: usize, first: usize) {
         let (left, right) = prims.split_at_mut(mid);
-        self.build(left, first);
+        if left.len().min(right.len()) < PARALLEL_BUILD_MIN {
+            self.build(left, first);
+            self.nodes[node].offset = self.nodes.len() as u32;
+            self.build(right, first + mid);
+            return;
+        }
+        // Large subtrees are built in parallel into their own node lists, then appended with
+        // their interior-node offsets shifted (the result does not depend on the thread count).
+        let sub = || Builder { bounds: self.bounds, centroids: self.centroids, nodes: Vec::new() };
+        let (mut lb, mut rb) = (sub(), sub());
+        rayon::join(|| lb.build(left, first), || rb.build(right, first + mid));
+        self.append(lb.nodes);
         self.nodes[node].offset = self.nodes.len() as u32;
-        self.build(right, first + mid);
+        self.append(rb.nodes);
+    }
+
+    /// Appends a subtree built at index 0, shifting its interior nodes' child offsets.
+    fn append(&mut self, nodes: Vec<Node>) {
+        let base = self.nodes.len() as u32;
+        self.nodes.extend(nodes.into_iter().map(|mut n| {
+            if n.count == 0 {
+                n.offset += base;
+            }
+            n
+        }));
     }
 }
 
@@ -236,8 +262,8 @@ impl Bvh {
         if prims.is_empty() {
             return Self::default();
         }
-        let centroids = bounds.iter().map(Aabb::centroid).collect();
-        let mut b = Builder { bounds, centroids, nodes: Vec::with_capacity(2 * bounds.len() / 3 + 1) };
+        let centroids: Vec<DVec3> = bounds.iter().map(Aabb::centroid).collect();
+        let mut b = Builder { bounds, centroids: &centroids, nodes: Vec::with_capacity(2 * bounds.len() / 3 + 1) };
         b.build(&mut prims, 0);
         Self { nodes: b.nodes, prims }
     }
@@ -362,6 +388,38 @@ impl Bvh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn parallel_build_is_correct_and_independent_of_threads() {
+        let mut state = 99u64;
+        let mut rnd = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64) / (1u64 << 53) as f64
+        };
+        let n = 5 * PARALLEL_BUILD_MIN;
+        let spheres: Vec<(DVec3, f64)> =
+            (0..n).map(|_| (DVec3::new(rnd(), rnd(), rnd()) * 20.0 - 10.0, 0.02 + 0.05 * rnd())).collect();
+        let bounds: Vec<Aabb> = spheres.iter().map(|&(c, r)| Aabb::sphere(c, r)).collect();
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| Bvh::build(&bounds));
+        let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap().install(|| Bvh::build(&bounds));
+        assert_eq!(one.prims, two.prims);
+        assert_eq!(one.nodes.len(), two.nodes.len());
+        assert!(one.nodes.iter().zip(&two.nodes).all(|(a, b)| a.offset == b.offset && a.count == b.count));
+        let hit_sphere = |ray: &Ray, (c, r): (DVec3, f64), t_max: f64| -> Option<f64> {
+            let oc = ray.o - c;
+            let b = oc.dot(ray.d);
+            let disc = b * b - (oc.length_squared() - r * r);
+            let t = -b - disc.sqrt();
+            (disc >= 0.0 && t > ray.t_min && t < t_max).then_some(t)
+        };
+        for _ in 0..200 {
+            let o = DVec3::new(rnd(), rnd(), rnd()) * 24.0 - 12.0;
+            let ray = Ray::new(o, (DVec3::new(rnd(), rnd(), rnd()) - 0.5).normalize());
+            let brute =
+                spheres.iter().filter_map(|&s| hit_sphere(&ray, s, f64::INFINITY)).fold(f64::INFINITY, f64::min);
+            assert_eq!(two.traverse(&ray, |p, t_max| hit_sphere(&ray, spheres[p as usize], t_max)), brute);
+        }
+    }
 
     #[test]
     fn degenerate_inputs_build_and_traverse() {

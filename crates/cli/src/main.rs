@@ -7,10 +7,13 @@ mod check;
 mod compare_model;
 mod eval;
 mod files;
+mod hair;
 mod measure;
+mod merge;
 mod model_args;
 mod models;
 mod plot;
+mod render;
 mod sample;
 mod table;
 
@@ -40,6 +43,12 @@ enum Command {
     Bench(bench::Args),
     /// Virtual goniophotometer: measure f_s by ray tracing an explicit fiber.
     Measure(measure::Args),
+    /// Path-trace a scene (default: a head with generated hair) to EXR and PNG.
+    Render(render::Args),
+    /// Merge parts rendered with --tile I/N into one image (bit-exact).
+    Merge(merge::Args),
+    /// Generate or inspect .hair files.
+    Hair(hair::Args),
     /// Compare a model with a measured table, per lobe (errors, peaks, difference figures).
     CompareModel(compare_model::Args),
 }
@@ -54,6 +63,9 @@ fn main() {
         Command::Plot(a) => plot::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Measure(a) => measure::run(a),
+        Command::Render(a) => render::run(a),
+        Command::Merge(a) => merge::run(a),
+        Command::Hair(a) => hair::run(a),
         Command::CompareModel(a) => compare_model::run(a),
     };
     if let Err(e) = result {

@@ -1,0 +1,303 @@
+//! Image files: linear OpenEXR (32-bit float RGB) and tone-mapped 8-bit sRGB PNG.
+//!
+//! Every writer goes through [`write_atomically`]: the bytes go to a temporary file in the
+//! destination's directory, which is renamed over the destination only when complete, so an
+//! interrupted program never leaves half an image behind.
+
+use std::fs::File;
+use std::io::{BufWriter, Seek, Write};
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Why an image could not be read or written.
+#[non_exhaustive]
+#[derive(Debug, Error)]
+pub enum ImageError {
+    /// Creating, writing or renaming the file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// Destination path.
+        path: PathBuf,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// The EXR encoder or decoder failed.
+    #[error("{path}: EXR: {message}")]
+    Exr {
+        /// File path.
+        path: PathBuf,
+        /// Decoder message.
+        message: String,
+    },
+    /// The PNG encoder failed.
+    #[error("{path}: PNG: {message}")]
+    Png {
+        /// File path.
+        path: PathBuf,
+        /// Encoder message.
+        message: String,
+    },
+    /// The pixel buffer does not match the size.
+    #[error("image of {width}×{height} needs {expected} pixels, has {found}")]
+    Size {
+        /// Width, pixels.
+        width: usize,
+        /// Height, pixels.
+        height: usize,
+        /// width × height.
+        expected: usize,
+        /// Pixels present.
+        found: usize,
+    },
+}
+
+/// A linear-RGB floating-point image, row-major from the top-left pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinearImage {
+    width: usize,
+    height: usize,
+    pixels: Vec<[f32; 3]>,
+}
+
+impl LinearImage {
+    /// A black image.
+    #[must_use]
+    pub fn new(width: usize, height: usize) -> Self {
+        Self { width, height, pixels: vec![[0.0; 3]; width * height] }
+    }
+
+    /// An image from its pixels (row-major, top row first).
+    pub fn from_pixels(width: usize, height: usize, pixels: Vec<[f32; 3]>) -> Result<Self, ImageError> {
+        if pixels.len() != width * height {
+            return Err(ImageError::Size { width, height, expected: width * height, found: pixels.len() });
+        }
+        Ok(Self { width, height, pixels })
+    }
+
+    /// Width in pixels.
+    #[must_use]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    #[must_use]
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// All pixels, row-major.
+    #[must_use]
+    pub fn pixels(&self) -> &[[f32; 3]] {
+        &self.pixels
+    }
+
+    /// All pixels, mutable.
+    pub fn pixels_mut(&mut self) -> &mut [[f32; 3]] {
+        &mut self.pixels
+    }
+
+    /// Pixel at column `x`, row `y` (row 0 at the top).
+    #[must_use]
+    pub fn get(&self, x: usize, y: usize) -> [f32; 3] {
+        self.pixels[y * self.width + x]
+    }
+
+    /// Sets the pixel at column `x`, row `y`.
+    pub fn set(&mut self, x: usize, y: usize, rgb: [f32; 3]) {
+        self.pixels[y * self.width + x] = rgb;
+    }
+
+    /// Writes a 32-bit float RGB OpenEXR file (lossless ZIP compression), atomically.
+    pub fn write_exr(&self, path: &Path) -> Result<(), ImageError> {
+        use exr::prelude::*;
+        let w = self.width;
+        let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+            let p = self.pixels[y * w + x];
+            (p[0], p[1], p[2])
+        });
+        let image = Image::from_channels((self.width, self.height), channels);
+        let mut exr_error = None;
+        write_atomically(path, |file| {
+            image.write().to_buffered(BufWriter::new(file)).map_err(|e| {
+                exr_error = Some(e.to_string());
+                std::io::Error::other("EXR encoding failed")
+            })
+        })
+        .map_err(|source| match exr_error.take() {
+            Some(message) => ImageError::Exr { path: path.into(), message },
+            None => ImageError::Io { path: path.into(), source },
+        })
+    }
+
+    /// Reads the first RGB(A) layer of an OpenEXR file (alpha ignored).
+    pub fn read_exr(path: &Path) -> Result<Self, ImageError> {
+        use exr::prelude::*;
+        let image = read_first_rgba_layer_from_file(
+            path,
+            |size, _| LinearImage::new(size.width(), size.height()),
+            |img: &mut LinearImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| img.set(pos.x(), pos.y(), [r, g, b]),
+        )
+        .map_err(|e| ImageError::Exr { path: path.into(), message: e.to_string() })?;
+        Ok(image.layer_data.channel_data.pixels)
+    }
+
+    /// 8-bit sRGB pixels after `exposure` (stops) and the tone map.
+    #[must_use]
+    pub fn to_srgb8(&self, exposure: f64, tone_map: ToneMap) -> Vec<u8> {
+        let scale = exposure.exp2();
+        self.pixels.iter().flat_map(|p| p.map(|c| encode_srgb8(tone_map.apply(f64::from(c) * scale)))).collect()
+    }
+
+    /// Writes an 8-bit sRGB PNG after `exposure` (stops) and the tone map, atomically.
+    pub fn write_png(&self, path: &Path, exposure: f64, tone_map: ToneMap) -> Result<(), ImageError> {
+        let bytes = self.to_srgb8(exposure, tone_map);
+        let mut png_error = None;
+        write_atomically(path, |file| {
+            image::write_buffer_with_format(
+                &mut BufWriter::new(file),
+                &bytes,
+                self.width as u32,
+                self.height as u32,
+                image::ExtendedColorType::Rgb8,
+                image::ImageFormat::Png,
+            )
+            .map_err(|e| {
+                png_error = Some(e.to_string());
+                std::io::Error::other("PNG encoding failed")
+            })
+        })
+        .map_err(|source| match png_error.take() {
+            Some(message) => ImageError::Png { path: path.into(), message },
+            None => ImageError::Io { path: path.into(), source },
+        })
+    }
+}
+
+/// Display transform from scene-linear values to [0, 1].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ToneMap {
+    /// Clamp to [0, 1].
+    Clamp,
+    /// Reinhard 2002 global operator `x/(1 + x)`.
+    Reinhard,
+    /// Narkowicz 2015 rational fit to the ACES filmic curve
+    /// `x(ax + b)/(x(cx + d) + e)`, clamped to [0, 1].
+    #[default]
+    Filmic,
+}
+
+/// Coefficients of Narkowicz's 2015 ACES fit ("ACES Filmic Tone Mapping Curve", blog post).
+const ACES_FIT: [f64; 5] = [2.51, 0.03, 2.43, 0.59, 0.14];
+
+impl ToneMap {
+    /// Maps a linear value ≥ 0 to [0, 1]; NaN maps to 0.
+    #[must_use]
+    pub fn apply(self, x: f64) -> f64 {
+        let x = if x.is_nan() { 0.0 } else { x.max(0.0) };
+        let y = match self {
+            ToneMap::Clamp => x,
+            ToneMap::Reinhard => x / (1.0 + x),
+            ToneMap::Filmic => {
+                let [a, b, c, d, e] = ACES_FIT;
+                if x.is_infinite() { 1.0 } else { x * (a * x + b) / (x * (c * x + d) + e) }
+            }
+        };
+        y.clamp(0.0, 1.0)
+    }
+}
+
+/// The sRGB transfer function (IEC 61966-2-1) of a value in [0, 1], rounded to 8 bits.
+#[must_use]
+pub fn encode_srgb8(linear: f64) -> u8 {
+    let x = linear.clamp(0.0, 1.0);
+    let v = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+    (v * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
+}
+
+/// Creates `path` by writing a temporary file in the same directory and renaming it into
+/// place once `write` succeeds and the data is flushed. On error the temporary file is removed
+/// and `path` is untouched.
+pub fn write_atomically<F>(path: &Path, write: F) -> std::io::Result<()>
+where
+    F: FnOnce(&mut File) -> std::io::Result<()>,
+{
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut tmp = tempfile::Builder::new().prefix(&format!(".{name}.")).suffix(".tmp").tempfile_in(dir)?;
+    write(tmp.as_file_mut())?;
+    let file = tmp.as_file_mut();
+    file.flush()?;
+    file.rewind()?;
+    file.sync_all()?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // tempfile creates files readable by the owner only; outputs are ordinary files.
+        file.set_permissions(std::fs::Permissions::from_mode(0o644))?;
+    }
+    tmp.persist(path).map_err(|e| e.error)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gradient() -> LinearImage {
+        let (w, h) = (7, 5);
+        let px = (0..w * h).map(|i| [i as f32 * 0.25, 1.0 / (1.0 + i as f32), -0.5 + (i % 3) as f32]).collect();
+        LinearImage::from_pixels(w, h, px).unwrap()
+    }
+
+    #[test]
+    fn exr_round_trip_is_bit_exact() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.exr");
+        let img = gradient();
+        img.write_exr(&path).unwrap();
+        assert_eq!(LinearImage::read_exr(&path).unwrap(), img);
+        // Only the final file remains in the directory.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn png_is_written_and_decodes_to_the_srgb_values() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.png");
+        let img = gradient();
+        img.write_png(&path, 0.0, ToneMap::Clamp).unwrap();
+        let back = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(back.dimensions(), (7, 5));
+        assert_eq!(back.into_raw(), img.to_srgb8(0.0, ToneMap::Clamp));
+    }
+
+    #[test]
+    fn failed_write_leaves_no_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.bin");
+        let r = write_atomically(&path, |_| Err(std::io::Error::other("boom")));
+        assert!(r.is_err());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn srgb_and_tone_maps_at_known_points() {
+        assert_eq!(encode_srgb8(0.0), 0);
+        assert_eq!(encode_srgb8(1.0), 255);
+        // sRGB(0.5) = 1.055·0.5^(1/2.4) − 0.055 = 0.7354 → 187.5… → 188.
+        assert_eq!(encode_srgb8(0.5), 188);
+        assert_eq!(ToneMap::Reinhard.apply(1.0), 0.5);
+        assert_eq!(ToneMap::Filmic.apply(f64::INFINITY), 1.0);
+        assert_eq!(ToneMap::Filmic.apply(f64::NAN), 0.0);
+        assert!(ToneMap::Filmic.apply(0.18) > 0.1 && ToneMap::Filmic.apply(0.18) < 0.3);
+    }
+
+    #[test]
+    fn size_mismatch_is_an_error() {
+        assert!(matches!(LinearImage::from_pixels(2, 2, vec![[0.0; 3]; 3]), Err(ImageError::Size { .. })));
+    }
+}

@@ -1,0 +1,13 @@
+//! fiberlab's file formats, and nothing else: no physics, no rendering.
+//!
+//! * [`hair`]: Cem Yuksel's binary `.hair` strand format (cyHair), read and write, with every
+//!   malformed file reported as a typed [`hair::HairError`] naming the byte offset.
+//! * [`image_file`]: linear OpenEXR and tone-mapped sRGB PNG output, each written to a temporary
+//!   file in the destination directory and renamed into place, so a reader never sees half an image.
+#![forbid(unsafe_code)]
+
+pub mod hair;
+pub mod image_file;
+
+pub use hair::{HairError, HairFile};
+pub use image_file::{ImageError, LinearImage, ToneMap};

@@ -1,0 +1,481 @@
+//! Rays, axis-aligned boxes and a bounding volume hierarchy (binned SAH build).
+//!
+//! The hierarchy is generic: it is built over a slice of boxes and reports, during traversal,
+//! the indices of the boxes whose leaves the ray reaches; the caller intersects the actual
+//! primitive and shrinks the ray's `t_max`. Node boxes are stored as `f32` rounded outward
+//! (32 bytes a node), primitive indices as `u32`.
+//!
+//! Build: top-down, 16 centroid bins per axis, surface-area heuristic with traversal cost 1
+//! and intersection cost 1 (Wald 2007, "On fast construction of SAH-based bounding volume
+//! hierarchies"); leaves hold at most [`MAX_LEAF`] primitives. Large subtrees are built in
+//! parallel (rayon); the tree is the same for any thread count.
+
+use fiberlab_math::DVec3;
+
+/// A ray `o + t·d` restricted to `t_min < t < t_max`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Origin, scene units.
+    pub o: DVec3,
+    /// Unit direction.
+    pub d: DVec3,
+    /// Smallest accepted distance (excludes self-intersection at the origin).
+    pub t_min: f64,
+    /// Largest accepted distance.
+    pub t_max: f64,
+}
+
+impl Ray {
+    /// A ray from `o` along unit `d` over (0, ∞).
+    #[must_use]
+    pub fn new(o: DVec3, d: DVec3) -> Self {
+        Self { o, d, t_min: 0.0, t_max: f64::INFINITY }
+    }
+
+    /// The point at distance `t`.
+    #[must_use]
+    pub fn at(&self, t: f64) -> DVec3 {
+        self.o + self.d * t
+    }
+}
+
+/// An axis-aligned box; the empty box has `min > max`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    /// Lower corner.
+    pub min: DVec3,
+    /// Upper corner.
+    pub max: DVec3,
+}
+
+impl Aabb {
+    /// The empty box (identity of [`Aabb::union`]).
+    pub const EMPTY: Self = Self { min: DVec3::INFINITY, max: DVec3::NEG_INFINITY };
+
+    /// The box around a sphere.
+    #[must_use]
+    pub fn sphere(c: DVec3, r: f64) -> Self {
+        Self { min: c - DVec3::splat(r), max: c + DVec3::splat(r) }
+    }
+
+    /// The box around one point.
+    #[must_use]
+    pub fn point(p: DVec3) -> Self {
+        Self { min: p, max: p }
+    }
+
+    /// Smallest box containing both.
+    #[must_use]
+    pub fn union(self, o: Self) -> Self {
+        Self { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+
+    /// Centre.
+    #[must_use]
+    pub fn centroid(&self) -> DVec3 {
+        0.5 * (self.min + self.max)
+    }
+
+    /// Surface area (0 for the empty box).
+    #[must_use]
+    pub fn area(&self) -> f64 {
+        let e = (self.max - self.min).max(DVec3::ZERO);
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+
+    /// Volume (0 for the empty box).
+    #[must_use]
+    pub fn volume(&self) -> f64 {
+        let e = (self.max - self.min).max(DVec3::ZERO);
+        e.x * e.y * e.z
+    }
+}
+
+/// Subtrees with at least this many primitives on both sides are built in parallel.
+const PARALLEL_BUILD_MIN: usize = 20_000;
+
+/// Most primitives in one leaf.
+pub const MAX_LEAF: usize = 8;
+const BINS: usize = 16;
+
+/// One node: an outward-rounded `f32` box; interior nodes have `count == 0`, their first child
+/// follows them and `offset` is the second child; leaves list `count` primitives from `offset`.
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    min: [f32; 3],
+    max: [f32; 3],
+    offset: u32,
+    count: u32,
+}
+
+/// A bounding volume hierarchy over boxes.
+#[derive(Clone, Debug, Default)]
+pub struct Bvh {
+    nodes: Vec<Node>,
+    prims: Vec<u32>,
+}
+
+fn round_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) > x { f.next_down() } else { f }
+}
+
+fn round_up(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) < x { f.next_up() } else { f }
+}
+
+struct Builder<'a> {
+    bounds: &'a [Aabb],
+    centroids: &'a [DVec3],
+    nodes: Vec<Node>,
+}
+
+impl Builder<'_> {
+    fn push_node(&mut self, b: Aabb) -> usize {
+        self.nodes.push(Node {
+            min: [round_down(b.min.x), round_down(b.min.y), round_down(b.min.z)],
+            max: [round_up(b.max.x), round_up(b.max.y), round_up(b.max.z)],
+            offset: 0,
+            count: 0,
+        });
+        self.nodes.len() - 1
+    }
+
+    /// Builds the subtree over `prims` (which starts at `first` in the final order).
+    fn build(&mut self, prims: &mut [u32], first: usize) {
+        let bounds = prims.iter().fold(Aabb::EMPTY, |b, &p| b.union(self.bounds[p as usize]));
+        let node = self.push_node(bounds);
+        let leaf = |nodes: &mut Vec<Node>| {
+            nodes[node].offset = first as u32;
+            nodes[node].count = prims.len() as u32;
+        };
+        if prims.len() <= 2 {
+            return leaf(&mut self.nodes);
+        }
+        let cb = prims.iter().fold(Aabb::EMPTY, |b, &p| b.union(Aabb::point(self.centroids[p as usize])));
+        let extent = cb.max - cb.min;
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        if extent[axis] <= 0.0 || !extent[axis].is_finite() {
+            if prims.len() <= MAX_LEAF {
+                return leaf(&mut self.nodes);
+            }
+            let mid = prims.len() / 2;
+            return self.split_children(node, prims, mid, first);
+        }
+        // Binned SAH on the widest centroid axis.
+        let bin_of = |c: DVec3| (((c[axis] - cb.min[axis]) / extent[axis] * BINS as f64) as usize).min(BINS - 1);
+        let mut bin_box = [Aabb::EMPTY; BINS];
+        let mut bin_count = [0usize; BINS];
+        for &p in prims.iter() {
+            let b = bin_of(self.centroids[p as usize]);
+            bin_box[b] = bin_box[b].union(self.bounds[p as usize]);
+            bin_count[b] += 1;
+        }
+        let mut right_area = [0.0; BINS];
+        let (mut acc, mut n) = (Aabb::EMPTY, 0);
+        let mut right_count = [0usize; BINS];
+        for i in (1..BINS).rev() {
+            acc = acc.union(bin_box[i]);
+            n += bin_count[i];
+            right_area[i] = acc.area();
+            right_count[i] = n;
+        }
+        let (mut best_cost, mut best_split) = (f64::INFINITY, 0);
+        let (mut acc, mut n) = (Aabb::EMPTY, 0);
+        for i in 1..BINS {
+            acc = acc.union(bin_box[i - 1]);
+            n += bin_count[i - 1];
+            if n == 0 || right_count[i] == 0 {
+                continue;
+            }
+            let cost = acc.area() * n as f64 + right_area[i] * right_count[i] as f64;
+            if cost < best_cost {
+                best_cost = cost;
+                best_split = i;
+            }
+        }
+        let leaf_cost = prims.len() as f64;
+        let split_cost = 1.0 + best_cost / bounds.area().max(f64::MIN_POSITIVE);
+        if best_split == 0 || (split_cost >= leaf_cost && prims.len() <= MAX_LEAF) {
+            if prims.len() <= MAX_LEAF {
+                return leaf(&mut self.nodes);
+            }
+            let mid = prims.len() / 2;
+            prims.select_nth_unstable_by(mid, |&a, &b| {
+                self.centroids[a as usize][axis].total_cmp(&self.centroids[b as usize][axis])
+            });
+            return self.split_children(node, prims, mid, first);
+        }
+        let mut mid = 0;
+        for i in 0..prims.len() {
+            if bin_of(self.centroids[prims[i] as usize]) < best_split {
+                prims.swap(i, mid);
+                mid += 1;
+            }
+        }
+        self.split_children(node, prims, mid, first);
+    }
+
+    fn split_children(&mut self, node: usize, prims: &mut [u32], mid: usize, first: usize) {
+        let (left, right) = prims.split_at_mut(mid);
+        if left.len().min(right.len()) < PARALLEL_BUILD_MIN {
+            self.build(left, first);
+            self.nodes[node].offset = self.nodes.len() as u32;
+            self.build(right, first + mid);
+            return;
+        }
+        // Large subtrees are built in parallel into their own node lists, then appended with
+        // their interior-node offsets shifted (the result does not depend on the thread count).
+        let sub = || Builder { bounds: self.bounds, centroids: self.centroids, nodes: Vec::new() };
+        let (mut lb, mut rb) = (sub(), sub());
+        rayon::join(|| lb.build(left, first), || rb.build(right, first + mid));
+        self.append(lb.nodes);
+        self.nodes[node].offset = self.nodes.len() as u32;
+        self.append(rb.nodes);
+    }
+
+    /// Appends a subtree built at index 0, shifting its interior nodes' child offsets.
+    fn append(&mut self, nodes: Vec<Node>) {
+        let base = self.nodes.len() as u32;
+        self.nodes.extend(nodes.into_iter().map(|mut n| {
+            if n.count == 0 {
+                n.offset += base;
+            }
+            n
+        }));
+    }
+}
+
+impl Bvh {
+    /// Builds the hierarchy over `bounds`; traversal reports indices into `bounds`.
+    #[must_use]
+    pub fn build(bounds: &[Aabb]) -> Self {
+        assert!(bounds.len() < u32::MAX as usize, "too many primitives for u32 indices");
+        let mut prims: Vec<u32> = (0..bounds.len() as u32).collect();
+        if prims.is_empty() {
+            return Self::default();
+        }
+        let centroids: Vec<DVec3> = bounds.iter().map(Aabb::centroid).collect();
+        let mut b = Builder { bounds, centroids: &centroids, nodes: Vec::with_capacity(2 * bounds.len() / 3 + 1) };
+        b.build(&mut prims, 0);
+        Self { nodes: b.nodes, prims }
+    }
+
+    /// Number of nodes.
+    #[must_use]
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Heap bytes used by nodes and primitive indices.
+    #[must_use]
+    pub fn bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node>() + self.prims.len() * 4
+    }
+
+    /// Walks the leaves the ray reaches, nearest-first by box entry, calling
+    /// `hit(prim, t_max)` for each primitive; `hit` returns `Some(t)` to shrink `t_max` to `t`.
+    /// Returns the final `t_max` (the ray's own if nothing was hit).
+    pub fn traverse(&self, ray: &Ray, mut hit: impl FnMut(u32, f64) -> Option<f64>) -> f64 {
+        let mut t_max = ray.t_max;
+        if self.nodes.is_empty() {
+            return t_max;
+        }
+        let o = [ray.o.x as f32, ray.o.y as f32, ray.o.z as f32];
+        let inv = [(1.0 / ray.d.x) as f32, (1.0 / ray.d.y) as f32, (1.0 / ray.d.z) as f32];
+        // The f32 origin is off by up to half an ulp of |o|; widen the accepted interval by it.
+        let slack = (ray.o.abs().max_element() as f32) * f32::EPSILON * 4.0;
+        let enter = |n: &Node, t_max: f64| -> Option<f32> {
+            let (mut t0, mut t1) = (ray.t_min as f32 - 1e-6, t_max as f32);
+            for k in 0..3 {
+                let a = (n.min[k] - slack - o[k]) * inv[k];
+                let b = (n.max[k] + slack - o[k]) * inv[k];
+                let (near, far) = if a <= b { (a, b) } else { (b, a) };
+                // NaN (0·∞) leaves the interval unchanged.
+                t0 = if near > t0 { near } else { t0 };
+                t1 = if far < t1 { far } else { t1 };
+            }
+            (t0 <= t1 * (1.0 + 4.0 * f32::EPSILON)).then_some(t0)
+        };
+        if enter(&self.nodes[0], t_max).is_none() {
+            return t_max;
+        }
+        let mut stack = [0u32; 64];
+        let mut sp = 0usize;
+        let mut current = 0usize;
+        loop {
+            let n = self.nodes[current];
+            if n.count > 0 {
+                for &p in &self.prims[n.offset as usize..(n.offset + n.count) as usize] {
+                    if let Some(t) = hit(p, t_max) {
+                        t_max = t_max.min(t);
+                    }
+                }
+            } else {
+                let (a, b) = (current + 1, n.offset as usize);
+                match (enter(&self.nodes[a], t_max), enter(&self.nodes[b], t_max)) {
+                    (Some(ta), Some(tb)) => {
+                        let (near, far) = if ta <= tb { (a, b) } else { (b, a) };
+                        if sp < stack.len() {
+                            stack[sp] = far as u32;
+                            sp += 1;
+                            current = near;
+                            continue;
+                        }
+                        // Stack overflow cannot happen for depth ≤ 64; fall back to a recursive walk.
+                        self.walk(far, ray, &mut t_max, &mut hit);
+                        current = near;
+                        continue;
+                    }
+                    (Some(_), None) => {
+                        current = a;
+                        continue;
+                    }
+                    (None, Some(_)) => {
+                        current = b;
+                        continue;
+                    }
+                    (None, None) => {}
+                }
+            }
+            if sp == 0 {
+                return t_max;
+            }
+            sp -= 1;
+            current = stack[sp] as usize;
+        }
+    }
+
+    /// True when `hit(prim)` returns true for some primitive whose leaf the ray reaches
+    /// (any-hit query for shadow rays; stops at the first hit).
+    pub fn any(&self, ray: &Ray, mut hit: impl FnMut(u32) -> bool) -> bool {
+        let mut found = false;
+        self.traverse(ray, |p, t_max| {
+            if found || !hit(p) {
+                return None;
+            }
+            found = true;
+            // t_max = −∞ prunes every remaining box.
+            let _ = t_max;
+            Some(f64::NEG_INFINITY)
+        });
+        found
+    }
+
+    /// Unordered recursive walk (overflow path of [`Bvh::traverse`]).
+    fn walk(&self, node: usize, _ray: &Ray, t_max: &mut f64, hit: &mut impl FnMut(u32, f64) -> Option<f64>) {
+        let n = self.nodes[node];
+        if n.count > 0 {
+            for &p in &self.prims[n.offset as usize..(n.offset + n.count) as usize] {
+                if let Some(t) = hit(p, *t_max) {
+                    *t_max = t_max.min(t);
+                }
+            }
+        } else {
+            self.walk(node + 1, _ray, t_max, hit);
+            self.walk(n.offset as usize, _ray, t_max, hit);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parallel_build_is_correct_and_independent_of_threads() {
+        let mut state = 99u64;
+        let mut rnd = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64) / (1u64 << 53) as f64
+        };
+        let n = 5 * PARALLEL_BUILD_MIN;
+        let spheres: Vec<(DVec3, f64)> =
+            (0..n).map(|_| (DVec3::new(rnd(), rnd(), rnd()) * 20.0 - 10.0, 0.02 + 0.05 * rnd())).collect();
+        let bounds: Vec<Aabb> = spheres.iter().map(|&(c, r)| Aabb::sphere(c, r)).collect();
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| Bvh::build(&bounds));
+        let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap().install(|| Bvh::build(&bounds));
+        assert_eq!(one.prims, two.prims);
+        assert_eq!(one.nodes.len(), two.nodes.len());
+        assert!(one.nodes.iter().zip(&two.nodes).all(|(a, b)| a.offset == b.offset && a.count == b.count));
+        let hit_sphere = |ray: &Ray, (c, r): (DVec3, f64), t_max: f64| -> Option<f64> {
+            let oc = ray.o - c;
+            let b = oc.dot(ray.d);
+            let disc = b * b - (oc.length_squared() - r * r);
+            let t = -b - disc.sqrt();
+            (disc >= 0.0 && t > ray.t_min && t < t_max).then_some(t)
+        };
+        for _ in 0..200 {
+            let o = DVec3::new(rnd(), rnd(), rnd()) * 24.0 - 12.0;
+            let ray = Ray::new(o, (DVec3::new(rnd(), rnd(), rnd()) - 0.5).normalize());
+            let brute =
+                spheres.iter().filter_map(|&s| hit_sphere(&ray, s, f64::INFINITY)).fold(f64::INFINITY, f64::min);
+            assert_eq!(two.traverse(&ray, |p, t_max| hit_sphere(&ray, spheres[p as usize], t_max)), brute);
+        }
+    }
+
+    #[test]
+    fn degenerate_inputs_build_and_traverse() {
+        let ray = Ray::new(DVec3::new(0.0, 0.0, -5.0), DVec3::Z);
+        assert_eq!(Bvh::build(&[]).traverse(&ray, |_, _| Some(1.0)), f64::INFINITY);
+        // Many identical boxes: every one must still be reported.
+        let same = vec![Aabb::sphere(DVec3::ZERO, 1.0); 1000];
+        let bvh = Bvh::build(&same);
+        let mut seen = vec![false; 1000];
+        bvh.traverse(&ray, |p, _| {
+            seen[p as usize] = true;
+            None
+        });
+        assert!(seen.iter().all(|&s| s));
+        assert!(bvh.any(&ray, |p| p == 999));
+        assert!(!bvh.any(&Ray::new(DVec3::new(5.0, 5.0, -5.0), DVec3::Z), |_| true));
+        // Axis-parallel rays with zero direction components.
+        let flat: Vec<Aabb> = (0..100).map(|i| Aabb::sphere(DVec3::new(i as f64, 0.0, 0.0), 0.1)).collect();
+        let bvh = Bvh::build(&flat);
+        let mut hits = Vec::new();
+        bvh.traverse(&Ray::new(DVec3::new(-1.0, 0.0, 0.0), DVec3::X), |p, _| {
+            hits.push(p);
+            None
+        });
+        assert_eq!(hits.len(), 100);
+    }
+
+    #[test]
+    fn finds_the_nearest_of_many_random_spheres_like_brute_force() {
+        let mut state = 12345u64;
+        let mut rnd = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64) / (1u64 << 53) as f64
+        };
+        let spheres: Vec<(DVec3, f64)> =
+            (0..500).map(|_| (DVec3::new(rnd(), rnd(), rnd()) * 10.0 - 5.0, 0.05 + 0.3 * rnd())).collect();
+        let bounds: Vec<Aabb> = spheres.iter().map(|&(c, r)| Aabb::sphere(c, r)).collect();
+        let bvh = Bvh::build(&bounds);
+        let hit_sphere = |ray: &Ray, (c, r): (DVec3, f64), t_max: f64| -> Option<f64> {
+            let oc = ray.o - c;
+            let b = oc.dot(ray.d);
+            let disc = b * b - (oc.length_squared() - r * r);
+            if disc < 0.0 {
+                return None;
+            }
+            let t = -b - disc.sqrt();
+            (t > ray.t_min && t < t_max).then_some(t)
+        };
+        for _ in 0..2000 {
+            let o = DVec3::new(rnd(), rnd(), rnd()) * 14.0 - 7.0;
+            let d = (DVec3::new(rnd(), rnd(), rnd()) - 0.5).normalize();
+            let ray = Ray::new(o, d);
+            let brute =
+                spheres.iter().filter_map(|&s| hit_sphere(&ray, s, f64::INFINITY)).fold(f64::INFINITY, f64::min);
+            let t = bvh.traverse(&ray, |p, t_max| hit_sphere(&ray, spheres[p as usize], t_max));
+            assert_eq!(t, brute);
+        }
+    }
+}

@@ -1,0 +1,521 @@
+//! Strands as round tubes: polylines of mitered cylinders, with per-vertex radius.
+//!
+//! # Geometry
+//! A strand is a polyline `p_0 … p_n` (root → tip) with a radius per vertex. Segment `k` is
+//! a circular cylinder of radius `(r_k + r_{k+1})/2` around the axis `p_k → p_{k+1}`, clipped
+//! at each interior vertex by the **miter plane** whose normal is the vertex tangent
+//! `t_k = normalize(d_{k−1} + d_k)` (the bisector of the adjacent segment directions). Two
+//! equal-radius cylinders meet on the miter plane in the same ellipse, so the tube is
+//! watertight at joints without overlap. Where a strand bends by more than 120° the miter
+//! would reach too far; both sides then clip perpendicular to their own axis (a small gap).
+//! Roots and tips are open (no caps: they are sub-pixel).
+//!
+//! Cubic curves (uniform B-splines and Bézier splines) are converted to polylines at load time
+//! by evaluating each cubic span at [`CubicBasis`] `subdivisions` uniform parameter steps; the
+//! tube is then the polyline tube above. With hair radii ≪ curvature radius the deviation
+//! from the true swept circle is the chord error `κ L²/8` of each step.
+//!
+//! Tubes are **one-sided**: only the entry point of a ray into a tube counts. A ray leaving a
+//! fiber (reflected or transmitted, spawned on its surface) therefore never re-hits it, which
+//! is what treating a fiber hit as one scattering event (models.md §1.4) requires.
+//!
+//! # Shading frame at a hit (matches the scattering models' frame, math::frame)
+//! * `u`: tangent, root → tip: the vertex tangents interpolated linearly along the segment
+//!   (smooth highlights), normalized.
+//! * `w`: the component of `ω_o = −ray.d` perpendicular to `u`, normalized: the viewer lies in
+//!   the `+w` half of the normal plane, and `ω_o` has local coordinates `(sinθ_o, 0, cosθ_o)`,
+//!   i.e. `φ_o = π/2`.
+//! * `v = w × u` (so `u × v = w`, right-handed): `v ⟂ u` and `v ⟂ ray`.
+//! * `h = (q·v)/r` ∈ [−1, 1], where `q` is the vector from the axis to the ray's point of
+//!   closest approach, measured in the normal plane of the segment axis. As the projected ray
+//!   runs along `−w`, its offset along `v` is constant, so `h` is exactly the normal-plane
+//!   offset of models.md §1.2, increasing toward `+v`.
+//!
+//! This is pbrt's hair frame (`x` = tangent, `y` across, `z` toward the camera, `h` along
+//! `+y`): the mirror reflection off the tube at offset `h` leaves at `φ_i − φ_o = −2 asin h`,
+//! which is Φ(0, h) of models.md §1.2 in pbrt's `φ_i − φ_o` convention (tested below by
+//! reflecting the ray off the actual cylinder normal).
+
+use crate::bvh::{Aabb, Bvh, Ray};
+use fiberlab_io::HairFile;
+use fiberlab_math::{DVec3, FiberFrame};
+use glam::Vec3;
+
+/// Bends sharper than this (cosine of the half-angle between segments) are not mitered.
+const MIN_MITER_COS: f64 = 0.5;
+/// A segment longer than this many radii is split into pieces for the BVH (tighter boxes for
+/// long diagonal segments).
+const SPLIT_LENGTH_IN_RADII: f64 = 8.0;
+/// At most this many BVH pieces per segment.
+const MAX_PIECES: usize = 4;
+
+/// One tube segment (f32 storage: 64 bytes).
+#[derive(Clone, Copy, Debug)]
+struct Segment {
+    p0: Vec3,
+    p1: Vec3,
+    /// Miter-plane normal (vertex tangent) at `p0`, pointing toward the tip.
+    n0: Vec3,
+    /// Miter-plane normal at `p1`.
+    n1: Vec3,
+    radius: f32,
+    /// Curve parameter (0 at the root, 1 at the tip) at `p0` and `p1`.
+    v0: f32,
+    v1: f32,
+    strand: u32,
+}
+
+/// A hit on a tube.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CurveHit {
+    /// Ray distance.
+    pub t: f64,
+    /// Hit point on the tube surface.
+    pub p: DVec3,
+    /// Unit shading tangent `u`, root → tip.
+    pub tangent: DVec3,
+    /// Curve parameter ∈ [0, 1] along the strand (0 root, 1 tip).
+    pub v: f64,
+    /// Offset across the fiber ∈ [−1, 1] (see the module docs).
+    pub h: f64,
+    /// Tube radius at the hit, scene units.
+    pub radius: f64,
+    /// Strand index.
+    pub strand: u32,
+    /// Segment index.
+    pub segment: u32,
+}
+
+impl CurveHit {
+    /// The shading frame `(u, v, w)` for a hit seen along `ray_d` (module docs): `ω_o = −ray_d`
+    /// has local coordinates `(sinθ_o, 0, cosθ_o)`.
+    #[must_use]
+    pub fn frame(&self, ray_d: DVec3) -> FiberFrame {
+        let u = self.tangent;
+        let wo = -ray_d;
+        let w_raw = wo - u * u.dot(wo);
+        let len = w_raw.length();
+        if len < 1e-12 {
+            return FiberFrame::from_tangent(u);
+        }
+        let w = w_raw / len;
+        FiberFrame { u, v: w.cross(u), w }
+    }
+}
+
+/// Cubic spline bases for [`CurveSet::from_cubic`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CubicBasis {
+    /// Uniform cubic B-spline: control points `c_0 … c_m` give `m − 2` spans.
+    BSpline,
+    /// Piecewise cubic Bézier: control points `c_0 … c_{3k}` give `k` spans.
+    Bezier,
+}
+
+/// A set of strands as tubes, with a BVH over tight pieces of their segments.
+#[derive(Clone, Debug, Default)]
+pub struct CurveSet {
+    segments: Vec<Segment>,
+    /// BVH piece → segment index.
+    piece_segment: Vec<u32>,
+    bvh: Bvh,
+    strands: usize,
+}
+
+impl CurveSet {
+    /// Tubes from polylines: `(points, radii)` per strand, root first, one radius per point.
+    /// Strands with fewer than 2 points, zero radius or non-finite data are skipped.
+    #[must_use]
+    pub fn from_polylines<'a>(strands: impl IntoIterator<Item = (&'a [DVec3], &'a [f64])>) -> Self {
+        let mut segments = Vec::new();
+        let mut count = 0u32;
+        for (points, radii) in strands {
+            let n = points.len();
+            if n < 2 || radii.len() != n || !points.iter().all(|p| p.is_finite()) {
+                continue;
+            }
+            let dirs: Vec<DVec3> = points.windows(2).map(|w| (w[1] - w[0]).normalize_or_zero()).collect();
+            // Vertex tangents: bisectors, or the adjacent direction at the ends / sharp bends.
+            let miter = |k: usize, side: usize| -> DVec3 {
+                // Tangent at vertex k as seen from segment `side` (k−1 or k).
+                if k == 0 || k == n - 1 {
+                    return dirs[side];
+                }
+                let b = (dirs[k - 1] + dirs[k]).normalize_or_zero();
+                if b.dot(dirs[side]) < MIN_MITER_COS || b == DVec3::ZERO { dirs[side] } else { b }
+            };
+            let total = (n - 1) as f64;
+            for k in 0..n - 1 {
+                let r = 0.5 * (radii[k] + radii[k + 1]);
+                if dirs[k] == DVec3::ZERO || r.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                    continue;
+                }
+                segments.push(Segment {
+                    p0: points[k].as_vec3(),
+                    p1: points[k + 1].as_vec3(),
+                    n0: miter(k, k).as_vec3(),
+                    n1: miter(k + 1, k).as_vec3(),
+                    radius: r as f32,
+                    v0: (k as f64 / total) as f32,
+                    v1: ((k + 1) as f64 / total) as f32,
+                    strand: count,
+                });
+            }
+            count += 1;
+        }
+        Self::from_segments(segments, count as usize)
+    }
+
+    /// Tubes from a `.hair` file (radius = thickness/2).
+    #[must_use]
+    pub fn from_hair(hair: &HairFile) -> Self {
+        let ranges = hair.strand_ranges();
+        let points: Vec<DVec3> =
+            hair.points.iter().map(|p| DVec3::new(p[0].into(), p[1].into(), p[2].into())).collect();
+        let radii: Vec<f64> = (0..points.len()).map(|i| 0.5 * f64::from(hair.thickness_at(i))).collect();
+        Self::from_polylines(ranges.into_iter().map(|r| (&points[r.clone()], &radii[r])))
+    }
+
+    /// Tubes from cubic curves: per strand, control points and a radius per control point;
+    /// each span is evaluated at `subdivisions` steps (module docs). Radii are interpolated
+    /// with the same basis.
+    #[must_use]
+    pub fn from_cubic<'a>(
+        basis: CubicBasis,
+        subdivisions: usize,
+        strands: impl IntoIterator<Item = (&'a [DVec3], &'a [f64])>,
+    ) -> Self {
+        let subdivisions = subdivisions.max(1);
+        let polylines: Vec<(Vec<DVec3>, Vec<f64>)> = strands
+            .into_iter()
+            .map(|(c, r)| {
+                let spans: Vec<usize> = match basis {
+                    CubicBasis::BSpline if c.len() >= 4 => (0..c.len() - 3).collect(),
+                    CubicBasis::Bezier if c.len() >= 4 => (0..(c.len() - 1) / 3).map(|k| 3 * k).collect(),
+                    _ => Vec::new(),
+                };
+                let mut pts = Vec::new();
+                let mut rad = Vec::new();
+                for (i, &s) in spans.iter().enumerate() {
+                    let first = if i == 0 { 0 } else { 1 };
+                    for j in first..=subdivisions {
+                        let t = j as f64 / subdivisions as f64;
+                        let w = cubic_weights(basis, t);
+                        pts.push((0..4).map(|m| c[s + m] * w[m]).sum());
+                        rad.push((0..4).map(|m| r[s + m] * w[m]).sum());
+                    }
+                }
+                (pts, rad)
+            })
+            .collect();
+        Self::from_polylines(polylines.iter().map(|(p, r)| (p.as_slice(), r.as_slice())))
+    }
+
+    fn from_segments(segments: Vec<Segment>, strands: usize) -> Self {
+        let mut bounds = Vec::with_capacity(segments.len());
+        let mut piece_segment = Vec::with_capacity(segments.len());
+        for (i, s) in segments.iter().enumerate() {
+            let (p0, p1) = (s.p0.as_dvec3(), s.p1.as_dvec3());
+            let r = f64::from(s.radius);
+            let d = (p1 - p0).normalize();
+            // A miter ellipse reaches r/cos from the vertex; bound both ends by that sphere.
+            let cos = s.n0.as_dvec3().dot(d).min(s.n1.as_dvec3().dot(d)).max(MIN_MITER_COS);
+            let reach = r / cos * (1.0 + 1e-6);
+            let len = (p1 - p0).length();
+            let pieces = ((len / (SPLIT_LENGTH_IN_RADII * r)).ceil() as usize).clamp(1, MAX_PIECES);
+            for k in 0..pieces {
+                let a = p0 + (p1 - p0) * (k as f64 / pieces as f64);
+                let b = p0 + (p1 - p0) * ((k + 1) as f64 / pieces as f64);
+                bounds.push(Aabb::sphere(a, reach).union(Aabb::sphere(b, reach)));
+                piece_segment.push(i as u32);
+            }
+        }
+        let bvh = Bvh::build(&bounds);
+        Self { segments, piece_segment, bvh, strands }
+    }
+
+    /// Number of strands.
+    #[must_use]
+    pub fn strand_count(&self) -> usize {
+        self.strands
+    }
+
+    /// Number of tube segments.
+    #[must_use]
+    pub fn segment_count(&self) -> usize {
+        self.segments.len()
+    }
+
+    /// Number of BVH pieces (≥ segments; long segments are split).
+    #[must_use]
+    pub fn piece_count(&self) -> usize {
+        self.piece_segment.len()
+    }
+
+    /// Bytes of segment data, BVH nodes and indices.
+    #[must_use]
+    pub fn bytes(&self) -> usize {
+        self.segments.len() * std::mem::size_of::<Segment>() + self.piece_segment.len() * 4 + self.bvh.bytes()
+    }
+
+    /// Bounds of all tubes.
+    #[must_use]
+    pub fn bounds(&self) -> Aabb {
+        self.segments.iter().fold(Aabb::EMPTY, |b, s| {
+            let r = f64::from(s.radius) / MIN_MITER_COS;
+            b.union(Aabb::sphere(s.p0.as_dvec3(), r)).union(Aabb::sphere(s.p1.as_dvec3(), r))
+        })
+    }
+
+    /// Nearest tube entry along the ray, through the BVH.
+    #[must_use]
+    pub fn intersect(&self, ray: &Ray) -> Option<CurveHit> {
+        let mut best: Option<CurveHit> = None;
+        self.bvh.traverse(ray, |piece, t_max| {
+            let seg = self.piece_segment[piece as usize];
+            let hit = self.intersect_segment(seg, ray, t_max)?;
+            best = Some(hit);
+            Some(hit.t)
+        });
+        best
+    }
+
+    /// True when the ray enters any tube within `(t_min, t_max)` (shadow rays).
+    #[must_use]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.bvh.any(ray, |piece| self.intersect_segment(self.piece_segment[piece as usize], ray, ray.t_max).is_some())
+    }
+
+    /// Nearest tube entry by testing every segment (the reference for the BVH).
+    #[must_use]
+    pub fn intersect_brute_force(&self, ray: &Ray) -> Option<CurveHit> {
+        let mut best: Option<CurveHit> = None;
+        for i in 0..self.segments.len() {
+            let t_max = best.map_or(ray.t_max, |b| b.t);
+            if let Some(h) = self.intersect_segment(i as u32, ray, t_max) {
+                best = Some(h);
+            }
+        }
+        best
+    }
+
+    /// Entry of `ray` into segment `index` with `t_min < t < t_max`.
+    fn intersect_segment(&self, index: u32, ray: &Ray, t_max: f64) -> Option<CurveHit> {
+        let s = &self.segments[index as usize];
+        let (p0, p1) = (s.p0.as_dvec3(), s.p1.as_dvec3());
+        let r = f64::from(s.radius);
+        let axis = p1 - p0;
+        let len = axis.length();
+        let a = axis / len;
+        let d_perp = ray.d - a * ray.d.dot(a);
+        let aa = d_perp.length_squared();
+        if aa < 1e-24 {
+            return None; // along the axis: grazes the (open) tube end-on
+        }
+        let oc = ray.o - p0;
+        let oc_perp = oc - a * oc.dot(a);
+        // Closest approach of the ray to the axis line, computed as a vector for precision.
+        let t_c = -oc_perp.dot(d_perp) / aa;
+        let q = oc_perp + d_perp * t_c;
+        let q2 = q.length_squared();
+        if q2 >= r * r {
+            return None;
+        }
+        let t = t_c - ((r * r - q2) / aa).sqrt();
+        if !(t > ray.t_min && t < t_max) {
+            return None;
+        }
+        let p = ray.at(t);
+        if (p - p0).dot(s.n0.as_dvec3()) < 0.0 || (p - p1).dot(s.n1.as_dvec3()) > 0.0 {
+            return None;
+        }
+        let frac = ((p - p0).dot(a) / len).clamp(0.0, 1.0);
+        let tangent = (s.n0.as_dvec3() * (1.0 - frac) + s.n1.as_dvec3() * frac).normalize();
+        let w = -d_perp / aa.sqrt();
+        let v = w.cross(a);
+        let h = (q.dot(v) / r).clamp(-1.0, 1.0);
+        let (v0, v1) = (f64::from(s.v0), f64::from(s.v1));
+        Some(CurveHit { t, p, tangent, v: v0 + (v1 - v0) * frac, h, radius: r, strand: s.strand, segment: index })
+    }
+}
+
+/// Weights of the four control points of a cubic span at parameter `t` ∈ [0, 1].
+fn cubic_weights(basis: CubicBasis, t: f64) -> [f64; 4] {
+    let s = 1.0 - t;
+    match basis {
+        CubicBasis::Bezier => [s * s * s, 3.0 * s * s * t, 3.0 * s * t * t, t * t * t],
+        CubicBasis::BSpline => [
+            s * s * s / 6.0,
+            (3.0 * t * t * t - 6.0 * t * t + 4.0) / 6.0,
+            (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0,
+            t * t * t / 6.0,
+        ],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> f64 {
+            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((self.0 >> 11) as f64) / (1u64 << 53) as f64
+        }
+        fn vec(&mut self) -> DVec3 {
+            DVec3::new(self.next(), self.next(), self.next())
+        }
+    }
+
+    fn random_strands(seed: u64, n: usize) -> Vec<(Vec<DVec3>, Vec<f64>)> {
+        let mut g = Lcg(seed);
+        (0..n)
+            .map(|_| {
+                let mut p = g.vec() * 2.0 - 1.0;
+                let mut dir = (g.vec() - 0.5).normalize();
+                let k = 2 + (g.next() * 10.0) as usize;
+                let r0 = 0.005 + 0.02 * g.next();
+                let mut pts = vec![p];
+                let mut rad = vec![r0];
+                for j in 1..k {
+                    dir = (dir + (g.vec() - 0.5) * 0.8).normalize();
+                    p += dir * (0.05 + 0.3 * g.next());
+                    pts.push(p);
+                    rad.push(r0 * (1.0 - 0.5 * j as f64 / k as f64));
+                }
+                (pts, rad)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn bvh_agrees_with_brute_force_on_random_scenes() {
+        for seed in 0..4 {
+            let strands = random_strands(seed, 300);
+            let set = CurveSet::from_polylines(strands.iter().map(|(p, r)| (p.as_slice(), r.as_slice())));
+            assert!(set.piece_count() > set.segment_count());
+            let mut g = Lcg(seed + 100);
+            let mut hits = 0;
+            for _ in 0..3000 {
+                let o = (g.vec() - 0.5) * 4.0;
+                let target = (g.vec() - 0.5) * 1.5;
+                let ray = Ray::new(o, (target - o).normalize());
+                let a = set.intersect(&ray);
+                let b = set.intersect_brute_force(&ray);
+                assert_eq!(a.map(|h| h.t), b.map(|h| h.t), "seed {seed} ray {ray:?}");
+                assert_eq!(set.occluded(&ray), b.is_some());
+                if let Some(h) = b {
+                    let short = Ray { t_max: h.t * 0.999_999, ..ray };
+                    assert_eq!(set.occluded(&short), set.intersect_brute_force(&short).is_some());
+                }
+                hits += usize::from(b.is_some());
+            }
+            assert!(hits > 100, "too few hits ({hits}) to be a test");
+        }
+    }
+
+    /// Independent check of t, h and the frame against a single straight cylinder computed in
+    /// closed form in the cylinder's own coordinates.
+    #[test]
+    fn straight_cylinder_hit_offset_and_frame() {
+        let pts = [DVec3::new(0.0, -5.0, 0.0), DVec3::new(0.0, 5.0, 0.0)];
+        let rad = [0.5, 0.5];
+        let set = CurveSet::from_polylines([(&pts[..], &rad[..])]);
+        // Ray along −z at x = 0.3: enters at z = sqrt(0.25 − 0.09) = 0.4.
+        let ray = Ray::new(DVec3::new(0.3, 1.0, 10.0), DVec3::new(0.0, 0.0, -1.0));
+        let hit = set.intersect(&ray).unwrap();
+        assert!((hit.t - 9.6).abs() < 1e-12);
+        assert!((hit.v - 0.6).abs() < 1e-6);
+        let f = hit.frame(ray.d);
+        assert!((f.u - DVec3::Y).length() < 1e-12);
+        assert!((f.w - DVec3::Z).length() < 1e-12, "w toward the viewer");
+        // v = w × u = z × y = −x, so an offset toward +x is a negative h.
+        assert!((hit.h + 0.6).abs() < 1e-12, "h = {}", hit.h);
+        let wo = f.to_local(-ray.d);
+        assert!(wo.y.abs() < 1e-12 && wo.z > 0.0);
+    }
+
+    proptest! {
+        /// Reflecting the ray off the true cylinder normal at the hit gives the R-path azimuth
+        /// φ_i − φ_o = −2 asin h (models.md §1.2 in pbrt's convention) and θ_i = −θ_o.
+        #[test]
+        fn mirror_reflection_matches_phi_of_h(
+            ox in -1.0f64..1.0, oz in -1.0f64..1.0, dy in -0.9f64..0.9, angle in 0.0f64..std::f64::consts::TAU, off in -0.99f64..0.99
+        ) {
+            // Positions are stored as f32: use representable coordinates for the reference axis.
+            let (ox, oz) = (f64::from(ox as f32), f64::from(oz as f32));
+            let pts = [DVec3::new(ox, -50.0, oz), DVec3::new(ox, 50.0, oz)];
+            let rad = [0.2, 0.2];
+            let set = CurveSet::from_polylines([(&pts[..], &rad[..])]);
+            let dir_perp = DVec3::new(angle.cos(), 0.0, angle.sin());
+            let d = (dir_perp * (1.0 - dy * dy).sqrt() + DVec3::Y * dy).normalize();
+            let side = DVec3::Y.cross(dir_perp);
+            let o = DVec3::new(ox, 0.0, oz) - d * 5.0 + side * (off * 0.2);
+            let ray = Ray::new(o, d);
+            let hit = set.intersect(&ray).unwrap();
+            let axis_point = DVec3::new(ox, hit.p.y, oz);
+            let n = (hit.p - axis_point).normalize();
+            let wi = d - 2.0 * d.dot(n) * n;
+            let f = hit.frame(d);
+            let (wi_l, wo_l) = (f.to_local(wi), f.to_local(-d));
+            let phi_i = wi_l.z.atan2(wi_l.y);
+            let phi_o = wo_l.z.atan2(wo_l.y);
+            let expected = -2.0 * hit.h.asin();
+            prop_assert!((fiberlab_math::wrap_pi(phi_i - phi_o - expected)).abs() < 1e-7);
+            prop_assert!((wi_l.x + wo_l.x).abs() < 1e-9);
+            // Radii are stored as f32: relative error ~1e-8.
+            prop_assert!((hit.h.abs() - off.abs()).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn degenerate_strands_are_skipped() {
+        let one = [DVec3::ZERO];
+        let dup = [DVec3::ZERO, DVec3::ZERO, DVec3::X];
+        let nan = [DVec3::ZERO, DVec3::splat(f64::NAN)];
+        let ok = [DVec3::Y, DVec3::Y * 2.0];
+        let set = CurveSet::from_polylines([
+            (&one[..], &[0.1][..]),
+            (&dup[..], &[0.1; 3][..]),
+            (&nan[..], &[0.1; 2][..]),
+            (&ok[..], &[0.0; 2][..]),
+        ]);
+        // The duplicate point's zero-length segment and the zero-radius strand are dropped.
+        assert_eq!(set.segment_count(), 1);
+        assert!(set.intersect(&Ray::new(DVec3::new(0.5, 0.0, 5.0), -DVec3::Z)).is_some());
+    }
+
+    #[test]
+    fn mitered_joint_is_watertight() {
+        // A bent strand; rays aimed at the outer side of the joint must hit.
+        let pts = [DVec3::new(0.0, -1.0, 0.0), DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0).normalize()];
+        let rad = [0.1; 3];
+        let set = CurveSet::from_polylines([(&pts[..], &rad[..])]);
+        let outer = DVec3::new(-1.0, 0.41, 0.0).normalize() * 0.099;
+        for k in 0..50 {
+            let z = -0.09 + 0.18 * k as f64 / 49.0;
+            let target = DVec3::new(outer.x, outer.y, z * 0.3);
+            let o = target + DVec3::new(-3.0, 0.0, 0.0);
+            let ray = Ray::new(o, (target - o).normalize());
+            assert!(set.intersect(&ray).is_some(), "gap at z = {z}");
+        }
+    }
+
+    #[test]
+    fn cubic_curves_interpolate_like_the_basis() {
+        // A Bézier with collinear control points is the straight segment itself.
+        let c = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0, DVec3::X * 3.0];
+        let r = [0.1; 4];
+        let set = CurveSet::from_cubic(CubicBasis::Bezier, 8, [(&c[..], &r[..])]);
+        assert_eq!(set.segment_count(), 8);
+        let hit = set.intersect(&Ray::new(DVec3::new(1.5, 0.0, 5.0), -DVec3::Z)).unwrap();
+        assert!((hit.t - 4.9).abs() < 1e-6);
+        // B-spline weights sum to one (partition of unity) for any t.
+        for k in 0..=10 {
+            let w = cubic_weights(CubicBasis::BSpline, k as f64 / 10.0);
+            assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-14);
+        }
+    }
+}

@@ -1,0 +1,391 @@
+//! Procedural hair: strands grown over the scalp of a head sphere.
+//!
+//! Deterministic for a seed (its own SplitMix64 generator, independent of crate versions and
+//! thread count). Each strand:
+//! 1. **Root**: uniform on the sphere cap within [`HairParams::scalp_angle_deg`] of the crown
+//!    (`+y`), minus a face region (front, below [`FACE_CUTOFF_Y`]); lifted by one radius.
+//! 2. **Guide path**: `segments` steps of length `length/segments` from the root. The direction
+//!    starts tangent to the scalp, combed backward, is pulled toward `−y` by `gravity`, jittered
+//!    by `noise`, and every point is pushed out of the head so strands drape over it.
+//! 3. **Style**: `straight`; `wavy` adds a planar sine offset `A sin(2πs/λ + φ₀)` across the
+//!    strand; `curly` a helix of radius `A` and pitch `λ` around the path. Amplitude grows from
+//!    0 at the root over the first 10 % of the length.
+//! 4. **Clumping**: the first `clumps` strands are clump guides; every other strand is blended
+//!    toward its nearest guide (by root distance) with weight `clumping·(s/L)` at arc length s.
+//!
+//! Thickness: diameter `root_diameter` at the root, tapering linearly to `tip_ratio` of it.
+
+use fiberlab_io::HairFile;
+use fiberlab_math::DVec3;
+use serde::Deserialize;
+use std::f64::consts::TAU;
+
+/// Roots in front (`z > 0`) below this height (fraction of the head radius) are face, not scalp.
+pub const FACE_CUTOFF_Y: f64 = 0.35;
+
+/// Sideways (outward) part of the comb direction per unit of the scalp normal's x.
+const COMB_SPREAD: f64 = 0.5;
+/// Downward part of the comb direction (relative to backward = 1).
+const COMB_DOWN: f64 = 0.2;
+/// Normal component of the root direction (0 = flat on the scalp).
+const ROOT_LIFT: f64 = 0.25;
+
+/// Hair style.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Style {
+    /// No waves.
+    #[default]
+    Straight,
+    /// Planar sine waves.
+    Wavy,
+    /// Helical curls.
+    Curly,
+}
+
+impl std::fmt::Display for Style {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Style::Straight => "straight",
+            Style::Wavy => "wavy",
+            Style::Curly => "curly",
+        })
+    }
+}
+
+impl std::str::FromStr for Style {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "straight" => Ok(Style::Straight),
+            "wavy" => Ok(Style::Wavy),
+            "curly" => Ok(Style::Curly),
+            _ => Err(format!("unknown style `{s}`; expected straight, wavy or curly")),
+        }
+    }
+}
+
+/// Generator parameters (scene units: the head radius is usually 1).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HairParams {
+    /// Number of strands.
+    pub strands: usize,
+    /// Segments per strand.
+    pub segments: usize,
+    /// Strand length.
+    pub length: f64,
+    /// Diameter at the root.
+    pub root_diameter: f64,
+    /// Tip diameter as a fraction of the root diameter.
+    pub tip_ratio: f64,
+    /// Style.
+    pub style: Style,
+    /// Wave/curl amplitude.
+    pub amplitude: f64,
+    /// Wave/curl length (pitch).
+    pub wavelength: f64,
+    /// Number of clumps (0: no clumping).
+    pub clumps: usize,
+    /// Blend toward the clump guide at the tip, [0, 1].
+    pub clumping: f64,
+    /// Pull toward −y per unit length.
+    pub gravity: f64,
+    /// Random direction jitter per step.
+    pub noise: f64,
+    /// Head centre.
+    pub head_center: [f64; 3],
+    /// Head radius.
+    pub head_radius: f64,
+    /// Half-angle of the scalp cap around +y, degrees.
+    pub scalp_angle_deg: f64,
+    /// Random seed.
+    pub seed: u64,
+}
+
+impl Default for HairParams {
+    fn default() -> Self {
+        Self {
+            strands: 20_000,
+            segments: 24,
+            length: 1.6,
+            root_diameter: 0.002,
+            tip_ratio: 0.5,
+            style: Style::Wavy,
+            amplitude: 0.03,
+            wavelength: 0.35,
+            clumps: 400,
+            clumping: 0.35,
+            gravity: 3.0,
+            noise: 0.04,
+            head_center: [0.0; 3],
+            head_radius: 1.0,
+            scalp_angle_deg: 105.0,
+            seed: 1,
+        }
+    }
+}
+
+/// Why parameters were rejected.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("hair generator: `{key}` = {value} is invalid; expected {expected}")]
+pub struct GeneratorError {
+    /// Parameter name.
+    pub key: &'static str,
+    /// Value given.
+    pub value: String,
+    /// Valid range.
+    pub expected: &'static str,
+}
+
+/// SplitMix64 (Steele, Lea & Flood 2014): small, fast, and fixed forever.
+#[derive(Clone, Debug)]
+pub struct SplitMix64(u64);
+
+impl SplitMix64 {
+    /// A generator from a seed.
+    #[must_use]
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+    /// Next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    pub fn next_f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+    /// Uniform in the unit ball's bounding cube, centred: each component in [−1, 1).
+    pub fn next_signed_vec(&mut self) -> DVec3 {
+        DVec3::new(self.next_f64(), self.next_f64(), self.next_f64()) * 2.0 - 1.0
+    }
+}
+
+impl HairParams {
+    /// Checks every parameter's range.
+    pub fn validate(&self) -> Result<(), GeneratorError> {
+        let bad = |key, value: f64, expected| Err(GeneratorError { key, value: value.to_string(), expected });
+        if self.segments == 0 || self.segments > usize::from(u16::MAX) {
+            return bad("segments", self.segments as f64, "1 to 65535");
+        }
+        for (key, v) in
+            [("length", self.length), ("root_diameter", self.root_diameter), ("head_radius", self.head_radius)]
+        {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(key, v, "a finite number > 0");
+            }
+        }
+        for (key, v) in [("tip_ratio", self.tip_ratio), ("clumping", self.clumping)] {
+            if !(0.0..=1.0).contains(&v) {
+                return bad(key, v, "a number in [0, 1]");
+            }
+        }
+        for (key, v) in [
+            ("amplitude", self.amplitude),
+            ("wavelength", self.wavelength),
+            ("gravity", self.gravity),
+            ("noise", self.noise),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(key, v, "a finite number ≥ 0");
+            }
+        }
+        if self.style != Style::Straight && self.wavelength <= 0.0 {
+            return bad("wavelength", self.wavelength, "> 0 for wavy or curly hair");
+        }
+        if !(self.scalp_angle_deg > 0.0 && self.scalp_angle_deg <= 180.0) {
+            return bad("scalp_angle_deg", self.scalp_angle_deg, "(0, 180]");
+        }
+        if !self.head_center.iter().all(|c| c.is_finite()) {
+            return bad("head_center", f64::NAN, "finite coordinates");
+        }
+        Ok(())
+    }
+
+    /// Grows the hair.
+    pub fn generate(&self) -> Result<HairFile, GeneratorError> {
+        self.validate()?;
+        let center = DVec3::from(self.head_center);
+        let mut rng = SplitMix64::new(self.seed ^ 0x6A09_E667_F3BC_C908);
+        let roots: Vec<DVec3> = (0..self.strands).map(|_| self.sample_root(&mut rng)).collect();
+        let paths: Vec<Vec<DVec3>> = roots
+            .iter()
+            .enumerate()
+            .map(|(i, &n)| {
+                let mut strand_rng = SplitMix64::new(self.seed.wrapping_mul(0x9E37_79B9).wrapping_add(i as u64));
+                self.grow(center, n, &mut strand_rng)
+            })
+            .collect();
+        let guides = self.clumps.min(self.strands);
+        let mut points = Vec::with_capacity(self.strands * (self.segments + 1));
+        let mut thickness = Vec::with_capacity(points.capacity());
+        for (i, path) in paths.iter().enumerate() {
+            let guide = if guides > 0 && i >= guides && self.clumping > 0.0 {
+                (0..guides).min_by(|&a, &b| {
+                    roots[a].distance_squared(roots[i]).total_cmp(&roots[b].distance_squared(roots[i]))
+                })
+            } else {
+                None
+            };
+            for (k, &p) in path.iter().enumerate() {
+                let s = k as f64 / self.segments as f64;
+                let q = match guide {
+                    Some(g) => {
+                        // Follow the guide's shape, anchored at this strand's own root.
+                        let follow = paths[g][k] - paths[g][0] + path[0];
+                        p.lerp(follow, self.clumping * s)
+                    }
+                    None => p,
+                };
+                // Clumping and style offsets may dip into the head: push such points out again.
+                let rel = q - center;
+                let min_r = self.head_radius + self.root_diameter;
+                let q = if k > 0 && rel.length() < min_r { center + rel.normalize_or(DVec3::Y) * min_r } else { q };
+                points.push([q.x as f32, q.y as f32, q.z as f32]);
+                thickness.push((self.root_diameter * (1.0 - (1.0 - self.tip_ratio) * s)) as f32);
+            }
+        }
+        let mut hair = HairFile {
+            segments: Some(vec![self.segments as u16; self.strands]),
+            points,
+            thickness: Some(thickness),
+            strand_count: self.strands as u32,
+            default_segments: self.segments as u32,
+            default_thickness: self.root_diameter as f32,
+            ..HairFile::default()
+        };
+        hair.set_info(&format!("fiberlab hair generator, {:?}, seed {}", self.style, self.seed));
+        Ok(hair)
+    }
+
+    /// A unit scalp normal (rejection sampling on the cap, excluding the face).
+    fn sample_root(&self, rng: &mut SplitMix64) -> DVec3 {
+        let cos_max = self.scalp_angle_deg.to_radians().cos();
+        for _ in 0..1000 {
+            let y = 1.0 - rng.next_f64() * (1.0 - cos_max);
+            let phi = TAU * rng.next_f64();
+            let s = (1.0 - y * y).max(0.0).sqrt();
+            let n = DVec3::new(s * phi.cos(), y, s * phi.sin());
+            if !(n.z > 0.0 && n.y < FACE_CUTOFF_Y) {
+                return n;
+            }
+        }
+        DVec3::Y
+    }
+
+    /// The strand's points: guide path plus style offsets.
+    fn grow(&self, center: DVec3, n: DVec3, rng: &mut SplitMix64) -> Vec<DVec3> {
+        let r_head = self.head_radius;
+        let step = self.length / self.segments as f64;
+        let lift = 0.5 * self.root_diameter;
+        let mut p = center + n * (r_head + lift);
+        // Initial direction: combed backward (−z), slightly down and outward, projected onto
+        // the scalp's tangent plane, lifted a little off it.
+        let comb = DVec3::new(COMB_SPREAD * n.x, -COMB_DOWN, -1.0);
+        let along = (comb - n * n.dot(comb)).normalize_or(DVec3::NEG_Y);
+        let mut dir = (along + n * ROOT_LIFT).normalize();
+        let mut path = Vec::with_capacity(self.segments + 1);
+        path.push(p);
+        for _ in 0..self.segments {
+            dir = (dir + DVec3::NEG_Y * (self.gravity * step) + rng.next_signed_vec() * self.noise).normalize_or(dir);
+            let mut next = p + dir * step;
+            // Drape over the head: keep points outside the sphere (plus a little).
+            let rel = next - center;
+            let min_r = r_head + lift * 2.0;
+            if rel.length() < min_r {
+                next = center + rel.normalize_or(n) * min_r;
+                dir = (next - p).normalize_or(dir);
+            }
+            path.push(next);
+            p = next;
+        }
+        if self.style == Style::Straight || self.amplitude == 0.0 {
+            return path;
+        }
+        let phase = TAU * rng.next_f64();
+        let mut out = Vec::with_capacity(path.len());
+        for (k, &q) in path.iter().enumerate() {
+            let t = if k + 1 < path.len() { path[k + 1] - q } else { q - path[k - 1] };
+            let t = t.normalize_or(DVec3::NEG_Y);
+            let e1 = t.cross(n).normalize_or(t.any_orthonormal_vector());
+            let e2 = t.cross(e1);
+            let s = k as f64 * step;
+            let ramp = (s / (0.1 * self.length)).min(1.0);
+            let a = TAU * s / self.wavelength + phase;
+            let offset = match self.style {
+                Style::Wavy => e1 * a.sin(),
+                _ => e1 * a.cos() + e2 * a.sin(),
+            };
+            out.push(q + offset * (self.amplitude * ramp));
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small(style: Style) -> HairParams {
+        HairParams { strands: 300, segments: 16, clumps: 20, style, ..HairParams::default() }
+    }
+
+    #[test]
+    fn deterministic_for_a_seed_and_different_for_another() {
+        let a = small(Style::Curly).generate().unwrap();
+        let b = small(Style::Curly).generate().unwrap();
+        assert_eq!(a, b);
+        let c = HairParams { seed: 2, ..small(Style::Curly) }.generate().unwrap();
+        assert_ne!(a.points, c.points);
+    }
+
+    #[test]
+    fn strands_start_on_the_scalp_stay_outside_the_head_and_have_the_length() {
+        for style in [Style::Straight, Style::Wavy, Style::Curly] {
+            let p = small(style);
+            let hair = p.generate().unwrap();
+            assert_eq!(hair.strand_count(), 300);
+            hair.validate().unwrap();
+            for r in hair.strand_ranges() {
+                let pts: Vec<DVec3> =
+                    hair.points[r].iter().map(|q| DVec3::new(q[0].into(), q[1].into(), q[2].into())).collect();
+                let root = pts[0];
+                assert!((root.length() - 1.0).abs() < 1e-2, "root at radius {}", root.length());
+                assert!(!(root.z > 0.0 && root.y < FACE_CUTOFF_Y - 1e-3), "root on the face: {root}");
+                for q in &pts {
+                    assert!(q.length() > 1.0 + 0.9e-3, "point inside the head: {}", q.length());
+                }
+                let len: f64 = pts.windows(2).map(|w| w[0].distance(w[1])).sum();
+                if style == Style::Straight {
+                    assert!(len <= p.length * 1.35 && len > 0.5 * p.length, "length {len}");
+                }
+            }
+            let th = hair.thickness.as_ref().unwrap();
+            assert!((th[0] - 0.002).abs() < 1e-7 && (th[16] - 0.001).abs() < 1e-7);
+        }
+    }
+
+    #[test]
+    fn gravity_pulls_tips_down() {
+        let hair = HairParams { clumps: 0, ..small(Style::Straight) }.generate().unwrap();
+        let mean_tip_y: f64 = hair.strand_ranges().iter().map(|r| f64::from(hair.points[r.end - 1][1])).sum::<f64>()
+            / hair.strand_count() as f64;
+        let mean_root_y: f64 = hair.strand_ranges().iter().map(|r| f64::from(hair.points[r.start][1])).sum::<f64>()
+            / hair.strand_count() as f64;
+        assert!(mean_tip_y < mean_root_y - 0.5, "tips {mean_tip_y} roots {mean_root_y}");
+    }
+
+    #[test]
+    fn invalid_parameters_name_the_key() {
+        let e = HairParams { tip_ratio: 2.0, ..HairParams::default() }.generate().unwrap_err();
+        assert_eq!(e.key, "tip_ratio");
+        let e = HairParams { length: f64::NAN, ..HairParams::default() }.generate().unwrap_err();
+        assert_eq!(e.key, "length");
+        assert!("frizzy".parse::<Style>().is_err());
+    }
+}

@@ -1,0 +1,21 @@
+//! fiberlab's renderer for fiber assemblies: strands as round tubes ([`curves`]) in a BVH
+//! ([`bvh`]), a procedural hair generator ([`generator`]), spheres and triangle meshes
+//! ([`shapes`]), camera, lights, a unidirectional path tracer with next-event estimation and
+//! MIS ([`integrator`]), tiles and part merging, and the TOML scene format ([`scene_file`]).
+//!
+//! Fiber scattering comes from [`fiberlab_scatter`] (any registered model); file formats from
+//! [`fiberlab_io`]. This crate owns no scattering physics: at a fiber hit it builds the fiber
+//! frame (see [`curves`]) and calls the model.
+#![forbid(unsafe_code)]
+
+pub mod bench;
+pub mod bvh;
+pub mod camera;
+pub mod curves;
+pub mod generator;
+pub mod integrator;
+pub mod light;
+pub mod sampler;
+pub mod scene;
+pub mod scene_file;
+pub mod shapes;

@@ -1,0 +1,549 @@
+//! The TOML scene format, its errors (file, line, column, the bad key or value) and the
+//! built-in default scene ([`DEFAULT_SCENE`], a documented example of every section).
+//!
+//! ```toml
+//! [camera]            # eye, target, up, fov (vertical, degrees), width, height
+//! [render]            # spp, max_depth, seed, exposure (stops, for the PNG)
+//! [materials.NAME]    # model = "<scatter model>", params = { key = value }   (fibers)
+//!                     # or lambert = [r, g, b] | mirror = [r, g, b]            (surfaces)
+//! [[hair]]            # material; file = "x.hair" or generator = { … HairParams … }
+//! [[sphere]]          # center, radius, material, optional emission = [r, g, b] (a light)
+//! [[mesh]]            # file = "x.obj", material, scale, translate; or floor = y
+//! [[light]]           # type = "environment" (radiance) | "envmap" (file, scale)
+//!                     #      | "sun" (direction, angular_radius_deg, irradiance)
+//! ```
+//! Relative paths are resolved against the scene file's directory.
+
+use crate::camera::Camera;
+use crate::curves::CurveSet;
+use crate::generator::HairParams;
+use crate::integrator::RenderSettings;
+use crate::light::{EnvironmentMap, Light};
+use crate::scene::{Fibers, Material, Mesh, Scene, Sphere};
+use crate::shapes::TriangleMesh;
+use fiberlab_io::{HairFile, LinearImage};
+use fiberlab_math::{DVec3, Rgb};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use toml::Spanned;
+
+/// The built-in default scene: a head sphere with ~20k generated wavy strands (Kajiya–Kay,
+/// brown), a sky-blue environment and a warm sun.
+pub const DEFAULT_SCENE: &str = r#"
+[camera]
+eye = [4.0, 1.3, -4.3]
+target = [0.0, -0.45, 0.0]
+up = [0.0, 1.0, 0.0]
+fov = 38.0
+width = 512
+height = 512
+
+[render]
+spp = 32
+max_depth = 64
+seed = 0
+exposure = 0.0
+
+[materials.hair]
+model = "kajiya-kay"
+params = { k_d = [0.03, 0.014, 0.006], k_s = 0.025, p = 60 }
+
+[materials.skin]
+lambert = [0.62, 0.45, 0.36]
+
+[materials.ground]
+lambert = [0.35, 0.35, 0.35]
+
+[[hair]]
+material = "hair"
+generator = { strands = 20000, segments = 24, style = "wavy", length = 1.6, seed = 1 }
+
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "skin"
+
+[[mesh]]
+floor = -2.2
+material = "ground"
+
+[[light]]
+type = "environment"
+radiance = [0.35, 0.45, 0.6]
+
+[[light]]
+type = "sun"
+direction = [1.0, 1.3, -0.5]
+angular_radius_deg = 2.0
+irradiance = [4.0, 3.7, 3.2]
+"#;
+
+/// A scene file error with its location.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}:{line}:{column}: {message}")]
+pub struct SceneError {
+    /// Scene file (`<default scene>` for the built-in one).
+    pub path: PathBuf,
+    /// 1-based line.
+    pub line: usize,
+    /// 1-based column.
+    pub column: usize,
+    /// What is wrong, naming the key or value.
+    pub message: String,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraDesc {
+    eye: [f64; 3],
+    target: [f64; 3],
+    #[serde(default = "default_up")]
+    up: [f64; 3],
+    fov: f64,
+    width: u32,
+    height: u32,
+}
+
+fn default_up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+
+/// `[render]`: sampling settings (all optional).
+#[derive(Debug, Deserialize, Clone)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderDesc {
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum path depth.
+    pub max_depth: u32,
+    /// Seed.
+    pub seed: u64,
+    /// Exposure for the PNG, stops.
+    pub exposure: f64,
+}
+
+impl Default for RenderDesc {
+    fn default() -> Self {
+        Self { spp: 16, max_depth: 64, seed: 0, exposure: 0.0 }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialDesc {
+    model: Option<Spanned<String>>,
+    params: Option<Spanned<toml::Table>>,
+    lambert: Option<[f64; 3]>,
+    mirror: Option<[f64; 3]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HairDesc {
+    material: Spanned<String>,
+    file: Option<Spanned<String>>,
+    generator: Option<Spanned<HairParams>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SphereDesc {
+    center: [f64; 3],
+    radius: f64,
+    material: Spanned<String>,
+    emission: Option<[f64; 3]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MeshDesc {
+    file: Option<Spanned<String>>,
+    floor: Option<f64>,
+    material: Spanned<String>,
+    #[serde(default = "one")]
+    scale: f64,
+    #[serde(default)]
+    translate: [f64; 3],
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+enum LightDesc {
+    Environment { radiance: [f64; 3] },
+    Envmap { file: String, scale: Option<f64> },
+    Sun { direction: [f64; 3], angular_radius_deg: f64, irradiance: [f64; 3] },
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneDesc {
+    camera: Spanned<CameraDesc>,
+    #[serde(default)]
+    render: RenderDesc,
+    #[serde(default)]
+    materials: BTreeMap<String, Spanned<MaterialDesc>>,
+    #[serde(default)]
+    hair: Vec<Spanned<HairDesc>>,
+    #[serde(default)]
+    sphere: Vec<Spanned<SphereDesc>>,
+    #[serde(default)]
+    mesh: Vec<Spanned<MeshDesc>>,
+    #[serde(default)]
+    light: Vec<Spanned<LightDesc>>,
+}
+
+/// A parsed scene file, not yet built (geometry is loaded or generated by [`SceneFile::build`]).
+#[derive(Debug)]
+pub struct SceneFile {
+    desc: SceneDesc,
+    text: String,
+    path: PathBuf,
+    base: PathBuf,
+    hair_override: Option<PathBuf>,
+}
+
+fn rgb(c: [f64; 3]) -> Rgb {
+    Rgb::new(c[0], c[1], c[2])
+}
+
+fn dvec(c: [f64; 3]) -> DVec3 {
+    DVec3::from(c)
+}
+
+/// A scatter-model parameter value as the `key=value` text the registry parses.
+fn param_text(v: &toml::Value) -> Option<String> {
+    match v {
+        toml::Value::String(s) => Some(s.clone()),
+        toml::Value::Integer(i) => Some(i.to_string()),
+        toml::Value::Float(f) => Some(f.to_string()),
+        toml::Value::Boolean(b) => Some(if *b { "on".into() } else { "off".into() }),
+        toml::Value::Array(a) => a.iter().map(param_text).collect::<Option<Vec<_>>>().map(|v| v.join(",")),
+        _ => None,
+    }
+}
+
+impl SceneFile {
+    /// Parses scene text; `path` names it in errors and anchors relative paths.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
+        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let mut file =
+            Self { desc: SceneDesc::empty(), text: text.to_string(), path: path.into(), base, hair_override: None };
+        file.desc = toml::from_str(text).map_err(|e| {
+            let span = e.span().unwrap_or(0..0);
+            file.error(span, e.message().to_string())
+        })?;
+        Ok(file)
+    }
+
+    /// Reads and parses a scene file.
+    pub fn read(path: &Path) -> Result<Self, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+            path: path.into(),
+            line: 0,
+            column: 0,
+            message: e.to_string(),
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// The built-in default scene.
+    #[must_use]
+    pub fn default_scene() -> Self {
+        Self::parse(DEFAULT_SCENE, Path::new("<default scene>")).expect("the default scene parses")
+    }
+
+    /// Uses this `.hair` file for every `[[hair]]` entry instead of its own source.
+    pub fn override_hair(&mut self, path: PathBuf) {
+        self.hair_override = Some(path);
+    }
+
+    /// The `[render]` section.
+    #[must_use]
+    pub fn render_settings(&self) -> &RenderDesc {
+        &self.desc.render
+    }
+
+    /// Mutable `[render]` section (command-line overrides).
+    pub fn render_settings_mut(&mut self) -> &mut RenderDesc {
+        &mut self.desc.render
+    }
+
+    fn error(&self, span: std::ops::Range<usize>, message: String) -> SceneError {
+        let start = span.start.min(self.text.len());
+        let before = &self.text[..start];
+        let line = before.matches('\n').count() + 1;
+        let column = before.rfind('\n').map_or(start, |i| start - i - 1) + 1;
+        SceneError { path: self.path.clone(), line, column, message }
+    }
+
+    fn resolve(&self, p: &str) -> PathBuf {
+        let p = Path::new(p);
+        if p.is_absolute() { p.into() } else { self.base.join(p) }
+    }
+
+    /// Builds the scene: loads files, generates hair, builds BVHs and models.
+    pub fn build(&self) -> Result<(Scene, RenderSettings), SceneError> {
+        let d = &self.desc;
+        let c = d.camera.get_ref();
+        let camera =
+            Camera::look_at(dvec(c.eye), dvec(c.target), dvec(c.up), c.fov, c.width, c.height).ok_or_else(|| {
+                self.error(
+                    d.camera.span(),
+                    "camera: eye and target must differ, up must not be parallel to the view, \
+                     0 < fov < 180, width and height > 0"
+                        .into(),
+                )
+            })?;
+        let mut names = BTreeMap::new();
+        let mut materials = Vec::new();
+        for (name, m) in &d.materials {
+            let md = m.get_ref();
+            let kinds =
+                usize::from(md.model.is_some()) + usize::from(md.lambert.is_some()) + usize::from(md.mirror.is_some());
+            if kinds != 1 {
+                return Err(
+                    self.error(m.span(), format!("material `{name}`: give exactly one of model, lambert, mirror"))
+                );
+            }
+            let mat = if let Some(model) = &md.model {
+                let mut pairs = Vec::new();
+                if let Some(params) = &md.params {
+                    for (k, v) in params.get_ref() {
+                        let text = param_text(v).ok_or_else(|| {
+                            self.error(
+                                params.span(),
+                                format!("material `{name}`: parameter `{k}` = {v} is not a number, string or list"),
+                            )
+                        })?;
+                        pairs.push((k.clone(), text));
+                    }
+                }
+                let model = fiberlab_scatter::build(model.get_ref(), &pairs).map_err(|e| {
+                    let span = if matches!(e, fiberlab_scatter::ModelError::UnknownModel { .. }) {
+                        model.span()
+                    } else {
+                        md.params.as_ref().map_or(model.span(), Spanned::span)
+                    };
+                    self.error(span, format!("material `{name}`: {e}"))
+                })?;
+                Material::Fiber(Box::new(model))
+            } else if let Some(a) = md.lambert {
+                if !a.iter().all(|x| (0.0..=1.0).contains(x)) {
+                    return Err(self.error(m.span(), format!("material `{name}`: lambert = {a:?} must be in [0, 1]")));
+                }
+                Material::Lambert(rgb(a))
+            } else {
+                let r = md.mirror.unwrap_or([1.0; 3]);
+                if !r.iter().all(|x| (0.0..=1.0).contains(x)) {
+                    return Err(self.error(m.span(), format!("material `{name}`: mirror = {r:?} must be in [0, 1]")));
+                }
+                Material::Mirror(rgb(r))
+            };
+            names.insert(name.clone(), materials.len());
+            materials.push(mat);
+        }
+        let lookup = |m: &Spanned<String>, want_fiber: bool| -> Result<usize, SceneError> {
+            let i = *names.get(m.get_ref()).ok_or_else(|| {
+                let known: Vec<&str> = names.keys().map(String::as_str).collect();
+                self.error(m.span(), format!("unknown material `{}`; defined: {}", m.get_ref(), known.join(", ")))
+            })?;
+            let is_fiber = matches!(materials[i], Material::Fiber(_));
+            if is_fiber != want_fiber {
+                let what = if want_fiber { "a fiber model (model = …)" } else { "a surface (lambert or mirror)" };
+                return Err(self.error(m.span(), format!("material `{}` must be {what} here", m.get_ref())));
+            }
+            Ok(i)
+        };
+
+        let mut fibers = Vec::new();
+        for h in &d.hair {
+            let hd = h.get_ref();
+            let material = lookup(&hd.material, true)?;
+            let hair = if let Some(p) = &self.hair_override {
+                HairFile::read(p).map_err(|e| self.error(h.span(), e.to_string()))?
+            } else {
+                match (&hd.file, &hd.generator) {
+                    (Some(f), None) => {
+                        HairFile::read(&self.resolve(f.get_ref())).map_err(|e| self.error(f.span(), e.to_string()))?
+                    }
+                    (None, Some(g)) => g.get_ref().generate().map_err(|e| self.error(g.span(), e.to_string()))?,
+                    _ => return Err(self.error(h.span(), "hair: give exactly one of file, generator".into())),
+                }
+            };
+            fibers.push(Fibers { curves: CurveSet::from_hair(&hair), material });
+        }
+
+        let mut lights = Vec::new();
+        for l in &d.light {
+            let light = match l.get_ref() {
+                LightDesc::Environment { radiance } => Light::Constant { radiance: rgb(*radiance) },
+                LightDesc::Envmap { file, scale } => {
+                    let img =
+                        LinearImage::read_exr(&self.resolve(file)).map_err(|e| self.error(l.span(), e.to_string()))?;
+                    Light::Map(Box::new(EnvironmentMap::new(img, Rgb::splat(scale.unwrap_or(1.0)))))
+                }
+                LightDesc::Sun { direction, angular_radius_deg, irradiance } => {
+                    if !(*angular_radius_deg > 0.0 && *angular_radius_deg < 90.0) || dvec(*direction).length() == 0.0 {
+                        return Err(self.error(
+                            l.span(),
+                            format!("sun: angular_radius_deg = {angular_radius_deg} must be in (0, 90) and direction non-zero"),
+                        ));
+                    }
+                    Light::sun(dvec(*direction), angular_radius_deg.to_radians(), rgb(*irradiance))
+                }
+            };
+            lights.push(light);
+        }
+
+        let mut spheres = Vec::new();
+        for s in &d.sphere {
+            let sd = s.get_ref();
+            if !(sd.radius > 0.0 && sd.radius.is_finite()) {
+                return Err(self.error(s.span(), format!("sphere: radius = {} must be > 0", sd.radius)));
+            }
+            let material = lookup(&sd.material, false)?;
+            let light = sd.emission.map(|e| {
+                lights.push(Light::Sphere { center: dvec(sd.center), radius: sd.radius, radiance: rgb(e) });
+                lights.len() - 1
+            });
+            spheres.push(Sphere { center: dvec(sd.center), radius: sd.radius, material, light });
+        }
+        let mut meshes = Vec::new();
+        for m in &d.mesh {
+            let md = m.get_ref();
+            let material = lookup(&md.material, false)?;
+            let mesh = match (&md.file, md.floor) {
+                (Some(f), None) => TriangleMesh::load_obj(&self.resolve(f.get_ref()), md.scale, dvec(md.translate))
+                    .map_err(|e| self.error(f.span(), e.to_string()))?,
+                (None, Some(y)) => TriangleMesh::floor(y, 100.0),
+                _ => return Err(self.error(m.span(), "mesh: give exactly one of file, floor".into())),
+            };
+            meshes.push(Mesh { mesh, material });
+        }
+        let r = &d.render;
+        let settings =
+            RenderSettings { spp: r.spp.max(1), max_depth: r.max_depth, seed: r.seed, ..RenderSettings::default() };
+        Ok((Scene { camera, materials, fibers, spheres, meshes, lights }, settings))
+    }
+}
+
+impl SceneDesc {
+    fn empty() -> Self {
+        Self {
+            camera: Spanned::new(
+                0..0,
+                CameraDesc { eye: [0.0; 3], target: [0.0; 3], up: [0.0; 3], fov: 0.0, width: 0, height: 0 },
+            ),
+            render: RenderDesc::default(),
+            materials: BTreeMap::new(),
+            hair: Vec::new(),
+            sphere: Vec::new(),
+            mesh: Vec::new(),
+            light: Vec::new(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn err(text: &str) -> SceneError {
+        match SceneFile::parse(text, Path::new("s.toml")).and_then(|f| f.build().map(|_| ())) {
+            Err(e) => e,
+            Ok(()) => panic!("expected an error"),
+        }
+    }
+
+    const CAMERA: &str = "[camera]\neye = [0, 0, 5]\ntarget = [0, 0, 0]\nfov = 30\nwidth = 8\nheight = 8\n";
+
+    #[test]
+    fn default_scene_parses_and_builds_small() {
+        let mut f = SceneFile::default_scene();
+        // Shrink the generated hair for the test.
+        if let Some(g) = f.desc.hair[0].get_mut().generator.as_mut() {
+            g.get_mut().strands = 200;
+        }
+        let (scene, settings) = f.build().unwrap();
+        assert_eq!(scene.fibers.len(), 1);
+        assert_eq!(scene.fibers[0].curves.strand_count(), 200);
+        assert_eq!(scene.lights.len(), 2);
+        assert_eq!(settings.max_depth, 64);
+    }
+
+    #[test]
+    fn example_scenes_in_the_repository_build() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let mut f = SceneFile::read(&path).unwrap_or_else(|e| panic!("{e}"));
+            for h in &mut f.desc.hair {
+                if let Some(g) = h.get_mut().generator.as_mut() {
+                    g.get_mut().strands = 100;
+                }
+            }
+            f.build().unwrap_or_else(|e| panic!("{e}"));
+        }
+    }
+
+    #[test]
+    fn syntax_error_has_line_and_column() {
+        let e = err(&format!("{CAMERA}[render]\nspp = \"many\"\n"));
+        assert_eq!((e.line, e.path.to_str().unwrap()), (8, "s.toml"), "{e}");
+        assert!(e.to_string().starts_with("s.toml:8:"), "{e}");
+    }
+
+    #[test]
+    fn unknown_key_is_named() {
+        let e = err(&format!("{CAMERA}[render]\nsppp = 3\n"));
+        assert!(e.to_string().contains("sppp") && e.line == 8, "{e}");
+    }
+
+    #[test]
+    fn bad_model_and_parameter_are_named_with_location() {
+        let e = err(&format!("{CAMERA}[materials.h]\nmodel = \"nope\"\n"));
+        assert!(e.to_string().contains("nope") && e.line == 8 && e.column == 9, "{e}");
+        let e = err(&format!("{CAMERA}[materials.h]\nmodel = \"diffuse\"\nparams = {{ albedo = 3 }}\n"));
+        assert!(e.to_string().contains("albedo") && e.line == 9, "{e}");
+        let e = err(&format!("{CAMERA}[materials.h]\nmodel = \"diffuse\"\nparams = {{ colour = 0.3 }}\n"));
+        assert!(e.to_string().contains("colour"), "{e}");
+    }
+
+    #[test]
+    fn envmap_obj_and_hair_files_resolve_relative_to_the_scene() {
+        let dir = tempfile::tempdir().unwrap();
+        let sky = LinearImage::from_pixels(8, 4, (0..32).map(|i| [i as f32 * 0.1, 0.5, 0.2]).collect()).unwrap();
+        sky.write_exr(&dir.path().join("sky.exr")).unwrap();
+        std::fs::write(dir.path().join("q.obj"), "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n").unwrap();
+        let hair = HairParams { strands: 20, ..HairParams::default() }.generate().unwrap();
+        hair.write(&dir.path().join("h.hair")).unwrap();
+        let text = format!(
+            "{CAMERA}[materials.h]\nmodel = \"chiang\"\nparams = {{ eumelanin = 0.5 }}\n[materials.s]\nmirror = [0.9, 0.9, 0.9]\n\
+             [[hair]]\nmaterial = \"h\"\nfile = \"h.hair\"\n[[mesh]]\nfile = \"q.obj\"\nmaterial = \"s\"\n\
+             [[sphere]]\ncenter = [0, 5, 0]\nradius = 0.5\nmaterial = \"s\"\nemission = [10, 10, 10]\n\
+             [[light]]\ntype = \"envmap\"\nfile = \"sky.exr\"\nscale = 2.0\n"
+        );
+        let path = dir.path().join("s.toml");
+        std::fs::write(&path, text).unwrap();
+        let (scene, _) = SceneFile::read(&path).unwrap().build().unwrap();
+        assert_eq!(scene.fibers[0].curves.strand_count(), 20);
+        assert_eq!(scene.meshes[0].mesh.len(), 1);
+        assert_eq!(scene.lights.len(), 2, "envmap + emitting sphere");
+        assert!(matches!(scene.lights[0], Light::Map(_)));
+    }
+
+    #[test]
+    fn unknown_material_reference_and_missing_file() {
+        let e = err(&format!("{CAMERA}[[sphere]]\ncenter = [0,0,0]\nradius = 1\nmaterial = \"skin\"\n"));
+        assert!(e.to_string().contains("unknown material `skin`") && e.line == 10, "{e}");
+        let e = err(&format!(
+            "{CAMERA}[materials.h]\nmodel = \"diffuse\"\n[[hair]]\nmaterial = \"h\"\nfile = \"no.hair\"\n"
+        ));
+        assert!(e.to_string().contains("no.hair") && e.line == 11, "{e}");
+    }
+}

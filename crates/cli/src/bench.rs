@@ -19,6 +19,48 @@ pub struct Args {
     /// Calls per measurement.
     #[arg(long, default_value_t = 1_000_000)]
     calls: usize,
+    /// Also measure the renderer on the default scene: BVH build, rays/s (camera and
+    /// incoherent, against brute force), samples/s.
+    #[arg(long)]
+    render: bool,
+    /// Strands of the generated head for the BVH figures (with --render).
+    #[arg(long, default_value_t = 20_000)]
+    strands: usize,
+}
+
+/// Renderer figures on the default scene, quoted against brute force measured in the same run.
+fn render_figures(strands: usize) -> anyhow::Result<()> {
+    use fiberlab_render::bench::{brute_force_throughput, bvh_build, ray_throughput, samples_per_second};
+    use fiberlab_render::generator::HairParams;
+    use fiberlab_render::scene_file::SceneFile;
+    let file = SceneFile::default_scene();
+    let (scene, settings) = file.build()?;
+    let hair = HairParams { strands, ..HairParams::default() }.generate()?;
+    let (set, stats) = bvh_build(&hair);
+    println!(
+        "BVH: {} strands, {} segments ({} pieces): build {:.2} s, {:.1} bytes/segment, {:.1} MiB",
+        strands,
+        stats.segments,
+        stats.pieces,
+        stats.seconds,
+        stats.bytes_per_segment(),
+        stats.bytes as f64 / (1 << 20) as f64
+    );
+    let (cam, inc, hit) = ray_throughput(&set, &scene.camera, 200_000, 1);
+    let brute = brute_force_throughput(&set, &scene.camera, 400);
+    println!(
+        "rays, 1 thread: camera {cam:.3} Mrays/s ({:.0}% hit), incoherent {inc:.3} Mrays/s; brute force {brute:.5} Mrays/s (BVH camera = {:.0}× brute force)",
+        hit * 100.0,
+        cam / brute
+    );
+    let one = samples_per_second(&scene, &settings, 64, 2, 1);
+    let all = samples_per_second(&scene, &settings, 128, 2, 0);
+    println!(
+        "path-traced samples/s (default scene, centre crop): 1 thread {one:.0}, {} threads {all:.0} ({:.2}× one thread)",
+        rayon::current_num_threads(),
+        all / one
+    );
+    Ok(())
 }
 
 /// Direction pairs and offsets cycled through by the measurements.
@@ -79,6 +121,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .map(|s| Ok((s.name.to_string(), fiberlab_scatter::build::<&str, &str>(s.name, &[])?)))
             .collect::<anyhow::Result<_>>()?,
     };
+    if args.render {
+        render_figures(args.strands)?;
+    }
     println!("baseline: diffuse eval = {baseline:.2} ns/call ({} calls × 5, median)", args.calls);
     println!("{:<40} {:>12} {:>10} {:>14} {:>10}", "model", "eval ns", "× base", "sample ns", "× base");
     for (label, model) in &models {

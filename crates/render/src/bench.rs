@@ -79,6 +79,22 @@ pub fn ray_throughput(set: &CurveSet, camera: &Camera, rays: usize, seed: u64) -
     (cam, inc, hits as f64 / camera_rays.len() as f64)
 }
 
+/// Millions of rays per second (one thread) of brute-force intersection (every segment
+/// tested) for `rays` camera rays: the baseline the BVH's speed-up is quoted against.
+#[must_use]
+pub fn brute_force_throughput(set: &CurveSet, camera: &Camera, rays: usize) -> f64 {
+    let side = (rays as f64).sqrt().ceil().max(1.0) as usize;
+    let t = Instant::now();
+    let mut hits = 0usize;
+    for i in 0..side * side {
+        let (x, y) = ((i % side) as f64 + 0.5, (i / side) as f64 + 0.5);
+        let r = camera.ray(x / side as f64 * f64::from(camera.width), y / side as f64 * f64::from(camera.height));
+        hits += usize::from(set.intersect_brute_force(&r).is_some());
+    }
+    std::hint::black_box(hits);
+    (side * side) as f64 / t.elapsed().as_secs_f64() / 1e6
+}
+
 /// Camera samples per second of a full path-traced render of the central `side × side`
 /// pixels with `spp` samples, on `threads` threads (0: all).
 #[must_use]

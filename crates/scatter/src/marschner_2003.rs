@@ -1210,13 +1210,7 @@ mod tests {
     use fiberlab_math::frame::direction;
     use proptest::prelude::*;
 
-    fn lcg(seed: u64) -> impl FnMut() -> f64 {
-        let mut s = seed;
-        move || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
+    use crate::test_rng::lcg;
 
     fn model(edit: impl FnOnce(&mut MarschnerParams)) -> Marschner {
         let mut p = MarschnerParams::default();

@@ -113,7 +113,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (baseline, _) = measure(&baseline_model, args.calls);
     let models: Vec<(String, Model)> = match &args.model {
         Some(name) => {
-            let m = ModelArgs { model: name.clone(), params: args.params.clone() };
+            let m = ModelArgs { model: name.clone(), params: args.params.clone(), params_file: None };
             vec![(m.label(), m.build()?)]
         }
         None => MODELS

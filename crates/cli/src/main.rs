@@ -7,6 +7,7 @@ mod check;
 mod compare_model;
 mod eval;
 mod files;
+mod fit;
 mod hair;
 mod measure;
 mod merge;
@@ -51,6 +52,8 @@ enum Command {
     Hair(hair::Args),
     /// Compare a model with a measured table, per lobe (errors, peaks, difference figures).
     CompareModel(compare_model::Args),
+    /// Fit model parameters to a measured table or CSV by weighted least squares.
+    Fit(fit::Args),
 }
 
 fn main() {
@@ -67,6 +70,7 @@ fn main() {
         Command::Merge(a) => merge::run(a),
         Command::Hair(a) => hair::run(a),
         Command::CompareModel(a) => compare_model::run(a),
+        Command::Fit(a) => fit::run(a),
     };
     if let Err(e) = result {
         eprintln!("fiberlab: error: {e:#}");

@@ -12,12 +12,24 @@ pub struct ModelArgs {
     /// Parameter as KEY=VALUE (repeatable); colours as one number or r,g,b.
     #[arg(long = "param", value_name = "KEY=VALUE")]
     pub params: Vec<String>,
+    /// A TOML file with a `[params]` table (e.g. written by `fiberlab fit`); --param overrides it.
+    #[arg(long, value_name = "FILE.toml")]
+    pub params_file: Option<std::path::PathBuf>,
 }
 
 impl ModelArgs {
-    /// The `key=value` pairs.
+    /// The `key=value` pairs: the params file's, then `--param` (which wins).
     pub fn pairs(&self) -> anyhow::Result<Vec<(String, String)>> {
-        self.params.iter().map(|p| split_key_value(p).map_err(anyhow::Error::from)).collect()
+        let mut pairs = match &self.params_file {
+            Some(path) => read_params_file(path, &self.model)?,
+            None => Vec::new(),
+        };
+        for p in &self.params {
+            let (k, v) = split_key_value(p)?;
+            pairs.retain(|(key, _)| *key != k);
+            pairs.push((k, v));
+        }
+        Ok(pairs)
     }
 
     /// Builds the model, with an error naming the model on failure. `measured` loads its
@@ -51,4 +63,34 @@ fn build_measured(pairs: &[(String, String)]) -> anyhow::Result<Model> {
     let model =
         fiberlab_scatter::measured::Measured::new(all.to_table()).with_context(|| path.display().to_string())?;
     Ok(model.into())
+}
+
+/// `[params]` of a TOML file as strings; a `model` key, if present, must match `model`.
+fn read_params_file(path: &std::path::Path, model: &str) -> anyhow::Result<Vec<(String, String)>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+        let (line, col) = e.span().map_or((0, 0), |s| crate::measure::line_col(&text, s.start));
+        anyhow::anyhow!("{}: line {line}, column {col}: {}", path.display(), e.message())
+    })?;
+    if let Some(m) = table.get("model").and_then(|v| v.as_str())
+        && m != model
+    {
+        anyhow::bail!("{}: parameters are for model `{m}`, not `{model}`", path.display());
+    }
+    let Some(params) = table.get("params").and_then(|v| v.as_table()) else {
+        anyhow::bail!("{}: expected a [params] table", path.display());
+    };
+    params
+        .iter()
+        .map(|(k, v)| {
+            let value = match v {
+                toml::Value::String(s) => s.clone(),
+                toml::Value::Float(x) => x.to_string(),
+                toml::Value::Integer(x) => x.to_string(),
+                toml::Value::Array(a) => a.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(","),
+                _ => anyhow::bail!("{}: [params] `{k}`: expected a string, number or array", path.display()),
+            };
+            Ok((k.clone(), value))
+        })
+        .collect()
 }

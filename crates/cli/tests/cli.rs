@@ -224,3 +224,76 @@ fn measured_table_is_a_model_and_compares_with_models() {
     let res = fiberlab().args(["sample", "--model", "measured", "--wo", "0,1,0", "--count", "1"]).output().unwrap();
     assert!(String::from_utf8_lossy(&res.stderr).contains("table=PATH"));
 }
+
+#[test]
+fn fit_recovers_parameters_from_a_user_csv_and_writes_a_params_file() {
+    use fiberlab_math::frame::direction;
+    use fiberlab_scatter::ScatteringFunction;
+    let truth = fiberlab_scatter::build("marschner", &[("alpha_r", "-6"), ("beta_r", "8"), ("glints", "off")]).unwrap();
+    let mut csv = String::from("theta_i,phi_i,theta_r,phi_r,value,std\n");
+    for i in 0..8 {
+        for j in 0..24 {
+            let (ti, tr, pr) = (-60.0 + 15.0 * i as f64, -80.0 + 7.0 * j as f64, 15.0 * j as f64 - 170.0);
+            let f = truth.eval(
+                direction(f64::to_radians(ti), 0.0),
+                direction(f64::to_radians(tr), f64::to_radians(pr)),
+                0.0,
+            );
+            let v = f.luminance();
+            csv.push_str(&format!("{ti},0,{tr},{pr},{v},{}\n", 0.01 * v + 1e-6));
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data.csv");
+    std::fs::write(&data, csv).unwrap();
+    let prefix = dir.path().join("fitted");
+    let out = stdout_of(fiberlab().args([
+        "fit",
+        "--model",
+        "marschner",
+        "--data",
+        data.to_str().unwrap(),
+        "--fix",
+        "glints=off",
+        "--init",
+        "alpha_r=-3",
+        "--init",
+        "beta_r=5",
+        "--out",
+        prefix.to_str().unwrap(),
+    ]));
+    let value = |key: &str| -> f64 {
+        let line = out.lines().find(|l| l.trim_start().starts_with(key)).unwrap();
+        line.split('=').nth(1).unwrap().split('±').next().unwrap().trim().parse().unwrap()
+    };
+    assert!((value("alpha_r") + 6.0).abs() < 0.05, "{out}");
+    assert!((value("beta_r") - 8.0).abs() < 0.05, "{out}");
+    // The written file is accepted by other commands.
+    let params = prefix.with_extension("toml");
+    stdout_of(fiberlab().args([
+        "sample",
+        "--model",
+        "marschner",
+        "--params-file",
+        params.to_str().unwrap(),
+        "--wo",
+        "0,1,0",
+        "--count",
+        "3",
+    ]));
+    let res = fiberlab()
+        .args([
+            "sample",
+            "--model",
+            "chiang",
+            "--params-file",
+            params.to_str().unwrap(),
+            "--wo",
+            "0,1,0",
+            "--count",
+            "3",
+        ])
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&res.stderr).contains("not `chiang`"));
+}

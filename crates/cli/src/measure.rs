@@ -143,6 +143,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let first = &measurements[0];
     let title = format!("measured fiber {}   θ_i = {}°", args.params.join(" "), thetas[0]);
     write_figure(&args.out.with_extension("png"), &figure(first), &title, Scale::Log, 4.0)?;
+    write_exr(first, &args.out.with_extension("exr"))?;
     let traced: usize = measurements.iter().map(|m| m.traced).sum();
     println!("traced {traced} rays in {seconds:.2} s: {:.3} Mrays/s", traced as f64 / seconds / 1e6);
     for m in &measurements {
@@ -156,7 +157,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             println!("  albedo {name:<8} {:.6} {:.6} {:.6}", lobe.albedo[0], lobe.albedo[1], lobe.albedo[2]);
         }
     }
-    println!("wrote {} and {}", args.out.with_extension("csv").display(), args.out.with_extension("png").display());
+    println!(
+        "wrote {}, {} and {}",
+        args.out.with_extension("csv").display(),
+        args.out.with_extension("png").display(),
+        args.out.with_extension("exr").display()
+    );
     Ok(())
 }
 
@@ -194,6 +200,20 @@ fn write_rows(m: &Measurement, w: &mut csv::Writer<Vec<u8>>) -> anyhow::Result<(
         }
     }
     Ok(())
+}
+
+/// The `all` lobe's f_s (linear RGB, sr⁻¹) as an image over (φ, θ_r): φ from −180° left to
+/// 180° right, θ_r from +90° at the top to −90° at the bottom.
+fn write_exr(m: &Measurement, path: &Path) -> anyhow::Result<()> {
+    let (nt, np) = (m.setup.bins_theta, m.setup.bins_phi);
+    let mut img = fiberlab_io::LinearImage::new(np, nt);
+    for i in 0..nt {
+        for j in 0..np {
+            let f = m.lobes[5].f[i * np + j];
+            img.set(j, nt - 1 - i, [f[0] as f32, f[1] as f32, f[2] as f32]);
+        }
+    }
+    img.write_exr(path).with_context(|| format!("writing {}", path.display()))
 }
 
 /// The `all` lobe as a figure: image, azimuthal distribution and the specular-cone row.

@@ -154,6 +154,8 @@ fn measure_writes_the_documented_csv_and_a_figure() {
     assert_eq!(lines.next().unwrap(), "lobe,theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b,std_r,std_g,std_b");
     assert_eq!(lines.count(), 6 * 6 * 12);
     assert!(std::fs::metadata(prefix.with_extension("png")).unwrap().len() > 1000);
+    let exr = fiberlab_io::LinearImage::read_exr(&prefix.with_extension("exr")).unwrap();
+    assert_eq!((exr.width(), exr.height()), (12, 6));
     // Fiber files: errors name file, line and column, or the bad key.
     let fiber = dir.path().join("f.toml");
     std::fs::write(&fiber, "eta = 1.5\naspect = = 2\n").unwrap();

@@ -52,3 +52,34 @@ fn chi2_rejects_a_wrong_pdf_and_accepts_the_right_one() {
     let outcome = chi2_test(&right, wo, 0.0, &cfg);
     assert!(outcome.passes(0.01), "χ² rejected a correct pdf: {outcome:?}");
 }
+
+/// A measured table (here tabulated from Kajiya–Kay, smooth but anisotropic in θ) used as a
+/// scattering function passes every generic test that applies to it.
+#[test]
+fn tabulated_measured_model_passes_the_harness() {
+    use fiberlab_scatter::measured::{Measured, MeasuredTable};
+    use std::f64::consts::{FRAC_PI_2, PI, TAU};
+    let kk = KajiyaKay::new(Rgb::splat(0.03), Rgb::splat(0.2), 8.0).unwrap();
+    let (nt, np) = (36, 72);
+    let theta_in: Vec<f64> = (-7..=7).map(|k| k as f64 * 0.2).collect();
+    let f = theta_in
+        .iter()
+        .map(|&ti| {
+            (0..nt * np)
+                .map(|b| {
+                    let tr = -FRAC_PI_2 + ((b / np) as f64 + 0.5) * PI / nt as f64;
+                    let p = -PI + ((b % np) as f64 + 0.5) * TAU / np as f64;
+                    kk.eval(direction(ti, 0.0), direction(tr, p), 0.0)
+                })
+                .collect()
+        })
+        .collect();
+    let m: fiberlab_scatter::Model =
+        Measured::new(MeasuredTable { theta_in, bins_theta: nt, bins_phi: np, f }).unwrap().into();
+    let rows = fiberlab_check::check_model("measured (tabulated KK)", &m, &Effort::default());
+    let failed: Vec<_> = rows.iter().filter(|r| !r.pass).collect();
+    for r in &failed {
+        eprintln!("FAIL {} | value {} expected {} tol {}", r.test, r.value, r.expected, r.tolerance);
+    }
+    assert!(failed.is_empty());
+}

@@ -379,3 +379,32 @@ mod tests {
         assert_eq!(a.lobes[5].f, b.lobes[5].f);
     }
 }
+
+#[cfg(test)]
+mod medulla_tests {
+    use super::*;
+
+    #[test]
+    fn lossless_scattering_medulla_conserves_energy_and_forms_its_own_lobe() {
+        let fiber = Fiber {
+            medulla: Some(Medulla { radius: 0.5, sigma_s: 4.0, sigma_a: Rgb::ZERO, g: 0.3 }),
+            ..Fiber::default()
+        };
+        let setup = Setup { theta_i: 0.3, phi_i: 0.0, rays: 200_000, bins_theta: 18, bins_phi: 36, seed: 2 };
+        let m = measure(&fiber, &setup, &AtomicBool::new(false), |_| {}).unwrap();
+        let kept = 1.0 - m.dropped as f64 / m.traced as f64;
+        assert!((m.lobes[5].albedo[0] - kept).abs() < 1e-12);
+        let medulla = m.lobe("medulla").unwrap().albedo[0];
+        assert!(medulla > 0.2, "medulla lobe {medulla}");
+        // Medulla absorption removes energy only from paths that scatter in it.
+        let absorbing = Fiber {
+            medulla: Some(Medulla { radius: 0.5, sigma_s: 4.0, sigma_a: Rgb::splat(2.0), g: 0.3 }),
+            ..Fiber::default()
+        };
+        let a = measure(&absorbing, &setup, &AtomicBool::new(false), |_| {}).unwrap();
+        assert!(
+            a.lobes[5].albedo[0] < 0.95
+                && (a.lobe("r").unwrap().albedo[0] - m.lobe("r").unwrap().albedo[0]).abs() < 1e-12
+        );
+    }
+}

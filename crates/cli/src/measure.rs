@@ -154,7 +154,19 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             m.dropped
         );
         for (name, lobe) in Measurement::LOBE_NAMES.iter().zip(&m.lobes) {
-            println!("  albedo {name:<8} {:.6} {:.6} {:.6}", lobe.albedo[0], lobe.albedo[1], lobe.albedo[2]);
+            // The lobe's peak bin (luminance) and its relative Monte Carlo error.
+            let k = (0..lobe.f.len()).max_by(|&a, &b| lobe.f[a].luminance().total_cmp(&lobe.f[b].luminance()));
+            let (peak, rel) = k.map_or((0.0, f64::NAN), |k| {
+                let f = lobe.f[k].luminance();
+                (f, if f > 0.0 { lobe.std[k].luminance() / f } else { f64::NAN })
+            });
+            println!(
+                "  albedo {name:<8} {:.6} {:.6} {:.6}   peak f {peak:.4e} 1/sr ± {:.2}%",
+                lobe.albedo[0],
+                lobe.albedo[1],
+                lobe.albedo[2],
+                100.0 * rel
+            );
         }
     }
     println!(

@@ -4,6 +4,7 @@
 
 mod bench;
 mod check;
+mod compare;
 mod compare_model;
 mod eval;
 mod files;
@@ -54,6 +55,8 @@ enum Command {
     CompareModel(compare_model::Args),
     /// Fit model parameters to a measured table or CSV by weighted least squares.
     Fit(fit::Args),
+    /// Compare two images (EXR/PNG/JPEG): RMSE, relative MSE, SSIM, FLIP, difference figure.
+    Compare(compare::Args),
 }
 
 fn main() {
@@ -71,6 +74,7 @@ fn main() {
         Command::Hair(a) => hair::run(a),
         Command::CompareModel(a) => compare_model::run(a),
         Command::Fit(a) => fit::run(a),
+        Command::Compare(a) => compare::run(a),
     };
     if let Err(e) = result {
         eprintln!("fiberlab: error: {e:#}");

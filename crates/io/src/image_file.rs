@@ -207,7 +207,15 @@ impl ToneMap {
     }
 }
 
-/// The sRGB transfer function (IEC 61966-2-1) of a value in [0, 1], rounded to 8 bits.
+/// Decodes an 8-bit sRGB code (IEC 61966-2-1) to a linear value in [0, 1].
+#[must_use]
+pub fn decode_srgb8(v: u8) -> f64 {
+    let c = f64::from(v) / 255.0;
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
+/// The sRGB transfer function (IEC 61966-2-1) of a value in [0, 1], rounded to 8 bits; the
+/// inverse of [`decode_srgb8`].
 #[must_use]
 pub fn encode_srgb8(linear: f64) -> u8 {
     let x = linear.clamp(0.0, 1.0);

@@ -60,6 +60,15 @@ enum Command {
 }
 
 fn main() {
+    // `fiberlab … | head` closes the pipe early: leave quietly instead of panicking in println!.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info.payload().downcast_ref::<String>().map(String::as_str).unwrap_or("");
+        if message.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default_hook(info);
+    }));
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Check(a) => check::run(a),

@@ -26,6 +26,13 @@ pub struct Args {
     /// A user's measurements: CSV `theta_i,phi_i,theta_r,phi_r,value[,std]` (degrees, f_s in 1/sr).
     #[arg(long)]
     data: Option<PathBuf>,
+    /// Fit to another model instead of data (e.g. Kajiya–Kay to `chiang`), over a (θ_i, θ_r, φ)
+    /// grid weighted by cosθ_i cosθ_r (models.md §3).
+    #[arg(long, conflicts_with_all = ["table", "data"])]
+    target: Option<String>,
+    /// Parameter of the --target model, KEY=VALUE (repeatable).
+    #[arg(long = "target-param", value_name = "KEY=VALUE", requires = "target")]
+    target_params: Vec<String>,
     /// A parameter held fixed, KEY=VALUE (repeatable).
     #[arg(long = "fix", value_name = "KEY=VALUE")]
     fix: Vec<String>,
@@ -65,6 +72,31 @@ fn from_table(path: &Path, lobe: &str) -> anyhow::Result<Observations> {
         }
     }
     Ok((obs, Some((nt, np))))
+}
+
+/// Observations of a target model on a 10° (θ_i, θ_r) × 15° φ grid, weighted by
+/// cosθ_i cosθ_r: σ = s/sqrt(cosθ_i cosθ_r) with s the grid's mean value.
+pub(crate) fn from_model(model: &fiberlab_scatter::Model) -> Vec<Observation> {
+    use fiberlab_scatter::{Field, ScatteringFunction};
+    let near = model.properties().field == Field::Near;
+    let mut obs = Vec::new();
+    for i in 0..17 {
+        for r in 0..17 {
+            for j in 0..24 {
+                let (ti, tr) = (f64::to_radians(-80.0 + 10.0 * i as f64), f64::to_radians(-80.0 + 10.0 * r as f64));
+                let (wi, wo) = (direction(ti, 0.0), direction(tr, f64::to_radians(-172.5 + 15.0 * j as f64)));
+                let value = if near {
+                    (0..8).map(|k| model.eval(wi, wo, -1.0 + (k as f64 + 0.5) / 4.0).luminance()).sum::<f64>() / 8.0
+                } else {
+                    model.eval(wi, wo, 0.0).luminance()
+                };
+                obs.push(Observation { wi, wo, value, sigma: 1.0 / (ti.cos() * tr.cos()).sqrt() });
+            }
+        }
+    }
+    let mean = obs.iter().map(|o| o.value).sum::<f64>() / obs.len() as f64;
+    obs.iter_mut().for_each(|o| o.sigma *= mean.max(1e-12));
+    obs
 }
 
 fn from_csv(path: &Path) -> anyhow::Result<Vec<Observation>> {
@@ -107,10 +139,18 @@ fn from_csv(path: &Path) -> anyhow::Result<Vec<Observation>> {
 
 /// Runs the fit.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let (data, grid) = match (&args.table, &args.data) {
-        (Some(t), None) => from_table(t, &args.lobe)?,
-        (None, Some(d)) => (from_csv(d)?, None),
-        _ => bail!("give exactly one of --table and --data"),
+    let (data, grid) = match (&args.table, &args.data, &args.target) {
+        (Some(t), None, None) => from_table(t, &args.lobe)?,
+        (None, Some(d), None) => (from_csv(d)?, None),
+        (None, None, Some(name)) => {
+            let target = crate::model_args::ModelArgs {
+                model: name.clone(),
+                params: args.target_params.clone(),
+                params_file: None,
+            };
+            (from_model(&target.build()?), None)
+        }
+        _ => bail!("give exactly one of --table, --data and --target"),
     };
     let fixed: Vec<(String, String)> =
         args.fix.iter().map(|p| split_key_value(p).map_err(anyhow::Error::from)).collect::<anyhow::Result<_>>()?;

@@ -299,3 +299,52 @@ fn fit_recovers_parameters_from_a_user_csv_and_writes_a_params_file() {
         .unwrap();
     assert!(String::from_utf8_lossy(&res.stderr).contains("not `chiang`"));
 }
+
+#[test]
+fn kajiya_kay_fitted_to_a_model_recovers_itself_and_fits_chiang() {
+    let out = stdout_of(fiberlab().args([
+        "fit",
+        "--model",
+        "kajiya-kay",
+        "--target",
+        "kajiya-kay",
+        "--target-param",
+        "k_d=0.04",
+        "--target-param",
+        "k_s=0.2",
+        "--target-param",
+        "p=20",
+        "--init",
+        "k_d=0.02",
+        "--init",
+        "k_s=0.1",
+        "--init",
+        "p=10",
+        "--out",
+        tempfile::tempdir().unwrap().path().join("kk").to_str().unwrap(),
+    ]));
+    let value = |key: &str| -> f64 {
+        let line = out.lines().find(|l| l.trim_start().starts_with(key)).unwrap();
+        line.split('=').nth(1).unwrap().split('±').next().unwrap().trim().parse().unwrap()
+    };
+    assert!(
+        (value("k_d") - 0.04).abs() < 1e-3 && (value("k_s") - 0.2).abs() < 1e-2 && (value("p") - 20.0).abs() < 0.5,
+        "{out}"
+    );
+    let out = stdout_of(fiberlab().args([
+        "fit",
+        "--model",
+        "kajiya-kay",
+        "--target",
+        "chiang",
+        "--init",
+        "k_d=0.02",
+        "--init",
+        "k_s=0.1",
+        "--init",
+        "p=10",
+        "--out",
+        tempfile::tempdir().unwrap().path().join("kk2").to_str().unwrap(),
+    ]));
+    assert!(out.contains("reduced χ²"), "{out}");
+}

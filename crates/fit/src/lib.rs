@@ -152,10 +152,15 @@ fn covariance(problem: &Problem, p: &[f64], r0: &[f64]) -> Option<Vec<Vec<f64>>>
         let (mut lo, mut hi) = (p.to_vec(), p.to_vec());
         lo[k] -= step;
         hi[k] += step;
-        let (a, b) = (problem.model_at(&lo).ok()?, problem.model_at(&hi).ok()?);
-        let (ra, rb) = (problem.residuals(&a), problem.residuals(&b));
+        // Central difference, or one-sided at the edge of a parameter's valid range.
+        let (ra, rb, width) = match (problem.model_at(&lo), problem.model_at(&hi)) {
+            (Ok(a), Ok(b)) => (problem.residuals(&a), problem.residuals(&b), 2.0 * step),
+            (Err(_), Ok(b)) => (r0.to_vec(), problem.residuals(&b), step),
+            (Ok(a), Err(_)) => (problem.residuals(&a), r0.to_vec(), step),
+            _ => return None,
+        };
         for i in 0..r0.len() {
-            jac[k][i] = (rb[i] - ra[i]) / (2.0 * step);
+            jac[k][i] = (rb[i] - ra[i]) / width;
         }
     }
     let jtj: Vec<Vec<f64>> =

@@ -3,7 +3,7 @@
 
 use crate::model_args::ModelArgs;
 use crate::plot::{Grids, Scale, write_figure};
-use crate::table::{LobeSlices, read};
+use fiberlab_io::table::{LobeSlices, read};
 use fiberlab_math::frame::direction;
 use fiberlab_scatter::{Field, Model, ScatteringFunction};
 use rayon::prelude::*;

@@ -53,7 +53,7 @@ pub struct Args {
 type Observations = (Vec<Observation>, Option<(usize, usize)>);
 
 fn from_table(path: &Path, lobe: &str) -> anyhow::Result<Observations> {
-    let lobes = crate::table::read(path)?;
+    let lobes = fiberlab_io::table::read(path)?;
     let t = lobes.get(lobe).with_context(|| format!("{}: no rows with lobe `{lobe}`", path.display()))?;
     let (nt, np) = (t.bins_theta, t.bins_phi);
     let peak = t.f.iter().flatten().map(|v| v.luminance()).fold(0.0, f64::max);

@@ -17,7 +17,6 @@ mod models;
 mod plot;
 mod render;
 mod sample;
-mod table;
 
 use clap::{Parser, Subcommand};
 

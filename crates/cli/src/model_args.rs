@@ -58,10 +58,7 @@ fn build_measured(pairs: &[(String, String)]) -> anyhow::Result<Model> {
         }
     }
     let path = path.context("model `measured`: give the table as --param table=PATH")?;
-    let lobes = crate::table::read(&path)?;
-    let all = lobes.get("all").with_context(|| format!("{}: no rows with lobe `all`", path.display()))?;
-    let model =
-        fiberlab_scatter::measured::Measured::new(all.to_table()).with_context(|| path.display().to_string())?;
+    let model = fiberlab_render::measured_table::load_measured(&path).map_err(anyhow::Error::msg)?;
     Ok(model.into())
 }
 

@@ -348,3 +348,53 @@ fn kajiya_kay_fitted_to_a_model_recovers_itself_and_fits_chiang() {
     ]));
     assert!(out.contains("reduced χ²"), "{out}");
 }
+
+#[test]
+fn scenes_can_render_hair_with_a_measured_table() {
+    let dir = tempfile::tempdir().unwrap();
+    stdout_of(fiberlab().current_dir(dir.path()).args([
+        "measure",
+        "--theta-i",
+        "-40,-20,0,20,40",
+        "--rays",
+        "40000",
+        "--bins",
+        "18,36",
+        "--param",
+        "sigma_a=0.4",
+        "--out",
+        "fiber",
+    ]));
+    let scene = r#"
+[camera]
+eye = [0.0, 0.0, -4.0]
+target = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+fov = 40.0
+width = 24
+height = 24
+
+[render]
+spp = 2
+
+[materials.hair]
+model = "measured"
+params = { table = "fiber.csv" }
+
+[[hair]]
+material = "hair"
+generator = { strands = 300, segments = 8, style = "straight", length = 1.0, seed = 1 }
+
+[[light]]
+type = "environment"
+radiance = [1.0, 1.0, 1.0]
+"#;
+    std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+    let out = stdout_of(fiberlab().current_dir(dir.path()).args(["render", "s.toml", "--out", "img", "--quiet"]));
+    assert!(dir.path().join("img.exr").exists(), "{out}");
+    std::fs::write(dir.path().join("bad.toml"), scene.replace("fiber.csv", "nope.csv")).unwrap();
+    let res =
+        fiberlab().current_dir(dir.path()).args(["render", "bad.toml", "--out", "x", "--quiet"]).output().unwrap();
+    let err = String::from_utf8_lossy(&res.stderr);
+    assert!(!res.status.success() && err.contains("nope.csv"), "{err}");
+}

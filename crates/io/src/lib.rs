@@ -8,6 +8,7 @@
 
 pub mod hair;
 pub mod image_file;
+pub mod table;
 
 pub use hair::{HairError, HairFile};
 pub use image_file::{ImageError, LinearImage, ToneMap};

@@ -15,6 +15,7 @@ pub mod curves;
 pub mod generator;
 pub mod integrator;
 pub mod light;
+pub mod measured_table;
 pub mod sampler;
 pub mod scene;
 pub mod scene_file;

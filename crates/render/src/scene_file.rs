@@ -323,7 +323,19 @@ impl SceneFile {
                         pairs.push((k.clone(), text));
                     }
                 }
-                let model = fiberlab_scatter::build(model.get_ref(), &pairs).map_err(|e| {
+                let built = if model.get_ref() == "measured" {
+                    // The tabulated model reads its table (relative to the scene file).
+                    let table =
+                        pairs.iter().find(|(k, _)| k == "table").map(|(_, v)| self.resolve(v)).ok_or_else(|| {
+                            self.error(model.span(), format!("material `{name}`: model `measured` needs params.table"))
+                        })?;
+                    let m = crate::measured_table::load_measured(&table)
+                        .map_err(|e| self.error(model.span(), format!("material `{name}`: {e}")))?;
+                    Ok(m.into())
+                } else {
+                    fiberlab_scatter::build(model.get_ref(), &pairs)
+                };
+                let model = built.map_err(|e| {
                     let span = if matches!(e, fiberlab_scatter::ModelError::UnknownModel { .. }) {
                         model.span()
                     } else {

@@ -1,11 +1,19 @@
 //! Reading `fiberlab measure` tables back: CSV rows
 //! `lobe,theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b,std_r,std_g,std_b` (degrees at bin centres).
+//! Errors name the file and the line (and column).
 
-use anyhow::{Context, bail};
 use fiberlab_math::Rgb;
-use fiberlab_scatter::measured::MeasuredTable;
 use std::collections::BTreeMap;
 use std::path::Path;
+
+/// A malformed or unreadable table.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct TableError(String);
+
+macro_rules! bail {
+    ($($t:tt)*) => { return Err(TableError(format!($($t)*))) };
+}
 
 /// One lobe's bins for every incidence: `(f, std)` per bin, row-major `[θ_r][φ]`.
 #[derive(Clone, Debug)]
@@ -21,56 +29,49 @@ pub struct LobeSlices {
     /// Values per slice.
     pub f: Vec<Vec<Rgb>>,
     /// Standard errors per slice.
-    #[allow(dead_code)] // read by fitting (weights), kept with the values it belongs to
     pub std: Vec<Vec<Rgb>>,
 }
 
-impl LobeSlices {
-    /// The table as a scattering function's data.
-    pub fn to_table(&self) -> MeasuredTable {
-        MeasuredTable {
-            theta_in: self.theta_in.clone(),
-            bins_theta: self.bins_theta,
-            bins_phi: self.bins_phi,
-            f: self.f.clone(),
-        }
-    }
-}
-
 /// Reads every lobe of a measurement CSV; errors name the file and line.
-pub fn read(path: &Path) -> anyhow::Result<BTreeMap<String, LobeSlices>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+pub fn read(path: &Path) -> Result<BTreeMap<String, LobeSlices>, TableError> {
+    let text = std::fs::read_to_string(path).map_err(|e| TableError(format!("reading {}: {e}", path.display())))?;
     parse(&text, &path.display().to_string())
 }
 
 /// Parses measurement CSV `text` (named `name` in errors).
-pub fn parse(text: &str, name: &str) -> anyhow::Result<BTreeMap<String, LobeSlices>> {
+pub fn parse(text: &str, name: &str) -> Result<BTreeMap<String, LobeSlices>, TableError> {
     const COLS: [&str; 11] =
         ["lobe", "theta_i", "phi_i", "theta_r", "phi_r", "f_r", "f_g", "f_b", "std_r", "std_g", "std_b"];
     let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
-    let header = reader.headers().with_context(|| format!("{name}: line 1: cannot read the header"))?.clone();
+    let header =
+        reader.headers().map_err(|e| TableError(format!("{name}: line 1: cannot read the header: {e}")))?.clone();
     let idx: Vec<usize> = COLS
         .iter()
-        .map(|c| header.iter().position(|h| h == *c).with_context(|| format!("{name}: line 1: missing column `{c}`")))
-        .collect::<anyhow::Result<_>>()?;
+        .map(|c| {
+            header
+                .iter()
+                .position(|h| h == *c)
+                .ok_or_else(|| TableError(format!("{name}: line 1: missing column `{c}`")))
+        })
+        .collect::<Result<_, _>>()?;
     // lobe → (θ_i, φ_i) key → (θ_i, φ_i, rows of (θ_r, φ_r, f, std))
     type Rows = Vec<(f64, f64, Rgb, Rgb)>;
     type Slices = BTreeMap<(i64, i64), (f64, f64, Rows)>;
     let mut lobes: BTreeMap<String, Slices> = BTreeMap::new();
     for rec in reader.records() {
-        let rec = rec.map_err(|e| anyhow::anyhow!("{name}: line {}: {e}", e.position().map_or(0, |p| p.line())))?;
+        let rec = rec.map_err(|e| TableError(format!("{name}: line {}: {e}", e.position().map_or(0, |p| p.line()))))?;
         let line = rec.position().map_or(0, |p| p.line());
-        let num = |k: usize| -> anyhow::Result<f64> {
+        let num = |k: usize| -> Result<f64, TableError> {
             let t = rec.get(idx[k]).unwrap_or("");
-            t.parse::<f64>().ok().filter(|v| v.is_finite()).with_context(|| {
-                format!(
+            t.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| {
+                TableError(format!(
                     "{name}: line {line}, column {} (`{}`): expected a finite number, got `{t}`",
                     idx[k] + 1,
                     COLS[k]
-                )
+                ))
             })
         };
-        let v: Vec<f64> = (1..11).map(num).collect::<anyhow::Result<_>>()?;
+        let v: Vec<f64> = (1..11).map(num).collect::<Result<_, _>>()?;
         let lobe = rec.get(idx[0]).unwrap_or("").to_string();
         // Key slices by θ_i, φ_i in millidegrees so that printed decimals group exactly.
         let key = ((v[0] * 1000.0).round() as i64, (v[1] * 1000.0).round() as i64);
@@ -112,4 +113,30 @@ pub fn parse(text: &str, name: &str) -> anyhow::Result<BTreeMap<String, LobeSlic
             Ok((lobe, LobeSlices { theta_in, phi_in, bins_theta: nt, bins_phi: np, f, std }))
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_slices_and_names_bad_lines() {
+        let mut text = String::from("lobe,theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b,std_r,std_g,std_b\n");
+        for ti in [0.0, 30.0] {
+            for tr in [-45.0, 45.0] {
+                for p in [-90.0, 90.0] {
+                    text.push_str(&format!("all,{ti},0,{tr},{p},1,2,3,0.1,0.1,0.1\n"));
+                }
+            }
+        }
+        let t = parse(&text, "t.csv").unwrap();
+        let all = &t["all"];
+        assert_eq!((all.bins_theta, all.bins_phi, all.theta_in.len()), (2, 2, 2));
+        assert_eq!(all.f[1][3], Rgb::new(1.0, 2.0, 3.0));
+        let bad = text.replace("all,30,0,45,90,1,2,3", "all,30,0,45,90,x,2,3");
+        let e = parse(&bad, "t.csv").unwrap_err().to_string();
+        assert!(e.contains("t.csv: line 9, column 6 (`f_r`)"), "{e}");
+        let missing: String = text.lines().take(8).collect::<Vec<_>>().join("\n");
+        assert!(parse(&missing, "t.csv").unwrap_err().to_string().contains("grid"));
+    }
 }

@@ -6,6 +6,12 @@ fn fiberlab() -> Command {
     Command::cargo_bin("fiberlab").expect("binary builds")
 }
 
+/// The value printed by `fiberlab fit` as `  key = value ± error`.
+fn fitted(out: &str, key: &str) -> f64 {
+    let line = out.lines().find(|l| l.trim_start().starts_with(key)).unwrap();
+    line.split('=').nth(1).unwrap().split('±').next().unwrap().trim().parse().unwrap()
+}
+
 fn stdout_of(cmd: &mut Command) -> String {
     let out = cmd.output().expect("runs");
     assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
@@ -264,10 +270,7 @@ fn fit_recovers_parameters_from_a_user_csv_and_writes_a_params_file() {
         "--out",
         prefix.to_str().unwrap(),
     ]));
-    let value = |key: &str| -> f64 {
-        let line = out.lines().find(|l| l.trim_start().starts_with(key)).unwrap();
-        line.split('=').nth(1).unwrap().split('±').next().unwrap().trim().parse().unwrap()
-    };
+    let value = |key: &str| fitted(&out, key);
     assert!((value("alpha_r") + 6.0).abs() < 0.05, "{out}");
     assert!((value("beta_r") - 8.0).abs() < 0.05, "{out}");
     // The written file is accepted by other commands.
@@ -323,10 +326,7 @@ fn kajiya_kay_fitted_to_a_model_recovers_itself_and_fits_chiang() {
         "--out",
         tempfile::tempdir().unwrap().path().join("kk").to_str().unwrap(),
     ]));
-    let value = |key: &str| -> f64 {
-        let line = out.lines().find(|l| l.trim_start().starts_with(key)).unwrap();
-        line.split('=').nth(1).unwrap().split('±').next().unwrap().trim().parse().unwrap()
-    };
+    let value = |key: &str| fitted(&out, key);
     assert!(
         (value("k_d") - 0.04).abs() < 1e-3 && (value("k_s") - 0.2).abs() < 1e-2 && (value("p") - 20.0).abs() < 0.5,
         "{out}"

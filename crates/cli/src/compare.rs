@@ -32,6 +32,7 @@ pub struct Args {
 }
 
 /// A linear RGB image in memory.
+#[derive(Clone)]
 pub(crate) struct Image {
     pub width: usize,
     pub height: usize,

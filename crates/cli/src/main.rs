@@ -7,6 +7,7 @@ mod check;
 mod compare;
 mod compare_model;
 mod eval;
+mod evaluate;
 mod files;
 mod fit;
 mod hair;
@@ -56,6 +57,8 @@ enum Command {
     Fit(fit::Args),
     /// Compare two images (EXR/PNG/JPEG): RMSE, relative MSE, SSIM, FLIP, difference figure.
     Compare(compare::Args),
+    /// Render one scene with several models and compare each with a reference.
+    Evaluate(evaluate::Args),
 }
 
 fn main() {
@@ -83,6 +86,7 @@ fn main() {
         Command::CompareModel(a) => compare_model::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::Evaluate(a) => evaluate::run(a),
     };
     if let Err(e) = result {
         eprintln!("fiberlab: error: {e:#}");

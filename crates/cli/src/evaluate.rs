@@ -1,0 +1,208 @@
+//! `fiberlab evaluate`: the same scene, camera, lights and sample budget rendered with each
+//! model (Kajiya–Kay fitted to the scene's physically based hair model), compared with a
+//! reference — a photograph, or a high-sample render with the measured scattering function
+//! from explicit geometry — and assembled into a labelled grid.
+
+use crate::compare::{Image, compare, load};
+use anyhow::{Context, bail};
+use fiberlab_io::{LinearImage, ToneMap};
+use fiberlab_render::integrator::{RenderSettings, render};
+use fiberlab_render::scene::{Material, Scene};
+use fiberlab_render::scene_file::SceneFile;
+use fiberlab_scatter::Model;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+/// Flags of `fiberlab evaluate`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene file (default: the built-in scene); its hair material is the physically based
+    /// model Kajiya–Kay is fitted to.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Comma-separated models to render: any registered name, `measured` (needs --table).
+    #[arg(long, default_value = "kajiya-kay,marschner,chiang")]
+    models: String,
+    /// Parameter of one model as MODEL:KEY=VALUE (repeatable).
+    #[arg(long = "param", value_name = "MODEL:KEY=VALUE")]
+    params: Vec<String>,
+    /// Measured table (from `fiberlab measure`) for `measured` and the default reference.
+    #[arg(long)]
+    table: Option<PathBuf>,
+    /// A reference image (e.g. a photograph) instead of the measured reference render.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Samples per pixel of each model's render (default: the scene's).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Samples per pixel of the reference render.
+    #[arg(long, default_value_t = 256)]
+    reference_spp: u32,
+    /// Output directory (renders, grid.png, metrics.json).
+    #[arg(long, default_value = "evaluation")]
+    out: PathBuf,
+}
+
+/// Replaces every hair material of `scene` by `model`.
+fn set_hair_model(scene: &mut Scene, model: &Model) {
+    let indices: Vec<usize> = scene.fibers.iter().map(|f| f.material).collect();
+    for i in indices {
+        scene.materials[i] = Material::Fiber(Box::new(model.clone()));
+    }
+}
+
+/// The scene's own hair model (first fiber material).
+fn scene_hair_model(scene: &Scene) -> Option<Model> {
+    scene.fibers.first().and_then(|f| match &scene.materials[f.material] {
+        Material::Fiber(m) => Some((**m).clone()),
+        _ => None,
+    })
+}
+
+fn build_model(name: &str, args: &Args, target: &Model) -> anyhow::Result<Model> {
+    let mut pairs = Vec::new();
+    for p in &args.params {
+        let (m, kv) = p.split_once(':').with_context(|| format!("--param {p}: expected MODEL:KEY=VALUE"))?;
+        if m == name {
+            pairs.push(fiberlab_scatter::params::split_key_value(kv)?);
+        }
+    }
+    match name {
+        "measured" => {
+            let t = args.table.as_ref().context("model `measured` needs --table")?;
+            Ok(fiberlab_render::measured_table::load_measured(t).map_err(anyhow::Error::msg)?.into())
+        }
+        "kajiya-kay" if pairs.is_empty() => {
+            // Fitted to the scene's physically based model (models.md §3).
+            let data = crate::fit::from_model(target);
+            let free = [("k_d".to_string(), 0.02), ("k_s".to_string(), 0.1), ("p".to_string(), 10.0)];
+            let r = fiberlab_fit::fit("kajiya-kay", &[], &free, &data, 400)?;
+            // The fit is in luminance; colour k_d and k_s by the target's mean colour.
+            let tint = mean_colour(target);
+            let fitted: Vec<(String, String)> = r
+                .params
+                .iter()
+                .map(|(k, v)| {
+                    let value = if k == "p" {
+                        v.to_string()
+                    } else {
+                        format!("{},{},{}", (v * tint[0]).min(10.0), (v * tint[1]).min(10.0), (v * tint[2]).min(10.0))
+                    };
+                    (k.clone(), value)
+                })
+                .collect();
+            eprintln!("kajiya-kay fitted to the scene's hair model: {fitted:?}");
+            Ok(fiberlab_scatter::build("kajiya-kay", &fitted)?)
+        }
+        _ => Ok(fiberlab_scatter::build(name, &pairs)?),
+    }
+}
+
+/// Mean colour of `f_s` over directions, divided by its luminance (a tint with luminance 1).
+fn mean_colour(model: &Model) -> [f64; 3] {
+    use fiberlab_scatter::ScatteringFunction;
+    let mut sum = fiberlab_math::Rgb::ZERO;
+    for i in 0..12 {
+        for j in 0..24 {
+            let wi = fiberlab_math::frame::direction(-1.2 + 0.2 * i as f64, 0.0);
+            let wo = fiberlab_math::frame::direction(1.1 - 0.1 * j as f64, 0.27 * j as f64);
+            sum +=
+                (0..4).map(|k| model.eval(wi, wo, -0.75 + 0.5 * k as f64)).fold(fiberlab_math::Rgb::ZERO, |a, b| a + b);
+        }
+    }
+    let l = sum.luminance().max(1e-300);
+    [sum[0] / l, sum[1] / l, sum[2] / l]
+}
+
+fn to_image(l: &LinearImage) -> Image {
+    Image {
+        width: l.width(),
+        height: l.height(),
+        pixels: l.pixels().iter().map(|p| [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]).collect(),
+    }
+}
+
+fn render_with(scene: &Scene, settings: &RenderSettings, spp: u32) -> LinearImage {
+    let s = RenderSettings { spp, ..settings.clone() };
+    render(scene, &s, &|_, _| {}, &AtomicBool::new(false)).image
+}
+
+/// Runs the evaluation.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let file = match &args.scene {
+        Some(p) => SceneFile::read(p)?,
+        None => SceneFile::default_scene(),
+    };
+    let (mut scene, settings) = file.build()?;
+    let target = scene_hair_model(&scene).context("the scene has no hair with a fiber model")?;
+    let spp = args.spp.unwrap_or(settings.spp);
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let reference = match (&args.reference, &args.table) {
+        (Some(p), _) => load(p)?,
+        (None, Some(_)) => {
+            set_hair_model(&mut scene, &build_model("measured", args, &target)?);
+            let img = render_with(&scene, &settings, args.reference_spp);
+            write(&img, &args.out, "reference")?;
+            to_image(&img)
+        }
+        (None, None) => bail!("give --table (measured reference render) or --reference IMAGE"),
+    };
+    let mut rows = Vec::new();
+    let mut tiles = vec![("reference".to_string(), reference.clone())];
+    for name in args.models.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+        let model = build_model(name, args, &target)?;
+        set_hair_model(&mut scene, &model);
+        let img = render_with(&scene, &settings, spp);
+        write(&img, &args.out, name)?;
+        let img = to_image(&img);
+        let (m, _) = compare(&reference, &img, None, false)?;
+        println!("{name:<14} rmse {:.5}  relmse {:.5}  ssim {:.4}  flip {:.4}", m.rmse, m.relmse, m.ssim, m.flip);
+        rows.push(
+            serde_json::json!({ "model": name, "rmse": m.rmse, "relmse": m.relmse, "ssim": m.ssim, "flip": m.flip }),
+        );
+        tiles.push((name.to_string(), img));
+    }
+    crate::files::write_atomically(&args.out.join("metrics.json"), serde_json::to_string_pretty(&rows)?.as_bytes())?;
+    grid(&tiles, &args.out.join("grid.png"))?;
+    println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+fn write(img: &LinearImage, dir: &Path, name: &str) -> anyhow::Result<()> {
+    img.write_exr(&dir.join(format!("{name}.exr")))?;
+    img.write_png(&dir.join(format!("{name}.png")), 0.0, ToneMap::Filmic)?;
+    Ok(())
+}
+
+/// The images side by side, each labelled with its model.
+fn grid(tiles: &[(String, Image)], path: &Path) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    let (w, h) = (tiles[0].1.width as u32, tiles[0].1.height as u32);
+    let label = 28u32;
+    let size = (w * tiles.len() as u32, h + label);
+    let mut buf = vec![255u8; (size.0 * size.1 * 3) as usize];
+    {
+        crate::plot::register_font();
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        let err = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("drawing: {e:?}");
+        for (k, (name, img)) in tiles.iter().enumerate() {
+            let x0 = k as u32 * w;
+            let lin = LinearImage::from_pixels(
+                img.width,
+                img.height,
+                img.pixels.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]).collect(),
+            )?;
+            let rgb = lin.to_srgb8(0.0, ToneMap::Filmic);
+            for y in 0..h {
+                for x in 0..w {
+                    let i = ((y * w + x) * 3) as usize;
+                    root.draw_pixel(((x0 + x) as i32, (label + y) as i32), &RGBColor(rgb[i], rgb[i + 1], rgb[i + 2]))
+                        .map_err(err)?;
+                }
+            }
+            root.draw_text(name, &("sans-serif", 20).into_text_style(&root), ((x0 + 8) as i32, 4)).map_err(err)?;
+        }
+        root.present().map_err(err)?;
+    }
+    crate::plot::write_png(path, &buf, size)
+}

@@ -392,6 +392,27 @@ radiance = [1.0, 1.0, 1.0]
     std::fs::write(dir.path().join("s.toml"), scene).unwrap();
     let out = stdout_of(fiberlab().current_dir(dir.path()).args(["render", "s.toml", "--out", "img", "--quiet"]));
     assert!(dir.path().join("img.exr").exists(), "{out}");
+    // evaluate: every model against the measured reference, metrics and a labelled grid.
+    let out = stdout_of(fiberlab().current_dir(dir.path()).args([
+        "evaluate",
+        "--scene",
+        "s.toml",
+        "--table",
+        "fiber.csv",
+        "--models",
+        "kajiya-kay,chiang,measured",
+        "--spp",
+        "1",
+        "--reference-spp",
+        "4",
+        "--out",
+        "ev",
+    ]));
+    let metrics: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("ev/metrics.json")).unwrap()).unwrap();
+    assert_eq!(metrics.as_array().unwrap().len(), 3, "{out}");
+    assert!(metrics[0]["flip"].as_f64().unwrap() >= 0.0);
+    assert!(dir.path().join("ev/grid.png").exists() && dir.path().join("ev/reference.exr").exists());
     std::fs::write(dir.path().join("bad.toml"), scene.replace("fiber.csv", "nope.csv")).unwrap();
     let res =
         fiberlab().current_dir(dir.path()).args(["render", "bad.toml", "--out", "x", "--quiet"]).output().unwrap();

@@ -21,7 +21,7 @@ page=$out/README.md
 } > "$page"
 # name  eumelanin pheomelanin  sigma_a (d'Eon's melanin table, per unit radius)
 while read -r name eu ph sigma; do
-  table=$out/$name.fiber
+  table=$out/${name}_fiber
   $bin measure --theta-i=-70,-50,-30,-10,10,30,50,70 --rays "$RAYS" --bins 60,120 \
     --param sigma_a="$sigma" --param scale_angle=2 --out "$table" > /dev/null
   for light in front back; do
@@ -39,7 +39,7 @@ while read -r name eu ph sigma; do
       echo
       echo '```'
       $bin evaluate --scene "$scene" --table "$table.csv" --models kajiya-kay,marschner,chiang,measured \
-        --spp "$SPP" --reference-spp "$REF_SPP" --out "$dir" 2>/dev/null | grep -v '^wrote'
+        --spp "$SPP" --reference-spp "$REF_SPP" --out "$dir" 2>"$dir.log" | grep -v "^wrote"
       echo '```'
     } >> "$page"
     rm -f "$dir"/*.exr
@@ -49,5 +49,5 @@ blond 0.15 0.1 0.0815,0.1446,0.3105
 brown 0.8 0.4 0.410,0.718,1.516
 black 3.0 0.0 1.257,2.091,4.11
 TABLE
-rm -f $out/*.fiber.csv $out/*.fiber.exr
+rm -f $out/*_fiber.csv $out/*_fiber.exr $out/*.toml
 echo "wrote $page"

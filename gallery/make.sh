@@ -37,9 +37,16 @@ while read -r name eu ph sigma; do
       echo
       echo "![$name $light]($name-$light/grid.png)"
       echo
+      echo "Crops — highlights: ![highlights]($name-$light/crop_highlights.png)"
+      echo "silhouette: ![silhouette]($name-$light/crop_silhouette.png)"
+      echo
       echo '```'
+      # Crops (fractions of the image for the default camera): the highlights on the crown
+      # (R and the shifted, coloured TRT) and the silhouette where back light is transmitted.
+      crops=(--crop "highlights=$((SIZE*30/100)),$((SIZE*10/100)),$((SIZE*70/100)),$((SIZE*35/100))"
+             --crop "silhouette=$((SIZE*14/100)),$((SIZE*35/100)),$((SIZE*34/100)),$((SIZE*75/100))")
       $bin evaluate --scene "$scene" --table "$table.csv" --models kajiya-kay,marschner,chiang,measured \
-        --spp "$SPP" --reference-spp "$REF_SPP" --out "$dir" 2>"$dir.log" | grep -v "^wrote"
+        --spp "$SPP" --reference-spp "$REF_SPP" --out "$dir" "${crops[@]}" 2>"$dir.log" | grep -v "^wrote"
       echo '```'
     } >> "$page"
     rm -f "$dir"/*.exr

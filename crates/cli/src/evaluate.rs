@@ -41,6 +41,34 @@ pub struct Args {
     /// Output directory (renders, grid.png, metrics.json).
     #[arg(long, default_value = "evaluation")]
     out: PathBuf,
+    /// A named region to crop from every image, NAME=X0,Y0,X1,Y1 in pixels (repeatable), e.g.
+    /// the second highlight, glints, back-lit transmission: writes crop_NAME.png (all models,
+    /// magnified).
+    #[arg(long = "crop", value_name = "NAME=X0,Y0,X1,Y1")]
+    crops: Vec<String>,
+}
+
+/// A parsed `--crop`.
+struct Crop {
+    name: String,
+    x0: usize,
+    y0: usize,
+    x1: usize,
+    y1: usize,
+}
+
+fn parse_crop(text: &str, width: usize, height: usize) -> anyhow::Result<Crop> {
+    let (name, rect) = text.split_once('=').with_context(|| format!("--crop {text}: expected NAME=X0,Y0,X1,Y1"))?;
+    let v: Vec<usize> = rect
+        .split(',')
+        .map(|t| t.trim().parse::<usize>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--crop {text}: expected four whole numbers"))?;
+    let [x0, y0, x1, y1] = v[..] else { bail!("--crop {text}: expected four numbers X0,Y0,X1,Y1") };
+    if x0 >= x1 || y0 >= y1 || x1 > width || y1 > height || name.is_empty() {
+        bail!("--crop {text}: expected a non-empty name and 0 ≤ X0 < X1 ≤ {width}, 0 ≤ Y0 < Y1 ≤ {height}");
+    }
+    Ok(Crop { name: name.to_string(), x0, y0, x1, y1 })
 }
 
 /// Replaces every hair material of `scene` by `model`.
@@ -136,6 +164,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (mut scene, settings) = file.build()?;
     let target = scene_hair_model(&scene).context("the scene has no hair with a fiber model")?;
     let spp = args.spp.unwrap_or(settings.spp);
+    let crops: Vec<Crop> = args
+        .crops
+        .iter()
+        .map(|c| parse_crop(c, scene.camera.width as usize, scene.camera.height as usize))
+        .collect::<anyhow::Result<_>>()?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let reference = match (&args.reference, &args.table) {
         (Some(p), _) => load(p)?,
@@ -163,7 +196,19 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         tiles.push((name.to_string(), img));
     }
     crate::files::write_atomically(&args.out.join("metrics.json"), serde_json::to_string_pretty(&rows)?.as_bytes())?;
-    grid(&tiles, &args.out.join("grid.png"))?;
+    grid(&tiles, &args.out.join("grid.png"), 1)?;
+    for c in &crops {
+        let cropped: Vec<(String, Image)> = tiles
+            .iter()
+            .map(|(name, img)| {
+                let (w, h) = (c.x1 - c.x0, c.y1 - c.y0);
+                let pixels = (0..w * h).map(|k| img.pixels[(c.y0 + k / w) * img.width + c.x0 + k % w]).collect();
+                (name.clone(), Image { width: w, height: h, pixels })
+            })
+            .collect();
+        let scale = (256 / (c.x1 - c.x0).max(c.y1 - c.y0)).max(1) as u32;
+        grid(&cropped, &args.out.join(format!("crop_{}.png", c.name)), scale)?;
+    }
     println!("wrote {}", args.out.display());
     Ok(())
 }
@@ -174,10 +219,11 @@ fn write(img: &LinearImage, dir: &Path, name: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The images side by side, each labelled with its model.
-fn grid(tiles: &[(String, Image)], path: &Path) -> anyhow::Result<()> {
+/// The images side by side, each labelled with its model, magnified `scale`× (nearest pixel).
+fn grid(tiles: &[(String, Image)], path: &Path, scale: u32) -> anyhow::Result<()> {
     use plotters::prelude::*;
-    let (w, h) = (tiles[0].1.width as u32, tiles[0].1.height as u32);
+    let (iw, ih) = (tiles[0].1.width as u32, tiles[0].1.height as u32);
+    let (w, h) = (iw * scale, ih * scale);
     let label = 28u32;
     let size = (w * tiles.len() as u32, h + label);
     let mut buf = vec![255u8; (size.0 * size.1 * 3) as usize];
@@ -195,7 +241,7 @@ fn grid(tiles: &[(String, Image)], path: &Path) -> anyhow::Result<()> {
             let rgb = lin.to_srgb8(0.0, ToneMap::Filmic);
             for y in 0..h {
                 for x in 0..w {
-                    let i = ((y * w + x) * 3) as usize;
+                    let i = (((y / scale) * iw + x / scale) * 3) as usize;
                     root.draw_pixel(((x0 + x) as i32, (label + y) as i32), &RGBColor(rgb[i], rgb[i + 1], rgb[i + 2]))
                         .map_err(err)?;
                 }

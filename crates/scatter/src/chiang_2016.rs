@@ -319,14 +319,44 @@ pub fn exit_azimuth(p: usize, gamma_o: f64, gamma_t: f64) -> f64 {
     2.0 * p * gamma_t - 2.0 * gamma_o + p * PI
 }
 
+/// Parameters shared by the Chiang and d'Eon fibers, validated once at construction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HairParams {
+    /// Index of refraction η.
+    pub eta: f64,
+    /// Longitudinal roughness β_m ∈ (0, 1].
+    pub beta_m: f64,
+    /// Azimuthal roughness β_n ∈ (0, 1].
+    pub beta_n: f64,
+    /// Cuticle tilt α (radians); > 0 moves the R lobe toward the root.
+    pub alpha: f64,
+    /// Absorption coefficient σ_a per unit radius.
+    pub sigma_a: Rgb,
+}
+
+impl HairParams {
+    /// Validates `eta`, `beta_m`, `beta_n`, `alpha_deg` (degrees) and the absorption, and
+    /// resolves the absorption to σ_a (the colour inversion depends on β_n).
+    pub fn new(
+        eta: f64,
+        beta_m: f64,
+        beta_n: f64,
+        alpha_deg: f64,
+        absorption: &Absorption,
+    ) -> Result<Self, ModelError> {
+        ETA_RANGE.check("eta", eta)?;
+        BETA_RANGE.check("beta_m", beta_m)?;
+        BETA_RANGE.check("beta_n", beta_n)?;
+        ALPHA_RANGE.check("alpha", alpha_deg)?;
+        absorption.validate()?;
+        Ok(Self { eta, beta_m, beta_n, alpha: alpha_deg.to_radians(), sigma_a: absorption.sigma_a(beta_n) })
+    }
+}
+
 /// Chiang 2016 near-field hair fiber.
 #[derive(Clone, Debug)]
 pub struct Chiang {
-    eta: f64,
-    beta_m: f64,
-    beta_n: f64,
-    alpha: f64,
-    sigma_a: Rgb,
+    params: HairParams,
     longitudinal: [Longitudinal; 4],
     tilt: [(f64, f64); 4],
     s: f64,
@@ -338,46 +368,21 @@ impl Chiang {
     /// A Chiang fiber: index `eta`, roughness `beta_m`, `beta_n` ∈ (0, 1], tilt `alpha_deg`
     /// (degrees) and absorption.
     pub fn new(eta: f64, beta_m: f64, beta_n: f64, alpha_deg: f64, absorption: Absorption) -> Result<Self, ModelError> {
-        ETA_RANGE.check("eta", eta)?;
-        BETA_RANGE.check("beta_m", beta_m)?;
-        BETA_RANGE.check("beta_n", beta_n)?;
-        ALPHA_RANGE.check("alpha", alpha_deg)?;
-        absorption.validate()?;
-        let alpha = alpha_deg.to_radians();
-        let v = lobe_variances(beta_m);
+        let params = HairParams::new(eta, beta_m, beta_n, alpha_deg, &absorption)?;
         let s = logistic_scale(beta_n);
         Ok(Self {
-            eta,
-            beta_m,
-            beta_n,
-            alpha,
-            sigma_a: absorption.sigma_a(beta_n),
-            longitudinal: v.map(Longitudinal::new),
-            tilt: lobe_tilts(alpha),
+            params,
+            longitudinal: lobe_variances(beta_m).map(Longitudinal::new),
+            tilt: lobe_tilts(params.alpha),
             s,
             logistic_norm: 1.0 / (logistic_cdf(PI, s) - logistic_cdf(-PI, s)),
         })
     }
 
-    /// Index of refraction.
+    /// The validated parameters.
     #[must_use]
-    pub fn eta(&self) -> f64 {
-        self.eta
-    }
-    /// Longitudinal and azimuthal roughness `(β_m, β_n)`.
-    #[must_use]
-    pub fn roughness(&self) -> (f64, f64) {
-        (self.beta_m, self.beta_n)
-    }
-    /// Cuticle tilt α in radians.
-    #[must_use]
-    pub fn alpha(&self) -> f64 {
-        self.alpha
-    }
-    /// Absorption coefficient σ_a per unit radius.
-    #[must_use]
-    pub fn sigma_a(&self) -> Rgb {
-        self.sigma_a
+    pub fn params(&self) -> &HairParams {
+        &self.params
     }
     /// Logistic scale `s` (radians).
     #[must_use]
@@ -403,7 +408,7 @@ impl Chiang {
     /// `(g_h(ω_o, ω_i), pdf(ω_i))`: the per-h integrand (sr⁻¹, Σ_p M_p A_p N_p) and the
     /// sampling density per steradian (Σ_p w_p M_p N_p).
     fn integrand_and_pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> (Rgb, f64) {
-        let hit = attenuation(self.eta, self.sigma_a, sin_theta(wo), cos_theta(wo), h);
+        let hit = attenuation(self.params.eta, self.params.sigma_a, sin_theta(wo), cos_theta(wo), h);
         match Self::lobe_weights(&hit) {
             Some(w) => self.integrand_and_pdf_at(wi, wo, &hit, &w),
             None => (Rgb::ZERO, 0.0),
@@ -444,7 +449,7 @@ impl Chiang {
             let mut a_bar = [Rgb::ZERO; 4];
             for j in 0..n_h {
                 let h = -1.0 + (j as f64 + 0.5) * 2.0 / n_h as f64;
-                let hit = attenuation(self.eta, self.sigma_a, sin_r, cos_r, h);
+                let hit = attenuation(self.params.eta, self.params.sigma_a, sin_r, cos_r, h);
                 for (a, hit_a) in a_bar.iter_mut().zip(hit.a) {
                     *a += hit_a / n_h as f64;
                 }
@@ -518,7 +523,7 @@ impl ScatteringFunction for Chiang {
 
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {
         let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
-        let hit = attenuation(self.eta, self.sigma_a, sin_o, cos_o, h);
+        let hit = attenuation(self.params.eta, self.params.sigma_a, sin_o, cos_o, h);
         let w = Self::lobe_weights(&hit)?;
         // Lobe from u[0].
         let mut p = 0;

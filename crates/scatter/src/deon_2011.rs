@@ -58,7 +58,7 @@
 //! Like Chiang's, this backward form conserves energy on the camera side only and is not
 //! reciprocal (models.md §5.6); `properties()` claims neither.
 
-use crate::chiang_2016::{self, Absorption, lobe_tilts, logistic_scale, longitudinal_variance, rotate};
+use crate::chiang_2016::{self, Absorption, HairParams, lobe_tilts, logistic_scale, longitudinal_variance, rotate};
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
 use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
@@ -382,11 +382,7 @@ impl AzimuthalTable {
 /// d'Eon 2011 far-field hair fiber.
 #[derive(Clone, Debug)]
 pub struct Deon {
-    eta: f64,
-    beta_m: f64,
-    beta_n: f64,
-    alpha: f64,
-    sigma_a: Rgb,
+    params: HairParams,
     p_max: usize,
     theta_n: AzimuthalInclination,
     sigma_n: f64,
@@ -411,14 +407,9 @@ impl Deon {
         theta_n: AzimuthalInclination,
         absorption: Absorption,
     ) -> Result<Self, ModelError> {
-        chiang_2016::ETA_RANGE.check("eta", eta)?;
-        chiang_2016::BETA_RANGE.check("beta_m", beta_m)?;
-        chiang_2016::BETA_RANGE.check("beta_n", beta_n)?;
-        chiang_2016::ALPHA_RANGE.check("alpha", alpha_deg)?;
+        let params = HairParams::new(eta, beta_m, beta_n, alpha_deg, &absorption)?;
         P_MAX_RANGE.check("p_max", p_max as f64)?;
-        absorption.validate()?;
-        let alpha = alpha_deg.to_radians();
-        let sigma_a = absorption.sigma_a(beta_n);
+        let HairParams { alpha, sigma_a, .. } = params;
         let v0 = longitudinal_variance(beta_m);
         let longitudinal = (0..=p_max)
             .map(|p| {
@@ -433,28 +424,13 @@ impl Deon {
         let tilt = (0..=p_max).map(|p| if p < 3 && p < p_max { tilts[p] } else { (0.0, 1.0) }).collect();
         let sigma_n = azimuthal_sigma(beta_n);
         let table = Arc::new(AzimuthalTable::new(eta, sigma_a, sigma_n, p_max));
-        Ok(Self { eta, beta_m, beta_n, alpha, sigma_a, p_max, theta_n, sigma_n, longitudinal, tilt, table })
+        Ok(Self { params, p_max, theta_n, sigma_n, longitudinal, tilt, table })
     }
 
-    /// Index of refraction.
+    /// The validated parameters.
     #[must_use]
-    pub fn eta(&self) -> f64 {
-        self.eta
-    }
-    /// Longitudinal and azimuthal roughness `(β_m, β_n)`.
-    #[must_use]
-    pub fn roughness(&self) -> (f64, f64) {
-        (self.beta_m, self.beta_n)
-    }
-    /// Cuticle tilt α in radians.
-    #[must_use]
-    pub fn alpha(&self) -> f64 {
-        self.alpha
-    }
-    /// Absorption coefficient σ_a per unit radius.
-    #[must_use]
-    pub fn sigma_a(&self) -> Rgb {
-        self.sigma_a
+    pub fn params(&self) -> &HairParams {
+        &self.params
     }
     /// Number of explicit lobes.
     #[must_use]

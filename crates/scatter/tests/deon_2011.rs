@@ -56,7 +56,7 @@ fn construction_is_fast() {
 #[test]
 fn lobe_masses_equal_half_the_width_integral_of_a_p() {
     let d = Deon::new(1.55, 0.3, 0.3, 2.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
-    let sigma_a = d.sigma_a();
+    let sigma_a = d.params().sigma_a;
     // On table rows (cosθ_d = j/63) and between rows.
     for &cos_d in &[1.0, 40.0 / 63.0, 0.87, 0.5, 0.2] {
         let theta_d = f64::acos(cos_d);
@@ -92,7 +92,7 @@ fn tabulated_n_p_matches_direct_integration() {
                 let hs: Vec<(f64, f64)> = (0..n_g)
                     .map(|k| {
                         let g = -FRAC_PI_2 + (k as f64 + 0.5) * dg;
-                        let (a, ph) = attenuation_2d(p, 1.55, d.sigma_a(), theta_d, g.sin());
+                        let (a, ph) = attenuation_2d(p, 1.55, d.params().sigma_a, theta_d, g.sin());
                         (0.5 * a[1] * g.cos() * dg, ph)
                     })
                     .collect();

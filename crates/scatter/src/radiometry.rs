@@ -8,7 +8,7 @@
 //! and the generalized reciprocity `D(ω_i) f_s(ω_i, ω_r) = D(ω_r) f_s(ω_r, ω_i)`.
 
 use crate::{Field, Lobes, ModelError, ScatteringFunction, params::Range};
-use fiberlab_math::frame::{cos_theta, direction, direction_from_sin_cos, phi, sin_theta, theta};
+use fiberlab_math::frame::{cos_theta, direction, direction_from_sin_cos, phi, theta};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -199,19 +199,6 @@ pub fn furnace(f: &impl ScatteringFunction, wo: DVec3, quadrature: &Quadrature) 
 /// reciprocal fiber of the given cross-section.
 pub fn reciprocity_defect(f: &impl ScatteringFunction, section: &CrossSection, wi: DVec3, wr: DVec3, h: f64) -> Rgb {
     f.eval(wi, wr, h) * section.projected_width(wi) - f.eval(wr, wi, h) * section.projected_width(wr)
-}
-
-/// The fiber-frame direction with the given inclination and azimuth (re-exported helper
-/// for callers building radiance fields).
-#[must_use]
-pub fn direction_at(theta: f64, phi: f64) -> DVec3 {
-    direction(theta, phi)
-}
-
-/// `sinθ` of a direction (for radiance fields written in terms of the fiber axis).
-#[must_use]
-pub fn axial_component(w: DVec3) -> f64 {
-    sin_theta(w)
 }
 
 #[cfg(test)]

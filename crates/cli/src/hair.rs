@@ -58,6 +58,9 @@ struct GenerateArgs {
     /// Root diameter.
     #[arg(long, default_value_t = HairParams::default().root_diameter)]
     root_diameter: f64,
+    /// Tip diameter as a fraction of the root diameter (1: constant radius).
+    #[arg(long, default_value_t = HairParams::default().tip_ratio)]
+    tip_ratio: f64,
     /// Random seed.
     #[arg(long, default_value_t = HairParams::default().seed)]
     seed: u64,
@@ -82,6 +85,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 gravity: g.gravity,
                 noise: g.noise,
                 root_diameter: g.root_diameter,
+                tip_ratio: g.tip_ratio,
                 seed: g.seed,
                 ..HairParams::default()
             };

@@ -139,13 +139,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let exposure = args.exposure.unwrap_or(file.render_settings().exposure);
     out.image.write_png(&png, exposure, ToneMap::Filmic)?;
     eprintln!(
-        "{}×{} at {} spp: scene {:.1} s, render {:.1} s ({:.0} samples/s), {}/{} tiles{}, {} non-finite samples dropped → {}, {}",
+        "{}×{} at {} spp: scene {:.2} s, render {:.2} s ({:.0} samples/s, {} rays, {:.3} Mrays/s), {}/{} tiles{}, {} non-finite samples dropped → {}, {}",
         w,
         h,
         settings.spp,
         build_seconds,
         s.seconds,
         s.samples as f64 / s.seconds.max(1e-9),
+        s.rays,
+        s.rays as f64 / s.seconds.max(1e-9) / 1e6,
         s.tiles_done,
         s.tiles_total,
         if s.interrupted { " (stopped early)" } else { "" },

@@ -101,6 +101,8 @@ pub struct RenderStats {
     pub samples: u64,
     /// Samples whose radiance was NaN or infinite (counted as black, never added).
     pub nonfinite_samples: u64,
+    /// Rays traced: camera and continuation rays plus shadow rays.
+    pub rays: u64,
     /// Wall-clock seconds.
     pub seconds: f64,
     /// True when stopped early (interrupt flag or deadline).
@@ -216,9 +218,10 @@ fn spawn_epsilon(p: DVec3) -> f64 {
     1e-9 * (1.0 + p.abs().max_element())
 }
 
-/// Radiance arriving at the camera along `ray` (one path).
+/// Radiance arriving at the camera along `ray` (one path); adds the rays traced (path and
+/// shadow rays) to `rays`.
 #[must_use]
-pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &RenderSettings) -> Rgb {
+pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &RenderSettings, rays: &mut u64) -> Rgb {
     let mut ray = ray;
     let mut l = Rgb::ZERO;
     let mut beta = Rgb::ONE;
@@ -229,6 +232,7 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
     let select = if n_lights > 0 { 1.0 / n_lights as f64 } else { 0.0 };
     let mut depth = 0u32;
     loop {
+        *rays += 1;
         let Some(hit) = scene.intersect(&ray) else {
             for light in scene.lights.iter().filter(|l| l.is_infinite()) {
                 let le = light.escaped(ray.d);
@@ -286,9 +290,10 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
                 if !f.is_black() && !ls.radiance.is_black() {
                     let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
                     let shadow = Ray { o: p, d: ls.wi, t_min: eps, t_max };
+                    *rays += 1;
                     if scene.unoccluded(&shadow) {
                         let p_light = select * ls.pdf;
-                        let w = power_heuristic(p_light, local.pdf(ls.wi));
+                        let w = if ls.delta { 1.0 } else { power_heuristic(p_light, local.pdf(ls.wi)) };
                         l += beta * f * ls.radiance * (w / p_light);
                     }
                 }
@@ -323,11 +328,13 @@ struct TileResult {
     region: Region,
     pixels: Vec<[f32; 3]>,
     nonfinite: u64,
+    rays: u64,
 }
 
 fn render_tile(scene: &Scene, settings: &RenderSettings, t: Region) -> TileResult {
     let mut pixels = Vec::with_capacity(t.area() as usize);
     let mut nonfinite = 0;
+    let mut rays = 0;
     for y in t.y0..t.y1 {
         for x in t.x0..t.x1 {
             let mut sampler = PixelSampler::new(x, y, settings.seed);
@@ -336,7 +343,7 @@ fn render_tile(scene: &Scene, settings: &RenderSettings, t: Region) -> TileResul
                 sampler.start(u64::from(i));
                 let [jx, jy] = sampler.next_2d();
                 let ray = scene.camera.ray(f64::from(x) + jx, f64::from(y) + jy);
-                let l = radiance(scene, ray, &mut sampler, settings);
+                let l = radiance(scene, ray, &mut sampler, settings, &mut rays);
                 if l.is_finite() {
                     sum += l;
                 } else {
@@ -347,7 +354,7 @@ fn render_tile(scene: &Scene, settings: &RenderSettings, t: Region) -> TileResul
             pixels.push([v[0] as f32, v[1] as f32, v[2] as f32]);
         }
     }
-    TileResult { region: t, pixels, nonfinite }
+    TileResult { region: t, pixels, nonfinite, rays }
 }
 
 /// Splits a region into tiles, row-major.
@@ -414,6 +421,7 @@ pub fn render(
         stats.tiles_done += 1;
         stats.samples += r.region.area() * u64::from(settings.spp);
         stats.nonfinite_samples += r.nonfinite;
+        stats.rays += r.rays;
     }
     stats.interrupted = stats.tiles_done < total;
     stats.seconds = start.elapsed().as_secs_f64();
@@ -573,6 +581,30 @@ mod tests {
         let mean: f64 = px.iter().map(|p| f64::from(p[0])).sum::<f64>() / px.len() as f64;
         let expected = 0.5 * l * r * r / (d * d);
         assert!((mean / expected - 1.0).abs() < 0.01, "{mean} vs {expected}");
+    }
+
+    /// A Lambertian floor (albedo ρ) lit by a delta distant light of irradiance E at elevation
+    /// θ from the normal has radiance `ρ E cosθ / π`, exactly, at any spp; three rays
+    /// per sample (camera, shadow, escaping continuation).
+    #[test]
+    fn lambert_floor_under_a_distant_light_matches_closed_form() {
+        let (rho, e, theta) = (0.5, 3.0, 0.6_f64);
+        let direction = DVec3::new(theta.sin(), theta.cos(), 0.0);
+        let scene = Scene {
+            camera: Camera::look_at(DVec3::new(0.0, 1.0, 0.0), DVec3::ZERO, DVec3::Z, 0.5, 4, 4).unwrap(),
+            materials: vec![Material::Lambert(Rgb::splat(rho))],
+            fibers: vec![],
+            spheres: vec![],
+            meshes: vec![crate::scene::Mesh { mesh: crate::shapes::TriangleMesh::floor(0.0, 100.0), material: 0 }],
+            lights: vec![Light::Distant { direction, irradiance: Rgb::splat(e) }],
+        };
+        let s = RenderSettings { max_depth: 1, ..settings(2) };
+        let out = render(&scene, &s, &|_, _| {}, &AtomicBool::new(false));
+        let expected = rho * e * theta.cos() / PI;
+        for p in out.image.pixels() {
+            assert!((f64::from(p[0]) / expected - 1.0).abs() < 1e-5, "{p:?} vs {expected}");
+        }
+        assert_eq!(out.stats.rays, 16 * 2 * 3, "camera, shadow and escaping continuation ray per sample");
     }
 
     fn settings(spp: u32) -> RenderSettings {

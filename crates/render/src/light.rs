@@ -1,5 +1,5 @@
 //! Lights: a constant environment, a lat-long environment map with importance sampling, a
-//! distant sun with an angular radius, and spherical area lights.
+//! distant sun with an angular radius, a delta distant light, and spherical area lights.
 //!
 //! Every light can be sampled from a point (`sample`, density per steradian) and report the
 //! density of a given direction (`pdf`), which the integrator needs for MIS.
@@ -19,10 +19,13 @@ pub struct LightSample {
     pub wi: DVec3,
     /// Distance to the emitting surface (∞ for distant lights).
     pub distance: f64,
-    /// Emitted radiance along `−wi`.
+    /// Emitted radiance along `−wi`; for a delta light, the irradiance it delivers on a
+    /// surface facing it.
     pub radiance: Rgb,
-    /// Density of `wi` per steradian.
+    /// Density of `wi` per steradian (1 for a delta light: the sample is certain).
     pub pdf: f64,
+    /// True for a delta light: no other strategy can find it, so no MIS.
+    pub delta: bool,
 }
 
 /// A lat-long environment map with a 2D piecewise-constant sampling distribution.
@@ -129,7 +132,7 @@ impl EnvironmentMap {
         let phi = TAU * uu - PI;
         let wi = DVec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
         let pdf = self.pdf(wi);
-        (pdf > 0.0).then(|| LightSample { wi, distance: f64::INFINITY, radiance: self.radiance(wi), pdf })
+        (pdf > 0.0).then(|| LightSample { wi, distance: f64::INFINITY, radiance: self.radiance(wi), pdf, delta: false })
     }
 }
 
@@ -151,6 +154,14 @@ pub enum Light {
         cos_max: f64,
         /// Radiance of the disc.
         radiance: Rgb,
+    },
+    /// Parallel light from one direction (a delta distribution: Mitsuba's `directional`, a
+    /// Cycles sun of angle 0); rays never hit it.
+    Distant {
+        /// Unit direction toward the light.
+        direction: DVec3,
+        /// Irradiance on a surface facing the light.
+        irradiance: Rgb,
     },
     /// A sphere of uniform radiance (also present in the scene's geometry).
     Sphere {
@@ -204,7 +215,7 @@ impl Light {
                     Rgb::ZERO
                 }
             }
-            Light::Sphere { .. } => Rgb::ZERO,
+            Light::Distant { .. } | Light::Sphere { .. } => Rgb::ZERO,
         }
     }
 
@@ -217,7 +228,13 @@ impl Light {
                 let r = (1.0 - z * z).max(0.0).sqrt();
                 let phi = TAU * u[1];
                 let wi = DVec3::new(r * phi.cos(), z, r * phi.sin());
-                Some(LightSample { wi, distance: f64::INFINITY, radiance: *radiance, pdf: 1.0 / (4.0 * PI) })
+                Some(LightSample {
+                    wi,
+                    distance: f64::INFINITY,
+                    radiance: *radiance,
+                    pdf: 1.0 / (4.0 * PI),
+                    delta: false,
+                })
             }
             Light::Map(m) => m.sample(u),
             Light::Sun { direction, cos_max, radiance } => Some(LightSample {
@@ -225,6 +242,14 @@ impl Light {
                 distance: f64::INFINITY,
                 radiance: *radiance,
                 pdf: cone_pdf(*cos_max),
+                delta: false,
+            }),
+            Light::Distant { direction, irradiance } => Some(LightSample {
+                wi: *direction,
+                distance: f64::INFINITY,
+                radiance: *irradiance,
+                pdf: 1.0,
+                delta: true,
             }),
             Light::Sphere { center, radius, radiance } => {
                 let to = *center - p;
@@ -236,7 +261,7 @@ impl Light {
                 let axis = to / d2.sqrt();
                 let wi = sample_cone(axis, cos_max, u);
                 let distance = crate::shapes::sphere_entry(p, wi, *center, *radius)?;
-                Some(LightSample { wi, distance, radiance: *radiance, pdf: cone_pdf(cos_max) })
+                Some(LightSample { wi, distance, radiance: *radiance, pdf: cone_pdf(cos_max), delta: false })
             }
         }
     }
@@ -254,6 +279,7 @@ impl Light {
                     0.0
                 }
             }
+            Light::Distant { .. } => 0.0,
             Light::Sphere { center, radius, .. } => {
                 let to = *center - p;
                 let d2 = to.length_squared();

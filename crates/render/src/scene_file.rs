@@ -11,6 +11,7 @@
 //! [[mesh]]            # file = "x.obj", material, scale, translate; or floor = y
 //! [[light]]           # type = "environment" (radiance) | "envmap" (file, scale)
 //!                     #      | "sun" (direction, angular_radius_deg, irradiance)
+//!                     #      | "distant" (direction, irradiance: a delta light)
 //! ```
 //! Relative paths are resolved against the scene file's directory.
 
@@ -177,6 +178,7 @@ enum LightDesc {
     Environment { radiance: [f64; 3] },
     Envmap { file: String, scale: Option<f64> },
     Sun { direction: [f64; 3], angular_radius_deg: f64, irradiance: [f64; 3] },
+    Distant { direction: [f64; 3], irradiance: [f64; 3] },
 }
 
 #[derive(Debug, Deserialize)]
@@ -408,6 +410,12 @@ impl SceneFile {
                     }
                     Light::sun(dvec(*direction), angular_radius_deg.to_radians(), rgb(*irradiance))
                 }
+                LightDesc::Distant { direction, irradiance } => {
+                    if !(dvec(*direction).length() > 0.0) {
+                        return Err(self.error(l.span(), "distant: direction must be non-zero and finite".to_string()));
+                    }
+                    Light::Distant { direction: dvec(*direction).normalize(), irradiance: rgb(*irradiance) }
+                }
             };
             lights.push(light);
         }
@@ -557,5 +565,13 @@ mod tests {
             "{CAMERA}[materials.h]\nmodel = \"diffuse\"\n[[hair]]\nmaterial = \"h\"\nfile = \"no.hair\"\n"
         ));
         assert!(e.to_string().contains("no.hair") && e.line == 11, "{e}");
+    }
+
+    #[test]
+    fn distant_light_needs_a_direction() {
+        let e = err(&format!("{CAMERA}[[light]]\ntype = \"distant\"\ndirection = [0, 0, 0]\nirradiance = [1, 1, 1]\n"));
+        assert!(e.to_string().contains("distant: direction") && e.line == 7, "{e}");
+        let e = err(&format!("{CAMERA}[[light]]\ntype = \"distant\"\ndirection = [0, 1, 0]\n"));
+        assert!(e.to_string().contains("irradiance"), "{e}");
     }
 }

@@ -411,10 +411,10 @@ impl SceneFile {
                     Light::sun(dvec(*direction), angular_radius_deg.to_radians(), rgb(*irradiance))
                 }
                 LightDesc::Distant { direction, irradiance } => {
-                    if !(dvec(*direction).length() > 0.0) {
+                    let Some(direction) = dvec(*direction).try_normalize() else {
                         return Err(self.error(l.span(), "distant: direction must be non-zero and finite".to_string()));
-                    }
-                    Light::Distant { direction: dvec(*direction).normalize(), irradiance: rgb(*irradiance) }
+                    };
+                    Light::Distant { direction, irradiance: rgb(*irradiance) }
                 }
             };
             lights.push(light);

@@ -2,13 +2,18 @@
 //!
 //! The hierarchy is generic: it is built over a slice of boxes and reports, during traversal,
 //! the indices of the boxes whose leaves the ray reaches; the caller intersects the actual
-//! primitive and shrinks the ray's `t_max`. Node boxes are stored as `f32` rounded outward
-//! (32 bytes a node), primitive indices as `u32`.
+//! primitive and shrinks the ray's `t_max`. Primitive indices are `u32`.
 //!
-//! Build: top-down, 16 centroid bins per axis, surface-area heuristic with traversal cost 1
-//! and intersection cost 1 (Wald 2007, "On fast construction of SAH-based bounding volume
-//! hierarchies"); leaves hold at most [`MAX_LEAF`] primitives. Large subtrees are built in
-//! parallel (rayon); the tree is the same for any thread count.
+//! Build: top-down binary tree, 16 centroid bins per axis, surface-area heuristic with
+//! traversal cost 1 and intersection cost 1 (Wald 2007, "On fast construction of SAH-based
+//! bounding volume hierarchies"); leaves hold at most [`MAX_LEAF`] primitives. Large subtrees
+//! are built in parallel (rayon); the tree is the same for any thread count.
+//!
+//! Layout: the binary tree is collapsed into a 4-wide tree (each node pulls up the
+//! grandchildren of its largest-area interior children until it has four; Wald et al. 2008,
+//! "Getting rid of packets"). A node stores its four child boxes as `f32` structure-of-arrays
+//! rounded outward (one 128-byte, cache-aligned record), so one ray tests all four with the
+//! same instructions; traversal visits the hit children nearest first.
 
 use fiberlab_math::DVec3;
 
@@ -98,8 +103,9 @@ const PARALLEL_BUILD_MIN: usize = 20_000;
 pub const MAX_LEAF: usize = 8;
 const BINS: usize = 16;
 
-/// One node: an outward-rounded `f32` box; interior nodes have `count == 0`, their first child
-/// follows them and `offset` is the second child; leaves list `count` primitives from `offset`.
+/// A binary build node: an outward-rounded `f32` box; interior nodes have `count == 0`, their
+/// first child follows them and `offset` is the second child; leaves list `count` primitives
+/// from `offset`.
 #[derive(Clone, Copy, Debug)]
 struct Node {
     min: [f32; 3],
@@ -108,10 +114,33 @@ struct Node {
     count: u32,
 }
 
+/// Marks an unused child slot of a [`Node4`].
+const EMPTY_SLOT: u8 = u8::MAX;
+
+/// A 4-wide node: child boxes as structure of arrays (`bounds[axis]` lower, `bounds[3 + axis]`
+/// upper corner, one lane per child). Child `k` is an interior node `child[k]` when
+/// `count[k] == 0`, a leaf of `count[k]` primitives from `child[k]` when `1 ≤ count[k] ≤
+/// MAX_LEAF`, and unused when `count[k] == EMPTY_SLOT`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+struct Node4 {
+    bounds: [[f32; 4]; 6],
+    child: [u32; 4],
+    count: [u8; 4],
+}
+
+/// A pending subtree on the traversal stack: node or leaf reference and its entry distance.
+#[derive(Clone, Copy, Default)]
+struct Pending {
+    child: u32,
+    count: u8,
+    t: f32,
+}
+
 /// A bounding volume hierarchy over boxes.
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
-    nodes: Vec<Node>,
+    nodes: Vec<Node4>,
     prims: Vec<u32>,
 }
 
@@ -265,7 +294,25 @@ impl Bvh {
         let centroids: Vec<DVec3> = bounds.iter().map(Aabb::centroid).collect();
         let mut b = Builder { bounds, centroids: &centroids, nodes: Vec::with_capacity(2 * bounds.len() / 3 + 1) };
         b.build(&mut prims, 0);
-        Self { nodes: b.nodes, prims }
+        let binary = b.nodes;
+        let mut nodes = Vec::with_capacity(binary.len() / 3 + 1);
+        if binary[0].count > 0 {
+            // A single leaf: one wide node holding it.
+            let mut root = Node4::empty();
+            root.set(0, &binary[0], binary[0].offset, u8::try_from(binary[0].count).expect("leaf size"));
+            nodes.push(root);
+        } else {
+            collapse(&binary, 0, &mut nodes);
+        }
+        Self { nodes, prims }
+    }
+
+    /// Replaces every primitive index `p` in the leaves by `f(p)`: traversal then reports
+    /// `f(p)` (e.g. the shape that a piece belongs to).
+    pub fn map_prims(&mut self, f: impl Fn(u32) -> u32) {
+        for p in &mut self.prims {
+            *p = f(*p);
+        }
     }
 
     /// Number of nodes.
@@ -284,105 +331,210 @@ impl Bvh {
     /// `hit(prim, t_max)` for each primitive; `hit` returns `Some(t)` to shrink `t_max` to `t`.
     /// Returns the final `t_max` (the ray's own if nothing was hit).
     pub fn traverse(&self, ray: &Ray, mut hit: impl FnMut(u32, f64) -> Option<f64>) -> f64 {
-        let mut t_max = ray.t_max;
         if self.nodes.is_empty() {
-            return t_max;
+            return ray.t_max;
         }
-        let o = [ray.o.x as f32, ray.o.y as f32, ray.o.z as f32];
-        let inv = [(1.0 / ray.d.x) as f32, (1.0 / ray.d.y) as f32, (1.0 / ray.d.z) as f32];
-        // The f32 origin is off by up to half an ulp of |o|; widen the accepted interval by it.
-        let slack = (ray.o.abs().max_element() as f32) * f32::EPSILON * 4.0;
-        let enter = |n: &Node, t_max: f64| -> Option<f32> {
-            let (mut t0, mut t1) = (ray.t_min as f32 - 1e-6, t_max as f32);
-            for k in 0..3 {
-                let a = (n.min[k] - slack - o[k]) * inv[k];
-                let b = (n.max[k] + slack - o[k]) * inv[k];
-                let (near, far) = if a <= b { (a, b) } else { (b, a) };
-                // NaN (0·∞) leaves the interval unchanged.
-                t0 = if near > t0 { near } else { t0 };
-                t1 = if far < t1 { far } else { t1 };
-            }
-            (t0 <= t1 * (1.0 + 4.0 * f32::EPSILON)).then_some(t0)
-        };
-        if enter(&self.nodes[0], t_max).is_none() {
-            return t_max;
-        }
-        let mut stack = [0u32; 64];
-        let mut sp = 0usize;
-        let mut current = 0usize;
-        loop {
-            let n = self.nodes[current];
-            if n.count > 0 {
-                for &p in &self.prims[n.offset as usize..(n.offset + n.count) as usize] {
-                    if let Some(t) = hit(p, t_max) {
-                        t_max = t_max.min(t);
-                    }
-                }
-            } else {
-                let (a, b) = (current + 1, n.offset as usize);
-                match (enter(&self.nodes[a], t_max), enter(&self.nodes[b], t_max)) {
-                    (Some(ta), Some(tb)) => {
-                        let (near, far) = if ta <= tb { (a, b) } else { (b, a) };
-                        if sp < stack.len() {
-                            stack[sp] = far as u32;
-                            sp += 1;
-                            current = near;
-                            continue;
+        let slabs = Slabs::new(ray);
+        with_stack(|stack| {
+            let mut t_max = ray.t_max;
+            let mut node = 0usize;
+            loop {
+                let n = &self.nodes[node];
+                let (mask, t_entry) = slabs.enter(n, t_max);
+                // The hit children, nearest first (insertion sort of at most four).
+                let mut order = [0usize; 4];
+                let mut m = 0;
+                for k in 0..4 {
+                    if mask & (1 << k) != 0 {
+                        let mut j = m;
+                        while j > 0 && t_entry[order[j - 1]] > t_entry[k] {
+                            order[j] = order[j - 1];
+                            j -= 1;
                         }
-                        // Stack overflow cannot happen for depth ≤ 64; fall back to a recursive walk.
-                        self.walk(far, ray, &mut t_max, &mut hit);
-                        current = near;
-                        continue;
+                        order[j] = k;
+                        m += 1;
                     }
-                    (Some(_), None) => {
-                        current = a;
-                        continue;
+                }
+                // Push the farther ones (far first) and continue with the nearest.
+                let mut next = None;
+                for &k in order[..m].iter().rev() {
+                    let p = Pending { child: n.child[k], count: n.count[k], t: t_entry[k] };
+                    if let Some(prev) = next.replace(p) {
+                        stack.push(prev);
                     }
-                    (None, Some(_)) => {
-                        current = b;
-                        continue;
+                }
+                // Intersect leaves as they come, until the next interior node.
+                loop {
+                    let p = match next.take() {
+                        Some(p) => p,
+                        // The nearest pending entry that the ray can still reach.
+                        None => loop {
+                            match stack.pop() {
+                                Some(p) if f64::from(p.t) <= t_max * (1.0 + 4.0 * f64::from(f32::EPSILON)) => break p,
+                                Some(_) => {}
+                                None => return t_max,
+                            }
+                        },
+                    };
+                    if p.count == 0 {
+                        node = p.child as usize;
+                        break;
                     }
-                    (None, None) => {}
+                    for &prim in &self.prims[p.child as usize..p.child as usize + usize::from(p.count)] {
+                        if let Some(t) = hit(prim, t_max) {
+                            t_max = t_max.min(t);
+                        }
+                    }
                 }
             }
-            if sp == 0 {
-                return t_max;
-            }
-            sp -= 1;
-            current = stack[sp] as usize;
-        }
+        })
     }
 
     /// True when `hit(prim)` returns true for some primitive whose leaf the ray reaches
     /// (any-hit query for shadow rays; stops at the first hit).
     pub fn any(&self, ray: &Ray, mut hit: impl FnMut(u32) -> bool) -> bool {
-        let mut found = false;
-        self.traverse(ray, |p, t_max| {
-            if found || !hit(p) {
-                return None;
-            }
-            found = true;
-            // t_max = −∞ prunes every remaining box.
-            let _ = t_max;
-            Some(f64::NEG_INFINITY)
-        });
-        found
-    }
-
-    /// Unordered recursive walk (overflow path of [`Bvh::traverse`]).
-    fn walk(&self, node: usize, _ray: &Ray, t_max: &mut f64, hit: &mut impl FnMut(u32, f64) -> Option<f64>) {
-        let n = self.nodes[node];
-        if n.count > 0 {
-            for &p in &self.prims[n.offset as usize..(n.offset + n.count) as usize] {
-                if let Some(t) = hit(p, *t_max) {
-                    *t_max = t_max.min(t);
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let slabs = Slabs::new(ray);
+        with_stack(|stack| {
+            let mut node = 0usize;
+            loop {
+                let n = &self.nodes[node];
+                let (mask, _) = slabs.enter(n, ray.t_max);
+                for k in 0..4 {
+                    if mask & (1 << k) == 0 {
+                        continue;
+                    }
+                    if n.count[k] == 0 {
+                        stack.push(Pending { child: n.child[k], count: 0, t: 0.0 });
+                    } else {
+                        let first = n.child[k] as usize;
+                        if self.prims[first..first + usize::from(n.count[k])].iter().any(|&p| hit(p)) {
+                            return true;
+                        }
+                    }
+                }
+                match stack.pop() {
+                    Some(p) => node = p.child as usize,
+                    None => return false,
                 }
             }
-        } else {
-            self.walk(node + 1, _ray, t_max, hit);
-            self.walk(n.offset as usize, _ray, t_max, hit);
+        })
+    }
+}
+
+thread_local! {
+    /// Each thread's traversal stack, kept between queries so traversal never allocates once
+    /// warmed up (taken out of the cell during a query; a nested query starts a fresh one).
+    static STACK: std::cell::Cell<Vec<Pending>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
+/// Runs `f` with this thread's (empty) traversal stack.
+#[inline]
+fn with_stack<R>(f: impl FnOnce(&mut Vec<Pending>) -> R) -> R {
+    let mut stack = STACK.take();
+    stack.clear();
+    let r = f(&mut stack);
+    STACK.set(stack);
+    r
+}
+
+/// A ray prepared for slab tests against `f32` boxes.
+struct Slabs {
+    o: [f32; 3],
+    inv: [f32; 3],
+    slack: f32,
+    t_min: f32,
+}
+
+impl Slabs {
+    fn new(ray: &Ray) -> Self {
+        Self {
+            o: [ray.o.x as f32, ray.o.y as f32, ray.o.z as f32],
+            inv: [(1.0 / ray.d.x) as f32, (1.0 / ray.d.y) as f32, (1.0 / ray.d.z) as f32],
+            // The f32 origin is off by up to half an ulp of |o|; widen the boxes by it.
+            slack: (ray.o.abs().max_element() as f32) * f32::EPSILON * 4.0,
+            t_min: ray.t_min as f32 - 1e-6,
         }
     }
+
+    /// Which of the node's four children the ray enters within `(t_min, t_max)` (bit mask)
+    /// and the entry distances. NaN (0·∞, an origin on a slab plane with a zero direction
+    /// component) leaves an interval unchanged.
+    #[inline(always)]
+    fn enter(&self, n: &Node4, t_max: f64) -> (u32, [f32; 4]) {
+        let mut t0 = [self.t_min; 4];
+        let mut t1 = [t_max as f32; 4];
+        for axis in 0..3 {
+            for k in 0..4 {
+                let a = (n.bounds[axis][k] - self.slack - self.o[axis]) * self.inv[axis];
+                let b = (n.bounds[3 + axis][k] + self.slack - self.o[axis]) * self.inv[axis];
+                let (near, far) = if a <= b { (a, b) } else { (b, a) };
+                t0[k] = if near > t0[k] { near } else { t0[k] };
+                t1[k] = if far < t1[k] { far } else { t1[k] };
+            }
+        }
+        let mut mask = 0;
+        for k in 0..4 {
+            if t0[k] <= t1[k] * (1.0 + 4.0 * f32::EPSILON) && n.count[k] != EMPTY_SLOT {
+                mask |= 1 << k;
+            }
+        }
+        (mask, t0)
+    }
+}
+
+impl Node4 {
+    fn empty() -> Self {
+        Self { bounds: [[0.0; 4]; 6], child: [0; 4], count: [EMPTY_SLOT; 4] }
+    }
+
+    /// Puts the box of binary node `b` in slot `k` with the given reference.
+    fn set(&mut self, k: usize, b: &Node, child: u32, count: u8) {
+        for axis in 0..3 {
+            self.bounds[axis][k] = b.min[axis];
+            self.bounds[3 + axis][k] = b.max[axis];
+        }
+        self.child[k] = child;
+        self.count[k] = count;
+    }
+}
+
+fn box_area(n: &Node) -> f32 {
+    let e = [n.max[0] - n.min[0], n.max[1] - n.min[1], n.max[2] - n.min[2]];
+    e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+}
+
+/// Collapses the binary subtree at interior node `root` into wide nodes appended to `out`;
+/// returns the index of its wide node.
+fn collapse(binary: &[Node], root: usize, out: &mut Vec<Node4>) -> u32 {
+    let children = |i: usize| [i + 1, binary[i].offset as usize];
+    let mut slots: Vec<usize> = children(root).to_vec();
+    while slots.len() < 4 {
+        // Open the interior child with the largest box.
+        let best = slots
+            .iter()
+            .enumerate()
+            .filter(|&(_, &c)| binary[c].count == 0)
+            .max_by(|a, b| box_area(&binary[*a.1]).total_cmp(&box_area(&binary[*b.1])))
+            .map(|(i, _)| i);
+        let Some(i) = best else { break };
+        let c = slots.swap_remove(i);
+        slots.extend(children(c));
+    }
+    let index = out.len();
+    out.push(Node4::empty());
+    for (k, &c) in slots.iter().enumerate() {
+        let b = &binary[c];
+        let (child, count) = if b.count > 0 {
+            (b.offset, u8::try_from(b.count).expect("leaf size"))
+        } else {
+            (collapse(binary, c, out), 0)
+        };
+        out[index].set(k, b, child, count);
+    }
+    index as u32
 }
 
 #[cfg(test)]
@@ -404,7 +556,7 @@ mod tests {
         let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap().install(|| Bvh::build(&bounds));
         assert_eq!(one.prims, two.prims);
         assert_eq!(one.nodes.len(), two.nodes.len());
-        assert!(one.nodes.iter().zip(&two.nodes).all(|(a, b)| a.offset == b.offset && a.count == b.count));
+        assert_eq!(one.nodes, two.nodes);
         let hit_sphere = |ray: &Ray, (c, r): (DVec3, f64), t_max: f64| -> Option<f64> {
             let oc = ray.o - c;
             let b = oc.dot(ray.d);

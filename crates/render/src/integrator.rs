@@ -170,23 +170,19 @@ impl<'a> Local<'a> {
         }
     }
 
-    /// `f·cos` for light direction `wi` (world).
-    fn eval_cos(&self, wi: DVec3) -> Rgb {
+    /// `f·cos` for light direction `wi` (world) and the density with which `sample` draws it.
+    fn eval_cos_and_pdf(&self, wi: DVec3) -> (Rgb, f64) {
         match self {
             Local::Fiber { model, frame, wo, h, .. } => {
                 let wi_l = frame.to_local(wi);
-                model.eval(wi_l, *wo, *h) * cos_theta(wi_l)
+                let (f, pdf) = model.eval_and_pdf(wi_l, *wo, *h);
+                (f * cos_theta(wi_l), pdf)
             }
-            Local::Lambert { albedo, n } => *albedo * (n.dot(wi).max(0.0) / PI),
-            _ => Rgb::ZERO,
-        }
-    }
-
-    fn pdf(&self, wi: DVec3) -> f64 {
-        match self {
-            Local::Fiber { model, frame, wo, h, .. } => model.pdf(frame.to_local(wi), *wo, *h),
-            Local::Lambert { n, .. } => n.dot(wi).max(0.0) / PI,
-            _ => 0.0,
+            Local::Lambert { albedo, n } => {
+                let cos = n.dot(wi).max(0.0);
+                (*albedo * (cos / PI), cos / PI)
+            }
+            _ => (Rgb::ZERO, 0.0),
         }
     }
 
@@ -286,14 +282,14 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
         if !local.is_delta() && n_lights > 0 {
             let light = &scene.lights[((u_pick * n_lights as f64) as usize).min(n_lights - 1)];
             if let Some(ls) = light.sample(p, u_light) {
-                let f = local.eval_cos(ls.wi);
+                let (f, bsdf_pdf) = local.eval_cos_and_pdf(ls.wi);
                 if !f.is_black() && !ls.radiance.is_black() {
                     let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
                     let shadow = Ray { o: p, d: ls.wi, t_min: eps, t_max };
                     *rays += 1;
                     if scene.unoccluded(&shadow) {
                         let p_light = select * ls.pdf;
-                        let w = if ls.delta { 1.0 } else { power_heuristic(p_light, local.pdf(ls.wi)) };
+                        let w = if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf_pdf) };
                         l += beta * f * ls.radiance * (w / p_light);
                     }
                 }

@@ -109,12 +109,7 @@ impl Scene {
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut r = *ray;
-        for f in &self.fibers {
-            if let Some(hit) = f.curves.intersect(&r) {
-                r.t_max = hit.t;
-                best = Some(Hit::Fiber { hit, material: f.material });
-            }
-        }
+        // Cheap solid shapes first: a head in front shortens the ray before the hair's tree.
         for s in &self.spheres {
             if let Some(t) = sphere_hit(r.o, r.d, s.center, s.radius, r.t_min, r.t_max) {
                 r.t_max = t;
@@ -126,6 +121,12 @@ impl Scene {
             if let Some((t, n)) = m.mesh.intersect(&r) {
                 r.t_max = t;
                 best = Some(Hit::Surface { t, p: r.at(t), n, material: m.material, light: None });
+            }
+        }
+        for f in &self.fibers {
+            if let Some(hit) = f.curves.intersect(&r) {
+                r.t_max = hit.t;
+                best = Some(Hit::Fiber { hit, material: f.material });
             }
         }
         best

@@ -521,6 +521,11 @@ impl ScatteringFunction for Chiang {
         self.integrand_and_pdf(wi, wo, h).1
     }
 
+    fn eval_and_pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> (Rgb, f64) {
+        let (g, pdf) = self.integrand_and_pdf(wi, wo, h);
+        (g / cos_theta(wi).max(MIN_COS), pdf)
+    }
+
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {
         let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
         let hit = attenuation(self.params.eta, self.params.sigma_a, sin_o, cos_o, h);

@@ -564,6 +564,11 @@ impl ScatteringFunction for Deon {
         self.integrand_and_pdf(wi, wo).1
     }
 
+    fn eval_and_pdf(&self, wi: DVec3, wo: DVec3, _h: f64) -> (Rgb, f64) {
+        let (g, pdf) = self.integrand_and_pdf(wi, wo);
+        (g / cos_theta(wi).max(MIN_COS), pdf)
+    }
+
     fn sample(&self, wo: DVec3, _h: f64, u: [f64; 4]) -> Option<Sample> {
         let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
         let rows_o = row_position(cos_o);

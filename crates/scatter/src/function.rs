@@ -75,6 +75,12 @@ pub trait ScatteringFunction: Send + Sync {
     /// Density (sr⁻¹) with which [`ScatteringFunction::sample`] draws `wi` given `wo`, `h`.
     fn pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> f64;
 
+    /// `eval` and `pdf` together (models that share the work between them override this;
+    /// the renderer needs both for every light sample).
+    fn eval_and_pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> (Rgb, f64) {
+        (self.eval(wi, wo, h), self.pdf(wi, wo, h))
+    }
+
     /// Draws `ω_i` given `ω_o` and `h` from four independent uniforms in [0, 1).
     /// `None` when no direction can be produced (zero-valued lobe).
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample>;

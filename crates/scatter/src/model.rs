@@ -50,6 +50,10 @@ macro_rules! models {
                 match self { $(Model::$variant(m) => m.pdf(wi, wo, h),)* }
             }
             #[inline]
+            fn eval_and_pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> (Rgb, f64) {
+                match self { $(Model::$variant(m) => m.eval_and_pdf(wi, wo, h),)* }
+            }
+            #[inline]
             fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {
                 match self { $(Model::$variant(m) => m.sample(wo, h, u),)* }
             }
@@ -123,5 +127,27 @@ mod tests {
             assert_eq!(MODELS.iter().filter(|m| m.name == spec.name).count(), 1);
         }
         assert!(matches!(build::<&str, &str>("nope", &[]), Err(ModelError::UnknownModel { .. })));
+    }
+
+    /// The fused `eval_and_pdf` of every model returns exactly what `eval` and `pdf` do.
+    #[test]
+    fn eval_and_pdf_agrees_with_eval_and_pdf() {
+        let mut u = crate::test_rng::lcg(5);
+        let mut unit = || {
+            let (x, phi) = (2.0 * u() - 1.0, std::f64::consts::TAU * u());
+            let r = (1.0 - x * x).sqrt();
+            DVec3::new(x, r * phi.cos(), r * phi.sin())
+        };
+        let mut u2 = crate::test_rng::lcg(6);
+        for spec in MODELS {
+            let m = build::<&str, &str>(spec.name, &[]).unwrap();
+            for _ in 0..200 {
+                let (wi, wo) = (unit(), unit());
+                let h = 2.0 * u2() - 1.0;
+                let (f, pdf) = m.eval_and_pdf(wi, wo, h);
+                assert!(f.is_finite() && pdf.is_finite(), "{}", spec.name);
+                assert_eq!((f, pdf), (m.eval(wi, wo, h), m.pdf(wi, wo, h)), "{}", spec.name);
+            }
+        }
     }
 }

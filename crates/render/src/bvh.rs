@@ -16,6 +16,7 @@
 //! same instructions; traversal visits the hit children nearest first.
 
 use fiberlab_math::DVec3;
+use glam::Vec3;
 
 /// A ray `o + t·d` restricted to `t_min < t < t_max`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -114,26 +115,51 @@ struct Node {
     count: u32,
 }
 
-/// Marks an unused child slot of a [`Node4`].
-const EMPTY_SLOT: u8 = u8::MAX;
-
-/// A 4-wide node: child boxes as structure of arrays (`bounds[axis]` lower, `bounds[3 + axis]`
-/// upper corner, one lane per child). Child `k` is an interior node `child[k]` when
-/// `count[k] == 0`, a leaf of `count[k]` primitives from `child[k]` when `1 ≤ count[k] ≤
-/// MAX_LEAF`, and unused when `count[k] == EMPTY_SLOT`.
+/// A 4-wide node in one 64-byte cache line. Child boxes are quantized to 8 bits per
+/// coordinate on the node's grid, rounded outward: child `k`'s lower corner on `axis` is
+/// `origin[axis] + q[axis][k]·scale[axis]`, its upper corner uses `q[3 + axis][k]` (every
+/// decoded box contains the exact one; the build checks this with the traversal's arithmetic).
+/// `child[k]` is a [`ChildRef`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 struct Node4 {
-    bounds: [[f32; 4]; 6],
+    origin: [f32; 3],
+    scale: [f32; 3],
+    q: [[u8; 4]; 6],
     child: [u32; 4],
-    count: [u8; 4],
 }
 
-/// A pending subtree on the traversal stack: node or leaf reference and its entry distance.
+/// A child reference packed in a `u32`: the top 4 bits hold the leaf size (0: interior node,
+/// [`EMPTY_SLOT`]: unused slot), the low 28 bits the node index or the leaf's first primitive.
+struct ChildRef;
+
+/// Leaf-size value of an unused child slot.
+const EMPTY_SLOT: u32 = 15;
+/// Primitive offsets and node indices must fit below this.
+const MAX_REF: u32 = 1 << 28;
+
+impl ChildRef {
+    fn pack(count: u32, index: u32) -> u32 {
+        assert!(index < MAX_REF, "BVH too large: {index} ≥ 2^28 primitives or nodes");
+        debug_assert!(count <= EMPTY_SLOT);
+        (count << 28) | index
+    }
+
+    #[inline(always)]
+    fn count(r: u32) -> u32 {
+        r >> 28
+    }
+
+    #[inline(always)]
+    fn index(r: u32) -> u32 {
+        r & (MAX_REF - 1)
+    }
+}
+
+/// A pending subtree on the traversal stack: its [`ChildRef`] and entry distance.
 #[derive(Clone, Copy, Default)]
 struct Pending {
     child: u32,
-    count: u8,
     t: f32,
 }
 
@@ -154,26 +180,71 @@ fn round_up(x: f64) -> f32 {
     if f64::from(f) < x { f.next_up() } else { f }
 }
 
-struct Builder<'a> {
-    bounds: &'a [Aabb],
-    centroids: &'a [DVec3],
+/// A primitive during the build: its outward-rounded `f32` box and its index. The records
+/// themselves are partitioned (sequential memory traffic, no indirection).
+#[derive(Clone, Copy, Debug)]
+struct BuildPrim {
+    min: Vec3,
+    index: u32,
+    max: Vec3,
+}
+
+impl BuildPrim {
+    fn centroid(&self) -> Vec3 {
+        0.5 * (self.min + self.max)
+    }
+}
+
+/// An `f32` box for the build.
+#[derive(Clone, Copy, Debug)]
+struct FBox {
+    min: Vec3,
+    max: Vec3,
+}
+
+impl FBox {
+    const EMPTY: Self = Self { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY };
+
+    fn grow(&mut self, min: Vec3, max: Vec3) {
+        self.min = self.min.min(min);
+        self.max = self.max.max(max);
+    }
+
+    fn union(self, o: Self) -> Self {
+        Self { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+
+    /// Half the surface area (0 for the empty box).
+    fn half_area(&self) -> f32 {
+        let e = (self.max - self.min).max(Vec3::ZERO);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+
+    /// Bounds and centroid bounds of the records.
+    fn of(prims: &[BuildPrim]) -> (Self, Self) {
+        let (mut b, mut c) = (Self::EMPTY, Self::EMPTY);
+        for p in prims {
+            b.grow(p.min, p.max);
+            let m = p.centroid();
+            c.grow(m, m);
+        }
+        (b, c)
+    }
+}
+
+struct Builder {
     nodes: Vec<Node>,
 }
 
-impl Builder<'_> {
-    fn push_node(&mut self, b: Aabb) -> usize {
-        self.nodes.push(Node {
-            min: [round_down(b.min.x), round_down(b.min.y), round_down(b.min.z)],
-            max: [round_up(b.max.x), round_up(b.max.y), round_up(b.max.z)],
-            offset: 0,
-            count: 0,
-        });
+impl Builder {
+    fn push_node(&mut self, b: FBox) -> usize {
+        self.nodes.push(Node { min: b.min.to_array(), max: b.max.to_array(), offset: 0, count: 0 });
         self.nodes.len() - 1
     }
 
-    /// Builds the subtree over `prims` (which starts at `first` in the final order).
-    fn build(&mut self, prims: &mut [u32], first: usize) {
-        let bounds = prims.iter().fold(Aabb::EMPTY, |b, &p| b.union(self.bounds[p as usize]));
+    /// Builds the subtree over `prims` (which starts at `first` in the final order), whose
+    /// box and centroid box are `bounds` and `cb`.
+    fn build(&mut self, prims: &mut [BuildPrim], first: usize, bounds: FBox, cb: FBox) {
         let node = self.push_node(bounds);
         let leaf = |nodes: &mut Vec<Node>| {
             nodes[node].offset = first as u32;
@@ -182,7 +253,6 @@ impl Builder<'_> {
         if prims.len() <= 2 {
             return leaf(&mut self.nodes);
         }
-        let cb = prims.iter().fold(Aabb::EMPTY, |b, &p| b.union(Aabb::point(self.centroids[p as usize])));
         let extent = cb.max - cb.min;
         let axis = if extent.x >= extent.y && extent.x >= extent.z {
             0
@@ -199,52 +269,51 @@ impl Builder<'_> {
             return self.split_children(node, prims, mid, first);
         }
         // Binned SAH on the widest centroid axis.
-        let bin_of = |c: DVec3| (((c[axis] - cb.min[axis]) / extent[axis] * BINS as f64) as usize).min(BINS - 1);
-        let mut bin_box = [Aabb::EMPTY; BINS];
+        let (lo, scale) = (cb.min[axis], BINS as f32 / extent[axis]);
+        let bin_of = |p: &BuildPrim| (((p.centroid()[axis] - lo) * scale) as usize).min(BINS - 1);
+        let mut bin_box = [FBox::EMPTY; BINS];
         let mut bin_count = [0usize; BINS];
-        for &p in prims.iter() {
-            let b = bin_of(self.centroids[p as usize]);
-            bin_box[b] = bin_box[b].union(self.bounds[p as usize]);
+        for p in prims.iter() {
+            let b = bin_of(p);
+            bin_box[b].grow(p.min, p.max);
             bin_count[b] += 1;
         }
-        let mut right_area = [0.0; BINS];
-        let (mut acc, mut n) = (Aabb::EMPTY, 0);
+        let mut right_area = [0.0f32; BINS];
+        let (mut acc, mut n) = (FBox::EMPTY, 0);
         let mut right_count = [0usize; BINS];
         for i in (1..BINS).rev() {
             acc = acc.union(bin_box[i]);
             n += bin_count[i];
-            right_area[i] = acc.area();
+            right_area[i] = acc.half_area();
             right_count[i] = n;
         }
-        let (mut best_cost, mut best_split) = (f64::INFINITY, 0);
-        let (mut acc, mut n) = (Aabb::EMPTY, 0);
+        let (mut best_cost, mut best_split) = (f32::INFINITY, 0);
+        let (mut acc, mut n) = (FBox::EMPTY, 0);
         for i in 1..BINS {
             acc = acc.union(bin_box[i - 1]);
             n += bin_count[i - 1];
             if n == 0 || right_count[i] == 0 {
                 continue;
             }
-            let cost = acc.area() * n as f64 + right_area[i] * right_count[i] as f64;
+            let cost = acc.half_area() * n as f32 + right_area[i] * right_count[i] as f32;
             if cost < best_cost {
                 best_cost = cost;
                 best_split = i;
             }
         }
-        let leaf_cost = prims.len() as f64;
-        let split_cost = 1.0 + best_cost / bounds.area().max(f64::MIN_POSITIVE);
+        let leaf_cost = prims.len() as f32;
+        let split_cost = 1.0 + best_cost / bounds.half_area().max(f32::MIN_POSITIVE);
         if best_split == 0 || (split_cost >= leaf_cost && prims.len() <= MAX_LEAF) {
             if prims.len() <= MAX_LEAF {
                 return leaf(&mut self.nodes);
             }
             let mid = prims.len() / 2;
-            prims.select_nth_unstable_by(mid, |&a, &b| {
-                self.centroids[a as usize][axis].total_cmp(&self.centroids[b as usize][axis])
-            });
+            prims.select_nth_unstable_by(mid, |a, b| a.centroid()[axis].total_cmp(&b.centroid()[axis]));
             return self.split_children(node, prims, mid, first);
         }
         let mut mid = 0;
         for i in 0..prims.len() {
-            if bin_of(self.centroids[prims[i] as usize]) < best_split {
+            if bin_of(&prims[i]) < best_split {
                 prims.swap(i, mid);
                 mid += 1;
             }
@@ -252,19 +321,28 @@ impl Builder<'_> {
         self.split_children(node, prims, mid, first);
     }
 
-    fn split_children(&mut self, node: usize, prims: &mut [u32], mid: usize, first: usize) {
+    fn split_children(&mut self, node: usize, prims: &mut [BuildPrim], mid: usize, first: usize) {
         let (left, right) = prims.split_at_mut(mid);
         if left.len().min(right.len()) < PARALLEL_BUILD_MIN {
-            self.build(left, first);
+            let ((lb, lc), (rb, rc)) = (FBox::of(left), FBox::of(right));
+            self.build(left, first, lb, lc);
             self.nodes[node].offset = self.nodes.len() as u32;
-            self.build(right, first + mid);
+            self.build(right, first + mid, rb, rc);
             return;
         }
         // Large subtrees are built in parallel into their own node lists, then appended with
         // their interior-node offsets shifted (the result does not depend on the thread count).
-        let sub = || Builder { bounds: self.bounds, centroids: self.centroids, nodes: Vec::new() };
-        let (mut lb, mut rb) = (sub(), sub());
-        rayon::join(|| lb.build(left, first), || rb.build(right, first + mid));
+        let (mut lb, mut rb) = (Builder { nodes: Vec::new() }, Builder { nodes: Vec::new() });
+        rayon::join(
+            || {
+                let (b, c) = FBox::of(left);
+                lb.build(left, first, b, c);
+            },
+            || {
+                let (b, c) = FBox::of(right);
+                rb.build(right, first + mid, b, c);
+            },
+        );
         self.append(lb.nodes);
         self.nodes[node].offset = self.nodes.len() as u32;
         self.append(rb.nodes);
@@ -287,20 +365,24 @@ impl Bvh {
     #[must_use]
     pub fn build(bounds: &[Aabb]) -> Self {
         assert!(bounds.len() < u32::MAX as usize, "too many primitives for u32 indices");
-        let mut prims: Vec<u32> = (0..bounds.len() as u32).collect();
-        if prims.is_empty() {
+        if bounds.is_empty() {
             return Self::default();
         }
-        let centroids: Vec<DVec3> = bounds.iter().map(Aabb::centroid).collect();
-        let mut b = Builder { bounds, centroids: &centroids, nodes: Vec::with_capacity(2 * bounds.len() / 3 + 1) };
-        b.build(&mut prims, 0);
+        let round = |v: DVec3, f: fn(f64) -> f32| Vec3::new(f(v.x), f(v.y), f(v.z));
+        let mut records: Vec<BuildPrim> = bounds
+            .iter()
+            .enumerate()
+            .map(|(i, b)| BuildPrim { min: round(b.min, round_down), index: i as u32, max: round(b.max, round_up) })
+            .collect();
+        let mut b = Builder { nodes: Vec::with_capacity(2 * bounds.len() / 3 + 1) };
+        let (root, cb) = FBox::of(&records);
+        b.build(&mut records, 0, root, cb);
+        let prims = records.iter().map(|r| r.index).collect();
         let binary = b.nodes;
         let mut nodes = Vec::with_capacity(binary.len() / 3 + 1);
         if binary[0].count > 0 {
             // A single leaf: one wide node holding it.
-            let mut root = Node4::empty();
-            root.set(0, &binary[0], binary[0].offset, u8::try_from(binary[0].count).expect("leaf size"));
-            nodes.push(root);
+            nodes.push(Node4::new(&[(&binary[0], ChildRef::pack(binary[0].count, binary[0].offset))]));
         } else {
             collapse(&binary, 0, &mut nodes);
         }
@@ -358,7 +440,7 @@ impl Bvh {
                 // Push the farther ones (far first) and continue with the nearest.
                 let mut next = None;
                 for &k in order[..m].iter().rev() {
-                    let p = Pending { child: n.child[k], count: n.count[k], t: t_entry[k] };
+                    let p = Pending { child: n.child[k], t: t_entry[k] };
                     if let Some(prev) = next.replace(p) {
                         stack.push(prev);
                     }
@@ -376,11 +458,12 @@ impl Bvh {
                             }
                         },
                     };
-                    if p.count == 0 {
-                        node = p.child as usize;
+                    let (count, index) = (ChildRef::count(p.child) as usize, ChildRef::index(p.child) as usize);
+                    if count == 0 {
+                        node = index;
                         break;
                     }
-                    for &prim in &self.prims[p.child as usize..p.child as usize + usize::from(p.count)] {
+                    for &prim in &self.prims[index..index + count] {
                         if let Some(t) = hit(prim, t_max) {
                             t_max = t_max.min(t);
                         }
@@ -406,17 +489,15 @@ impl Bvh {
                     if mask & (1 << k) == 0 {
                         continue;
                     }
-                    if n.count[k] == 0 {
-                        stack.push(Pending { child: n.child[k], count: 0, t: 0.0 });
-                    } else {
-                        let first = n.child[k] as usize;
-                        if self.prims[first..first + usize::from(n.count[k])].iter().any(|&p| hit(p)) {
-                            return true;
-                        }
+                    let (count, index) = (ChildRef::count(n.child[k]) as usize, ChildRef::index(n.child[k]) as usize);
+                    if count == 0 {
+                        stack.push(Pending { child: n.child[k], t: 0.0 });
+                    } else if self.prims[index..index + count].iter().any(|&p| hit(p)) {
+                        return true;
                     }
                 }
                 match stack.pop() {
-                    Some(p) => node = p.child as usize,
+                    Some(p) => node = ChildRef::index(p.child) as usize,
                     None => return false,
                 }
             }
@@ -468,8 +549,8 @@ impl Slabs {
         let mut t1 = [t_max as f32; 4];
         for axis in 0..3 {
             for k in 0..4 {
-                let a = (n.bounds[axis][k] - self.slack - self.o[axis]) * self.inv[axis];
-                let b = (n.bounds[3 + axis][k] + self.slack - self.o[axis]) * self.inv[axis];
+                let a = (Node4::decode(n, axis, k) - self.slack - self.o[axis]) * self.inv[axis];
+                let b = (Node4::decode(n, 3 + axis, k) + self.slack - self.o[axis]) * self.inv[axis];
                 let (near, far) = if a <= b { (a, b) } else { (b, a) };
                 t0[k] = if near > t0[k] { near } else { t0[k] };
                 t1[k] = if far < t1[k] { far } else { t1[k] };
@@ -477,7 +558,7 @@ impl Slabs {
         }
         let mut mask = 0;
         for k in 0..4 {
-            if t0[k] <= t1[k] * (1.0 + 4.0 * f32::EPSILON) && n.count[k] != EMPTY_SLOT {
+            if t0[k] <= t1[k] * (1.0 + 4.0 * f32::EPSILON) && ChildRef::count(n.child[k]) != EMPTY_SLOT {
                 mask |= 1 << k;
             }
         }
@@ -486,19 +567,49 @@ impl Slabs {
 }
 
 impl Node4 {
-    fn empty() -> Self {
-        Self { bounds: [[0.0; 4]; 6], child: [0; 4], count: [EMPTY_SLOT; 4] }
+    /// The decoded coordinate `row` (0–2 lower, 3–5 upper corner, by axis) of child `k`.
+    #[inline(always)]
+    fn decode(n: &Node4, row: usize, k: usize) -> f32 {
+        n.origin[row % 3] + f32::from(n.q[row][k]) * n.scale[row % 3]
     }
 
-    /// Puts the box of binary node `b` in slot `k` with the given reference.
-    fn set(&mut self, k: usize, b: &Node, child: u32, count: u8) {
+    /// A node over up to four binary-tree boxes with their child references.
+    fn new(children: &[(&Node, u32)]) -> Self {
+        let mut n = Self { origin: [0.0; 3], scale: [0.0; 3], q: [[0; 4]; 6], child: [EMPTY_SLOT << 28; 4] };
         for axis in 0..3 {
-            self.bounds[axis][k] = b.min[axis];
-            self.bounds[3 + axis][k] = b.max[axis];
+            let lo = children.iter().map(|c| clamp_finite(c.0.min[axis])).fold(f32::INFINITY, f32::min);
+            let hi = children.iter().map(|c| clamp_finite(c.0.max[axis])).fold(f32::NEG_INFINITY, f32::max);
+            n.origin[axis] = lo;
+            let mut scale = (hi - lo) / 255.0;
+            while lo + 255.0 * scale < hi {
+                scale = scale.next_up();
+            }
+            n.scale[axis] = scale;
         }
-        self.child[k] = child;
-        self.count[k] = count;
+        for (k, (b, child)) in children.iter().enumerate() {
+            n.child[k] = *child;
+            for axis in 0..3 {
+                let (lo, hi) = (clamp_finite(b.min[axis]), clamp_finite(b.max[axis]));
+                let scale = n.scale[axis];
+                let grid = |x: f32| if scale > 0.0 { (x - n.origin[axis]) / scale } else { 0.0 };
+                n.q[axis][k] = grid(lo).floor().clamp(0.0, 255.0) as u8;
+                while n.q[axis][k] > 0 && Self::decode(&n, axis, k) > lo {
+                    n.q[axis][k] -= 1;
+                }
+                n.q[3 + axis][k] = grid(hi).ceil().clamp(0.0, 255.0) as u8;
+                while n.q[3 + axis][k] < 255 && Self::decode(&n, 3 + axis, k) < hi {
+                    n.q[3 + axis][k] += 1;
+                }
+                debug_assert!(Self::decode(&n, axis, k) <= lo && Self::decode(&n, 3 + axis, k) >= hi);
+            }
+        }
+        n
     }
+}
+
+/// Keeps box coordinates finite (an infinite or empty box becomes a huge one).
+fn clamp_finite(x: f32) -> f32 {
+    if x.is_nan() { 0.0 } else { x.clamp(-1e30, 1e30) }
 }
 
 fn box_area(n: &Node) -> f32 {
@@ -524,16 +635,20 @@ fn collapse(binary: &[Node], root: usize, out: &mut Vec<Node4>) -> u32 {
         slots.extend(children(c));
     }
     let index = out.len();
-    out.push(Node4::empty());
-    for (k, &c) in slots.iter().enumerate() {
-        let b = &binary[c];
-        let (child, count) = if b.count > 0 {
-            (b.offset, u8::try_from(b.count).expect("leaf size"))
-        } else {
-            (collapse(binary, c, out), 0)
-        };
-        out[index].set(k, b, child, count);
-    }
+    out.push(Node4::new(&[]));
+    let children: Vec<(&Node, u32)> = slots
+        .iter()
+        .map(|&c| {
+            let b = &binary[c];
+            let child = if b.count > 0 {
+                ChildRef::pack(b.count, b.offset)
+            } else {
+                ChildRef::pack(0, collapse(binary, c, out))
+            };
+            (b, child)
+        })
+        .collect();
+    out[index] = Node4::new(&children);
     index as u32
 }
 

@@ -621,34 +621,30 @@ fn box_area(n: &Node) -> f32 {
 /// returns the index of its wide node.
 fn collapse(binary: &[Node], root: usize, out: &mut Vec<Node4>) -> u32 {
     let children = |i: usize| [i + 1, binary[i].offset as usize];
-    let mut slots: Vec<usize> = children(root).to_vec();
-    while slots.len() < 4 {
+    let mut slots = [0usize; 4];
+    slots[..2].copy_from_slice(&children(root));
+    let mut len = 2;
+    while len < 4 {
         // Open the interior child with the largest box.
-        let best = slots
-            .iter()
-            .enumerate()
-            .filter(|&(_, &c)| binary[c].count == 0)
-            .max_by(|a, b| box_area(&binary[*a.1]).total_cmp(&box_area(&binary[*b.1])))
-            .map(|(i, _)| i);
+        let best = (0..len)
+            .filter(|&i| binary[slots[i]].count == 0)
+            .max_by(|&a, &b| box_area(&binary[slots[a]]).total_cmp(&box_area(&binary[slots[b]])));
         let Some(i) = best else { break };
-        let c = slots.swap_remove(i);
-        slots.extend(children(c));
+        let [a, b] = children(slots[i]);
+        slots[i] = a;
+        slots[len] = b;
+        len += 1;
     }
     let index = out.len();
     out.push(Node4::new(&[]));
-    let children: Vec<(&Node, u32)> = slots
-        .iter()
-        .map(|&c| {
-            let b = &binary[c];
-            let child = if b.count > 0 {
-                ChildRef::pack(b.count, b.offset)
-            } else {
-                ChildRef::pack(0, collapse(binary, c, out))
-            };
-            (b, child)
-        })
-        .collect();
-    out[index] = Node4::new(&children);
+    let mut refs = [(&binary[0], 0u32); 4];
+    for (r, &c) in refs.iter_mut().zip(&slots[..len]) {
+        let b = &binary[c];
+        let child =
+            if b.count > 0 { ChildRef::pack(b.count, b.offset) } else { ChildRef::pack(0, collapse(binary, c, out)) };
+        *r = (b, child);
+    }
+    out[index] = Node4::new(&refs[..len]);
     index as u32
 }
 

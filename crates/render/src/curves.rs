@@ -46,7 +46,7 @@ const MIN_MITER_COS: f64 = 0.5;
 /// A segment is split into pieces for the BVH until each piece's box spreads at most this many
 /// radii beyond the tube across the segment's two minor axis directions (a segment along a
 /// coordinate axis stays whole; a diagonal one gets tight boxes).
-const SPLIT_SPREAD_IN_RADII: f64 = 2.0;
+const SPLIT_SPREAD_IN_RADII: f64 = 4.0;
 /// At most this many BVH pieces per segment.
 const MAX_PIECES: usize = 8;
 

@@ -18,6 +18,7 @@
 
 use crate::bvh::Ray;
 use crate::curves::CurveHit;
+use crate::light::Light;
 use crate::sampler::PixelSampler;
 use crate::scene::{Hit, Material, Scene};
 use fiberlab_io::LinearImage;
@@ -214,6 +215,39 @@ fn spawn_epsilon(p: DVec3) -> f64 {
     1e-9 * (1.0 + p.abs().max_element())
 }
 
+/// Chooses the light for next-event estimation with probability proportional to
+/// [`Light::selection_weight`] (uniformly when every weight is zero).
+struct LightPicker {
+    total: f64,
+    uniform: f64,
+}
+
+impl LightPicker {
+    fn new(lights: &[Light]) -> Self {
+        let total = lights.iter().map(Light::selection_weight).sum();
+        Self { total, uniform: if lights.is_empty() { 0.0 } else { 1.0 / lights.len() as f64 } }
+    }
+
+    /// Probability that `pick` returns `light`.
+    fn probability(&self, light: &Light) -> f64 {
+        if self.total > 0.0 { light.selection_weight() / self.total } else { self.uniform }
+    }
+
+    /// A light and its selection probability, from one uniform.
+    fn pick<'a>(&self, lights: &'a [Light], u: f64) -> Option<(&'a Light, f64)> {
+        let mut acc = 0.0;
+        for light in lights {
+            let p = self.probability(light);
+            acc += p;
+            if u < acc && p > 0.0 {
+                return Some((light, p));
+            }
+        }
+        // Rounding left u above the last sum: the last light with a chance.
+        lights.iter().rev().map(|l| (l, self.probability(l))).find(|&(_, p)| p > 0.0)
+    }
+}
+
 /// Radiance arriving at the camera along `ray` (one path); adds the rays traced (path and
 /// shadow rays) to `rays`.
 #[must_use]
@@ -224,8 +258,7 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
     let mut prev_delta = true;
     let mut prev_pdf = 0.0;
     let mut prev_p = ray.o;
-    let n_lights = scene.lights.len();
-    let select = if n_lights > 0 { 1.0 / n_lights as f64 } else { 0.0 };
+    let picker = LightPicker::new(&scene.lights);
     let mut depth = 0u32;
     loop {
         *rays += 1;
@@ -235,7 +268,11 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
                 if le.is_black() {
                     continue;
                 }
-                let w = if prev_delta { 1.0 } else { power_heuristic(prev_pdf, select * light.pdf(prev_p, ray.d)) };
+                let w = if prev_delta {
+                    1.0
+                } else {
+                    power_heuristic(prev_pdf, picker.probability(light) * light.pdf(prev_p, ray.d))
+                };
                 l += beta * le * w;
             }
             break;
@@ -259,7 +296,8 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
                     let w = if prev_delta {
                         1.0
                     } else {
-                        power_heuristic(prev_pdf, select * scene.lights[li].pdf(prev_p, ray.d))
+                        let light = &scene.lights[li];
+                        power_heuristic(prev_pdf, picker.probability(light) * light.pdf(prev_p, ray.d))
                     };
                     l += beta * le * w;
                 }
@@ -279,8 +317,9 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
         // Next-event estimation (two dimension pairs, always consumed).
         let [u_pick, _] = sampler.next_2d();
         let u_light = sampler.next_2d();
-        if !local.is_delta() && n_lights > 0 {
-            let light = &scene.lights[((u_pick * n_lights as f64) as usize).min(n_lights - 1)];
+        if !local.is_delta()
+            && let Some((light, select)) = picker.pick(&scene.lights, u_pick)
+        {
             if let Some(ls) = light.sample(p, u_light) {
                 let (f, bsdf_pdf) = local.eval_cos_and_pdf(ls.wi);
                 if !f.is_black() && !ls.radiance.is_black() {
@@ -601,6 +640,31 @@ mod tests {
             assert!((f64::from(p[0]) / expected - 1.0).abs() < 1e-5, "{p:?} vs {expected}");
         }
         assert_eq!(out.stats.rays, 16 * 2 * 3, "camera, shadow and escaping continuation ray per sample");
+    }
+
+    /// Light selection follows the irradiance weights: a distant light of E = 3 against a sky
+    /// of L = 0.5 (π L ≈ 1.57) is picked with probability 3/4.57, and `pick` agrees with
+    /// `probability`; black lights only are picked uniformly.
+    #[test]
+    fn lights_are_picked_in_proportion_to_their_irradiance() {
+        let lights = vec![
+            Light::Constant { radiance: Rgb::splat(0.5) },
+            Light::Distant { direction: DVec3::Y, irradiance: Rgb::splat(3.0) },
+        ];
+        let picker = LightPicker::new(&lights);
+        let expected = 3.0 / (3.0 + 0.5 * PI);
+        assert!((picker.probability(&lights[1]) - expected).abs() < 1e-12);
+        let n = 100_000;
+        let picked = (0..n)
+            .filter(|i| {
+                let (l, p) = picker.pick(&lights, (f64::from(*i) + 0.5) / f64::from(n)).unwrap();
+                assert_eq!(p, picker.probability(l));
+                matches!(l, Light::Distant { .. })
+            })
+            .count();
+        assert!((picked as f64 / f64::from(n) - expected).abs() < 1e-4);
+        let dark = vec![Light::Constant { radiance: Rgb::ZERO }; 4];
+        assert_eq!(LightPicker::new(&dark).probability(&dark[0]), 0.25);
     }
 
     fn settings(spp: u32) -> RenderSettings {

@@ -110,6 +110,14 @@ impl EnvironmentMap {
         p_cell * (w * h) as f64 / (2.0 * PI * PI * sin_theta)
     }
 
+    /// Radiance averaged over the sphere of directions (channel mean).
+    #[must_use]
+    pub fn mean_radiance(&self) -> f64 {
+        // Cell weights are mean radiance × sinθ; a cell spans (2π/w)(π/h) in (φ, θ).
+        let (w, h) = (self.image.width() as f64, self.image.height() as f64);
+        self.total * 2.0 * PI * PI / (w * h) / (4.0 * PI)
+    }
+
     /// Draws a direction with density proportional to the map's luminance.
     #[must_use]
     pub fn sample(&self, u: [f64; 2]) -> Option<LightSample> {
@@ -194,6 +202,21 @@ impl Light {
     pub fn sun(direction: DVec3, radius_rad: f64, irradiance: Rgb) -> Self {
         let s = radius_rad.sin();
         Light::Sun { direction: direction.normalize(), cos_max: radius_rad.cos(), radiance: irradiance / (PI * s * s) }
+    }
+
+    /// Weight in next-event light selection: the irradiance the light delivers on a surface
+    /// facing it (π × mean radiance for environments, `E` for a sun or distant light, π × L at
+    /// a sphere light's surface), averaged over colour channels.
+    #[must_use]
+    pub fn selection_weight(&self) -> f64 {
+        match self {
+            Light::Constant { radiance } => PI * radiance.average(),
+            Light::Map(m) => PI * m.mean_radiance(),
+            Light::Sun { cos_max, radiance, .. } => PI * (1.0 - cos_max * cos_max) * radiance.average(),
+            Light::Distant { irradiance, .. } => irradiance.average(),
+            Light::Sphere { radiance, .. } => PI * radiance.average(),
+        }
+        .max(0.0)
     }
 
     /// True for lights at infinity (hit by escaping rays).

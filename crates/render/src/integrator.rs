@@ -319,18 +319,17 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
         let u_light = sampler.next_2d();
         if !local.is_delta()
             && let Some((light, select)) = picker.pick(&scene.lights, u_pick)
+            && let Some(ls) = light.sample(p, u_light)
         {
-            if let Some(ls) = light.sample(p, u_light) {
-                let (f, bsdf_pdf) = local.eval_cos_and_pdf(ls.wi);
-                if !f.is_black() && !ls.radiance.is_black() {
-                    let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
-                    let shadow = Ray { o: p, d: ls.wi, t_min: eps, t_max };
-                    *rays += 1;
-                    if scene.unoccluded(&shadow) {
-                        let p_light = select * ls.pdf;
-                        let w = if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf_pdf) };
-                        l += beta * f * ls.radiance * (w / p_light);
-                    }
+            let (f, bsdf_pdf) = local.eval_cos_and_pdf(ls.wi);
+            if !f.is_black() && !ls.radiance.is_black() {
+                let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
+                let shadow = Ray { o: p, d: ls.wi, t_min: eps, t_max };
+                *rays += 1;
+                if scene.unoccluded(&shadow) {
+                    let p_light = select * ls.pdf;
+                    let w = if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf_pdf) };
+                    l += beta * f * ls.radiance * (w / p_light);
                 }
             }
         }

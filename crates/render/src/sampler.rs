@@ -122,7 +122,7 @@ mod tests {
         }
         for pair in 0..6 {
             for (nx, ny) in [(4, 4), (1, 16), (16, 1), (2, 8), (8, 2)] {
-                let mut seen = vec![false; 16];
+                let mut seen = [false; 16];
                 for p in &points {
                     let [x, y] = p[pair];
                     let cell = (x * f64::from(nx)) as usize * ny as usize + (y * f64::from(ny)) as usize;

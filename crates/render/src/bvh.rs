@@ -135,13 +135,14 @@ struct ChildRef;
 
 /// Leaf-size value of an unused child slot.
 const EMPTY_SLOT: u32 = 15;
+const _: () = assert!((MAX_LEAF as u32) < EMPTY_SLOT, "leaf sizes must fit below EMPTY_SLOT");
 /// Primitive offsets and node indices must fit below this.
 const MAX_REF: u32 = 1 << 28;
 
 impl ChildRef {
     fn pack(count: u32, index: u32) -> u32 {
         assert!(index < MAX_REF, "BVH too large: {index} ≥ 2^28 primitives or nodes");
-        debug_assert!(count <= EMPTY_SLOT);
+        debug_assert!(count < EMPTY_SLOT, "leaf of {count} primitives");
         (count << 28) | index
     }
 

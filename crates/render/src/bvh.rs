@@ -273,10 +273,13 @@ impl Builder {
         let (lo, scale) = (cb.min[axis], BINS as f32 / extent[axis]);
         let bin_of = |p: &BuildPrim| (((p.centroid()[axis] - lo) * scale) as usize).min(BINS - 1);
         let mut bin_box = [FBox::EMPTY; BINS];
+        let mut bin_centroids = [FBox::EMPTY; BINS];
         let mut bin_count = [0usize; BINS];
         for p in prims.iter() {
             let b = bin_of(p);
             bin_box[b].grow(p.min, p.max);
+            let c = p.centroid();
+            bin_centroids[b].grow(c, c);
             bin_count[b] += 1;
         }
         let mut right_area = [0.0f32; BINS];
@@ -319,13 +322,32 @@ impl Builder {
                 mid += 1;
             }
         }
-        self.split_children(node, prims, mid, first);
+        // The children's boxes are the unions of their bins' (no pass over the records).
+        let union = |boxes: &[FBox]| boxes.iter().fold(FBox::EMPTY, |a, &b| a.union(b));
+        let sides = [
+            (union(&bin_box[..best_split]), union(&bin_centroids[..best_split])),
+            (union(&bin_box[best_split..]), union(&bin_centroids[best_split..])),
+        ];
+        self.split_children_with(node, prims, mid, first, sides);
     }
 
+    /// Splits at `mid` and builds both sides (their boxes computed here).
     fn split_children(&mut self, node: usize, prims: &mut [BuildPrim], mid: usize, first: usize) {
+        let (left, right) = prims.split_at(mid);
+        self.split_children_with(node, prims, mid, first, [FBox::of(left), FBox::of(right)]);
+    }
+
+    /// Splits at `mid` and builds both sides, given each side's box and centroid box.
+    fn split_children_with(
+        &mut self,
+        node: usize,
+        prims: &mut [BuildPrim],
+        mid: usize,
+        first: usize,
+        [(lb, lc), (rb, rc)]: [(FBox, FBox); 2],
+    ) {
         let (left, right) = prims.split_at_mut(mid);
         if left.len().min(right.len()) < PARALLEL_BUILD_MIN {
-            let ((lb, lc), (rb, rc)) = (FBox::of(left), FBox::of(right));
             self.build(left, first, lb, lc);
             self.nodes[node].offset = self.nodes.len() as u32;
             self.build(right, first + mid, rb, rc);
@@ -333,20 +355,11 @@ impl Builder {
         }
         // Large subtrees are built in parallel into their own node lists, then appended with
         // their interior-node offsets shifted (the result does not depend on the thread count).
-        let (mut lb, mut rb) = (Builder { nodes: Vec::new() }, Builder { nodes: Vec::new() });
-        rayon::join(
-            || {
-                let (b, c) = FBox::of(left);
-                lb.build(left, first, b, c);
-            },
-            || {
-                let (b, c) = FBox::of(right);
-                rb.build(right, first + mid, b, c);
-            },
-        );
-        self.append(lb.nodes);
+        let (mut left_builder, mut right_builder) = (Builder { nodes: Vec::new() }, Builder { nodes: Vec::new() });
+        rayon::join(|| left_builder.build(left, first, lb, lc), || right_builder.build(right, first + mid, rb, rc));
+        self.append(left_builder.nodes);
         self.nodes[node].offset = self.nodes.len() as u32;
-        self.append(rb.nodes);
+        self.append(right_builder.nodes);
     }
 
     /// Appends a subtree built at index 0, shifting its interior nodes' child offsets.

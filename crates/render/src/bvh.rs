@@ -11,9 +11,9 @@
 //!
 //! Layout: the binary tree is collapsed into a 4-wide tree (each node pulls up the
 //! grandchildren of its largest-area interior children until it has four; Wald et al. 2008,
-//! "Getting rid of packets"). A node stores its four child boxes as `f32` structure-of-arrays
-//! rounded outward (one 128-byte, cache-aligned record), so one ray tests all four with the
-//! same instructions; traversal visits the hit children nearest first.
+//! "Getting rid of packets"). A node is one 64-byte cache line holding its four child boxes
+//! quantized to 8 bits on the node's grid, rounded outward, as structure of arrays, so one ray
+//! tests all four with the same instructions; traversal visits the hit children nearest first.
 
 use fiberlab_math::DVec3;
 use glam::Vec3;
@@ -75,26 +75,6 @@ impl Aabb {
     pub fn union(self, o: Self) -> Self {
         Self { min: self.min.min(o.min), max: self.max.max(o.max) }
     }
-
-    /// Centre.
-    #[must_use]
-    pub fn centroid(&self) -> DVec3 {
-        0.5 * (self.min + self.max)
-    }
-
-    /// Surface area (0 for the empty box).
-    #[must_use]
-    pub fn area(&self) -> f64 {
-        let e = (self.max - self.min).max(DVec3::ZERO);
-        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
-    }
-
-    /// Volume (0 for the empty box).
-    #[must_use]
-    pub fn volume(&self) -> f64 {
-        let e = (self.max - self.min).max(DVec3::ZERO);
-        e.x * e.y * e.z
-    }
 }
 
 /// Subtrees with at least this many primitives on both sides are built in parallel.
@@ -109,8 +89,7 @@ const BINS: usize = 16;
 /// from `offset`.
 #[derive(Clone, Copy, Debug)]
 struct Node {
-    min: [f32; 3],
-    max: [f32; 3],
+    bounds: FBox,
     offset: u32,
     count: u32,
 }
@@ -239,7 +218,7 @@ struct Builder {
 
 impl Builder {
     fn push_node(&mut self, b: FBox) -> usize {
-        self.nodes.push(Node { min: b.min.to_array(), max: b.max.to_array(), offset: 0, count: 0 });
+        self.nodes.push(Node { bounds: b, offset: 0, count: 0 });
         self.nodes.len() - 1
     }
 
@@ -591,8 +570,8 @@ impl Node4 {
     fn new(children: &[(&Node, u32)]) -> Self {
         let mut n = Self { origin: [0.0; 3], scale: [0.0; 3], q: [[0; 4]; 6], child: [EMPTY_SLOT << 28; 4] };
         for axis in 0..3 {
-            let lo = children.iter().map(|c| clamp_finite(c.0.min[axis])).fold(f32::INFINITY, f32::min);
-            let hi = children.iter().map(|c| clamp_finite(c.0.max[axis])).fold(f32::NEG_INFINITY, f32::max);
+            let lo = children.iter().map(|c| clamp_finite(c.0.bounds.min[axis])).fold(f32::INFINITY, f32::min);
+            let hi = children.iter().map(|c| clamp_finite(c.0.bounds.max[axis])).fold(f32::NEG_INFINITY, f32::max);
             n.origin[axis] = lo;
             let mut scale = (hi - lo) / 255.0;
             while lo + 255.0 * scale < hi {
@@ -603,7 +582,7 @@ impl Node4 {
         for (k, (b, child)) in children.iter().enumerate() {
             n.child[k] = *child;
             for axis in 0..3 {
-                let (lo, hi) = (clamp_finite(b.min[axis]), clamp_finite(b.max[axis]));
+                let (lo, hi) = (clamp_finite(b.bounds.min[axis]), clamp_finite(b.bounds.max[axis]));
                 let scale = n.scale[axis];
                 let grid = |x: f32| if scale > 0.0 { (x - n.origin[axis]) / scale } else { 0.0 };
                 n.q[axis][k] = grid(lo).floor().clamp(0.0, 255.0) as u8;
@@ -626,11 +605,6 @@ fn clamp_finite(x: f32) -> f32 {
     if x.is_nan() { 0.0 } else { x.clamp(-1e30, 1e30) }
 }
 
-fn box_area(n: &Node) -> f32 {
-    let e = [n.max[0] - n.min[0], n.max[1] - n.min[1], n.max[2] - n.min[2]];
-    e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
-}
-
 /// Collapses the binary subtree at interior node `root` into wide nodes appended to `out`;
 /// returns the index of its wide node.
 fn collapse(binary: &[Node], root: usize, out: &mut Vec<Node4>) -> u32 {
@@ -642,7 +616,7 @@ fn collapse(binary: &[Node], root: usize, out: &mut Vec<Node4>) -> u32 {
         // Open the interior child with the largest box.
         let best = (0..len)
             .filter(|&i| binary[slots[i]].count == 0)
-            .max_by(|&a, &b| box_area(&binary[slots[a]]).total_cmp(&box_area(&binary[slots[b]])));
+            .max_by(|&a, &b| binary[slots[a]].bounds.half_area().total_cmp(&binary[slots[b]].bounds.half_area()));
         let Some(i) = best else { break };
         let [a, b] = children(slots[i]);
         slots[i] = a;

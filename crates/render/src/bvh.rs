@@ -16,7 +16,7 @@
 //! tests all four with the same instructions; traversal visits the hit children nearest first.
 
 use fiberlab_math::DVec3;
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 /// A ray `o + t·d` restricted to `t_min < t < t_max`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -514,52 +514,78 @@ fn with_stack<R>(f: impl FnOnce(&mut Vec<Pending>) -> R) -> R {
     r
 }
 
-/// A ray prepared for slab tests against `f32` boxes.
+/// A ray prepared for slab tests against quantized `f32` boxes: per axis, which box row
+/// (lower or upper corner) the ray meets first, and the inverse direction.
 struct Slabs {
-    o: [f32; 3],
-    inv: [f32; 3],
+    o: Vec3,
+    inv: Vec3,
+    /// `|inv|`, per axis.
+    inv_abs: Vec3,
+    /// Box widening in scene units for the `f32` origin, off by up to half an ulp of |o|.
     slack: f32,
+    /// Row of `Node4::q` holding the near (entry) plane per axis: `axis` when the direction
+    /// component is ≥ 0, else `3 + axis`; the far row is the other.
+    near_row: [usize; 3],
     t_min: f32,
 }
 
+/// Smallest direction component magnitude used for the slab reciprocals: keeps them finite
+/// (a box is never missed because of it: the slab then spans ±3e37 in ray distance).
+const MIN_DIRECTION: f64 = 1e-30;
+
 impl Slabs {
     fn new(ray: &Ray) -> Self {
+        let d = ray.d.map(|c| if c.abs() < MIN_DIRECTION { MIN_DIRECTION.copysign(c) } else { c });
+        let inv = d.recip().as_vec3();
         Self {
-            o: [ray.o.x as f32, ray.o.y as f32, ray.o.z as f32],
-            inv: [(1.0 / ray.d.x) as f32, (1.0 / ray.d.y) as f32, (1.0 / ray.d.z) as f32],
-            // The f32 origin is off by up to half an ulp of |o|; widen the boxes by it.
+            o: ray.o.as_vec3(),
+            inv,
+            inv_abs: inv.abs(),
             slack: (ray.o.abs().max_element() as f32) * f32::EPSILON * 4.0,
+            near_row: [0, 1, 2].map(|a| if inv[a] >= 0.0 { a } else { 3 + a }),
             t_min: ray.t_min as f32 - 1e-6,
         }
     }
 
     /// Which of the node's four children the ray enters within `(t_min, t_max)` (bit mask)
-    /// and the entry distances. NaN (0·∞, an origin on a slab plane with a zero direction
-    /// component) leaves an interval unchanged.
+    /// and the entry distances (four lanes: one `f32x4` slab test per axis). A plane's
+    /// distance is `q·(scale·inv) + (origin − o)·inv`; each box is widened by the origin's
+    /// slack plus a few ulps of the terms, which bounds the rounding of that sum.
     #[inline(always)]
     fn enter(&self, n: &Node4, t_max: f64) -> (u32, [f32; 4]) {
-        let mut t0 = [self.t_min; 4];
-        let mut t1 = [t_max as f32; 4];
+        let mut t0 = Vec4::splat(self.t_min);
+        let mut t1 = Vec4::splat(t_max as f32);
         for axis in 0..3 {
-            for k in 0..4 {
-                let a = (Node4::decode(n, axis, k) - self.slack - self.o[axis]) * self.inv[axis];
-                let b = (Node4::decode(n, 3 + axis, k) + self.slack - self.o[axis]) * self.inv[axis];
-                let (near, far) = if a <= b { (a, b) } else { (b, a) };
-                t0[k] = if near > t0[k] { near } else { t0[k] };
-                t1[k] = if far < t1[k] { far } else { t1[k] };
-            }
+            let row = self.near_row[axis];
+            let step = Vec4::splat(n.scale[axis] * self.inv[axis]);
+            let offset = n.origin[axis] - self.o[axis];
+            let base = offset * self.inv[axis];
+            let widen =
+                (self.slack + (offset.abs() + 256.0 * n.scale[axis]) * (4.0 * f32::EPSILON)) * self.inv_abs[axis];
+            let near = Node4::row(n, row) * step + Vec4::splat(base - widen);
+            let far = Node4::row(n, if row < 3 { row + 3 } else { row - 3 }) * step + Vec4::splat(base + widen);
+            t0 = t0.max(near);
+            t1 = t1.min(far);
         }
-        let mut mask = 0;
+        let hit = t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask();
+        let mut valid = 0;
         for k in 0..4 {
-            if t0[k] <= t1[k] * (1.0 + 4.0 * f32::EPSILON) && ChildRef::count(n.child[k]) != EMPTY_SLOT {
-                mask |= 1 << k;
+            if ChildRef::count(n.child[k]) != EMPTY_SLOT {
+                valid |= 1 << k;
             }
         }
-        (mask, t0)
+        (hit & valid, t0.to_array())
     }
 }
 
 impl Node4 {
+    /// Row `row` of the quantized grid coordinates of the four children, as `f32` lanes.
+    #[inline(always)]
+    fn row(n: &Node4, row: usize) -> Vec4 {
+        let q = n.q[row];
+        Vec4::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2]), f32::from(q[3]))
+    }
+
     /// The decoded coordinate `row` (0–2 lower, 3–5 upper corner, by axis) of child `k`.
     #[inline(always)]
     fn decode(n: &Node4, row: usize, k: usize) -> f32 {

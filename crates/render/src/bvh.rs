@@ -406,6 +406,21 @@ impl Bvh {
     /// `hit(prim, t_max)` for each primitive; `hit` returns `Some(t)` to shrink `t_max` to `t`.
     /// Returns the final `t_max` (the ray's own if nothing was hit).
     pub fn traverse(&self, ray: &Ray, mut hit: impl FnMut(u32, f64) -> Option<f64>) -> f64 {
+        self.traverse_leaves(ray, |prims, mut t_max| {
+            let mut shrunk = None;
+            for &prim in prims {
+                if let Some(t) = hit(prim, t_max) {
+                    t_max = t_max.min(t);
+                    shrunk = Some(t_max);
+                }
+            }
+            shrunk
+        })
+    }
+
+    /// [`Bvh::traverse`] a leaf at a time: `hit(prims, t_max)` gets each reached leaf's
+    /// primitives (at most [`MAX_LEAF`]) and returns `Some(t)` to shrink `t_max` to `t`.
+    pub fn traverse_leaves(&self, ray: &Ray, mut hit: impl FnMut(&[u32], f64) -> Option<f64>) -> f64 {
         if self.nodes.is_empty() {
             return ray.t_max;
         }
@@ -456,10 +471,8 @@ impl Bvh {
                         node = index;
                         break;
                     }
-                    for &prim in &self.prims[index..index + count] {
-                        if let Some(t) = hit(prim, t_max) {
-                            t_max = t_max.min(t);
-                        }
+                    if let Some(t) = hit(&self.prims[index..index + count], t_max) {
+                        t_max = t_max.min(t);
                     }
                 }
             }
@@ -469,6 +482,11 @@ impl Bvh {
     /// True when `hit(prim)` returns true for some primitive whose leaf the ray reaches
     /// (any-hit query for shadow rays; stops at the first hit).
     pub fn any(&self, ray: &Ray, mut hit: impl FnMut(u32) -> bool) -> bool {
+        self.any_leaf(ray, |prims| prims.iter().any(|&p| hit(p)))
+    }
+
+    /// [`Bvh::any`] a leaf at a time: true when `hit(prims)` is true for some reached leaf.
+    pub fn any_leaf(&self, ray: &Ray, mut hit: impl FnMut(&[u32]) -> bool) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
@@ -485,7 +503,7 @@ impl Bvh {
                     let (count, index) = (ChildRef::count(n.child[k]) as usize, ChildRef::index(n.child[k]) as usize);
                     if count == 0 {
                         stack.push(Pending { child: n.child[k], t: 0.0 });
-                    } else if self.prims[index..index + count].iter().any(|&p| hit(p)) {
+                    } else if hit(&self.prims[index..index + count]) {
                         return true;
                     }
                 }

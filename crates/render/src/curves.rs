@@ -39,7 +39,7 @@
 use crate::bvh::{Aabb, Bvh, Ray};
 use fiberlab_io::HairFile;
 use fiberlab_math::{DVec3, FiberFrame};
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 /// Bends sharper than this (cosine of the half-angle between segments) are not mitered.
 const MIN_MITER_COS: f64 = 0.5;
@@ -289,13 +289,16 @@ impl CurveSet {
         let quick = QuickRay::new(ray);
         // Pieces of one segment sit side by side in the tree: skip a segment just tested.
         let mut last = u32::MAX;
-        self.bvh.traverse(ray, |seg, t_max| {
-            if std::mem::replace(&mut last, seg) == seg {
-                return None;
+        self.bvh.traverse_leaves(ray, |prims, mut t_max| {
+            let mut found = None;
+            for seg in self.candidates(&quick, prims, &mut last) {
+                if let Some(hit) = self.intersect_segment(seg, ray, t_max) {
+                    t_max = hit.t;
+                    best = Some(hit);
+                    found = Some(hit.t);
+                }
             }
-            let hit = self.intersect_segment(seg, ray, &quick, t_max)?;
-            best = Some(hit);
-            Some(hit.t)
+            found
         });
         best
     }
@@ -305,9 +308,20 @@ impl CurveSet {
     pub fn occluded(&self, ray: &Ray) -> bool {
         let quick = QuickRay::new(ray);
         let mut last = u32::MAX;
-        self.bvh.any(ray, |seg| {
-            std::mem::replace(&mut last, seg) != seg && self.intersect_segment(seg, ray, &quick, ray.t_max).is_some()
+        self.bvh.any_leaf(ray, |prims| {
+            self.candidates(&quick, prims, &mut last).any(|seg| self.intersect_segment(seg, ray, ray.t_max).is_some())
         })
+    }
+
+    /// The segments of a leaf that pass the `f32` pre-test, in leaf order, skipping the
+    /// segment tested just before (`last`, updated).
+    fn candidates<'a>(&'a self, quick: &QuickRay, prims: &'a [u32], last: &mut u32) -> impl Iterator<Item = u32> + 'a {
+        let mut mask = quick.may_hit(&self.segments, prims);
+        if prims.first() == Some(last) {
+            mask &= !1;
+        }
+        *last = prims.last().copied().unwrap_or(*last);
+        prims.iter().enumerate().filter(move |&(k, _)| mask & (1 << k) != 0).map(|(_, &seg)| seg)
     }
 
     /// Nearest tube entry by testing every segment (the reference for the BVH).
@@ -316,20 +330,16 @@ impl CurveSet {
         let mut best: Option<CurveHit> = None;
         for i in 0..self.segments.len() {
             let t_max = best.map_or(ray.t_max, |b| b.t);
-            if let Some(h) = self.intersect_segment(i as u32, ray, &QuickRay::new(ray), t_max) {
+            if let Some(h) = self.intersect_segment(i as u32, ray, t_max) {
                 best = Some(h);
             }
         }
         best
     }
 
-    /// Entry of `ray` into segment `index` with `t_min < t < t_max`: an `f32` test of the
-    /// ray's distance to the axis rejects most candidates; survivors are intersected in `f64`.
-    fn intersect_segment(&self, index: u32, ray: &Ray, quick: &QuickRay, t_max: f64) -> Option<CurveHit> {
+    /// Entry of `ray` into segment `index` with `t_min < t < t_max`, in `f64`.
+    fn intersect_segment(&self, index: u32, ray: &Ray, t_max: f64) -> Option<CurveHit> {
         let s = &self.segments[index as usize];
-        if !quick.may_hit(s) {
-            return None;
-        }
         let (p0, a) = (s.p0.as_dvec3(), s.axis.as_dvec3());
         let (r, len) = (f64::from(s.radius), f64::from(s.length));
         let d_perp = ray.d - a * ray.d.dot(a);
@@ -365,7 +375,7 @@ impl CurveSet {
     }
 }
 
-/// A ray in `f32` for the conservative pre-test of [`CurveSet::intersect_segment`].
+/// A ray in `f32` for the conservative pre-test of a leaf's segments, four at a time.
 struct QuickRay {
     o: Vec3,
     d: Vec3,
@@ -376,22 +386,37 @@ impl QuickRay {
         Self { o: ray.o.as_vec3(), d: ray.d.as_vec3() }
     }
 
-    /// False only when the ray's line certainly misses the segment's infinite cylinder: the
-    /// squared distance to the axis exceeds r² by more than the `f32` rounding of the inputs
-    /// (relative 1e-5 of the origin's distance, far above the ~1e-7 actually incurred).
+    /// Bit `k` clear only when the ray's line certainly misses the infinite cylinder of
+    /// segment `prims[k]`: its squared distance to the axis exceeds r² by more than the `f32`
+    /// rounding of the inputs (relative 1e-5 of the origin's distance, far above the ~1e-7
+    /// actually incurred). Lanes of four segments (structure of arrays).
     #[inline]
-    fn may_hit(&self, s: &Segment) -> bool {
-        let oc = self.o - s.p0;
-        let d_perp = self.d - s.axis * self.d.dot(s.axis);
-        let oc_perp = oc - s.axis * oc.dot(s.axis);
-        let aa = d_perp.length_squared();
-        if aa < 1e-12 {
-            return true;
+    fn may_hit(&self, segments: &[Segment], prims: &[u32]) -> u32 {
+        let mut mask = 0;
+        for (chunk, ids) in prims.chunks(4).enumerate() {
+            // Gather (a short chunk repeats its last segment; those lanes are masked off).
+            let lane = |k: usize| &segments[ids[k.min(ids.len() - 1)] as usize];
+            let s = [lane(0), lane(1), lane(2), lane(3)];
+            let gather = |f: &dyn Fn(&Segment) -> f32| Vec4::new(f(s[0]), f(s[1]), f(s[2]), f(s[3]));
+            let (px, py, pz) = (gather(&|s| s.p0.x), gather(&|s| s.p0.y), gather(&|s| s.p0.z));
+            let (ax, ay, az) = (gather(&|s| s.axis.x), gather(&|s| s.axis.y), gather(&|s| s.axis.z));
+            let radius = gather(&|s| s.radius);
+            let (ox, oy, oz) = (Vec4::splat(self.o.x) - px, Vec4::splat(self.o.y) - py, Vec4::splat(self.o.z) - pz);
+            let (dx, dy, dz) = (Vec4::splat(self.d.x), Vec4::splat(self.d.y), Vec4::splat(self.d.z));
+            let d_along = dx * ax + dy * ay + dz * az;
+            let (ux, uy, uz) = (dx - ax * d_along, dy - ay * d_along, dz - az * d_along);
+            let o_along = ox * ax + oy * ay + oz * az;
+            let (wx, wy, wz) = (ox - ax * o_along, oy - ay * o_along, oz - az * o_along);
+            let aa = ux * ux + uy * uy + uz * uz;
+            // The closest approach as a vector (no cancellation between large terms).
+            let t = (wx * ux + wy * uy + wz * uz) / aa.max(Vec4::splat(1e-30));
+            let (qx, qy, qz) = (wx - ux * t, wy - uy * t, wz - uz * t);
+            let slack = radius + (Vec4::ONE + (ox * ox + oy * oy + oz * oz).sqrt()) * 1e-5;
+            let near = (qx * qx + qy * qy + qz * qz).cmplt(slack * slack) | aa.cmplt(Vec4::splat(1e-12));
+            let lanes = (1u32 << ids.len()) - 1;
+            mask |= (near.bitmask() & lanes) << (4 * chunk);
         }
-        // The closest approach as a vector (no cancellation between large terms).
-        let q = oc_perp - d_perp * (oc_perp.dot(d_perp) / aa);
-        let slack = s.radius + 1e-5 * (1.0 + oc.length_squared().sqrt());
-        q.length_squared() < slack * slack
+        mask
     }
 }
 

@@ -137,11 +137,56 @@ impl ChildRef {
     }
 }
 
-/// A pending subtree on the traversal stack: its [`ChildRef`] and entry distance.
+/// A pending subtree on the traversal stack: its entry distance (`f32` bits, ≥ 0, so the
+/// integer order is the distance order) above its [`ChildRef`], in one `u64`.
 #[derive(Clone, Copy, Default)]
-struct Pending {
-    child: u32,
-    t: f32,
+struct Pending(u64);
+
+impl Pending {
+    #[inline(always)]
+    fn new(child: u32, t: f32) -> Self {
+        Self((u64::from(t.max(0.0).to_bits()) << 32) | u64::from(child))
+    }
+
+    #[inline(always)]
+    fn child(self) -> u32 {
+        self.0 as u32
+    }
+
+    #[inline(always)]
+    fn t(self) -> f32 {
+        f32::from_bits((self.0 >> 32) as u32)
+    }
+}
+
+/// A traversal stack that can push conditionally without a branch.
+#[derive(Default)]
+struct Stack {
+    items: Vec<Pending>,
+    len: usize,
+}
+
+impl Stack {
+    /// Makes room for `n` more pushes.
+    #[inline(always)]
+    fn reserve(&mut self, n: usize) {
+        if self.len + n > self.items.len() {
+            self.items.resize(2 * self.items.len() + n + 16, Pending::default());
+        }
+    }
+
+    /// Pushes `p` when `keep` (after [`Stack::reserve`]).
+    #[inline(always)]
+    fn push_if(&mut self, p: Pending, keep: bool) {
+        self.items[self.len] = p;
+        self.len += usize::from(keep);
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<Pending> {
+        self.len = self.len.checked_sub(1)?;
+        Some(self.items[self.len])
+    }
 }
 
 /// A bounding volume hierarchy over boxes.
@@ -432,28 +477,24 @@ impl Bvh {
             loop {
                 let n = &self.nodes[node];
                 let (mask, t_entry) = slabs.enter(n, t_max);
-                // The hit children, nearest first (insertion sort of at most four).
-                let mut order = [0usize; 4];
-                let mut m = 0;
+                // The hit children, nearest first: a sorting network over (distance, child)
+                // keys, misses last; push the farther ones (far first), go on with the nearest.
+                let mut e = [u64::MAX; 4];
                 for k in 0..4 {
-                    if mask & (1 << k) != 0 {
-                        let mut j = m;
-                        while j > 0 && t_entry[order[j - 1]] > t_entry[k] {
-                            order[j] = order[j - 1];
-                            j -= 1;
-                        }
-                        order[j] = k;
-                        m += 1;
-                    }
+                    let key = Pending::new(n.child[k], t_entry[k]).0;
+                    e[k] = if mask & (1 << k) != 0 { key } else { u64::MAX };
                 }
-                // Push the farther ones (far first) and continue with the nearest.
-                let mut next = None;
-                for &k in order[..m].iter().rev() {
-                    let p = Pending { child: n.child[k], t: t_entry[k] };
-                    if let Some(prev) = next.replace(p) {
-                        stack.push(prev);
-                    }
+                for (i, j) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+                    let (a, b) = (e[i].min(e[j]), e[i].max(e[j]));
+                    e[i] = a;
+                    e[j] = b;
                 }
+                let m = mask.count_ones();
+                stack.reserve(3);
+                stack.push_if(Pending(e[3]), m > 3);
+                stack.push_if(Pending(e[2]), m > 2);
+                stack.push_if(Pending(e[1]), m > 1);
+                let mut next = (m > 0).then_some(Pending(e[0]));
                 // Intersect leaves as they come, until the next interior node.
                 loop {
                     let p = match next.take() {
@@ -461,13 +502,13 @@ impl Bvh {
                         // The nearest pending entry that the ray can still reach.
                         None => loop {
                             match stack.pop() {
-                                Some(p) if f64::from(p.t) <= t_max * (1.0 + 4.0 * f64::from(f32::EPSILON)) => break p,
+                                Some(p) if f64::from(p.t()) <= t_max * (1.0 + 4.0 * f64::from(f32::EPSILON)) => break p,
                                 Some(_) => {}
                                 None => return t_max,
                             }
                         },
                     };
-                    let (count, index) = (ChildRef::count(p.child) as usize, ChildRef::index(p.child) as usize);
+                    let (count, index) = (ChildRef::count(p.child()) as usize, ChildRef::index(p.child()) as usize);
                     if count == 0 {
                         node = index;
                         break;
@@ -503,13 +544,14 @@ impl Bvh {
                     }
                     let (count, index) = (ChildRef::count(n.child[k]) as usize, ChildRef::index(n.child[k]) as usize);
                     if count == 0 {
-                        stack.push(Pending { child: n.child[k], t: 0.0 });
+                        stack.reserve(1);
+                        stack.push_if(Pending::new(n.child[k], 0.0), true);
                     } else if hit(&self.prims[index..index + count]) {
                         return true;
                     }
                 }
                 match stack.pop() {
-                    Some(p) => node = ChildRef::index(p.child) as usize,
+                    Some(p) => node = ChildRef::index(p.child()) as usize,
                     None => return false,
                 }
             }
@@ -520,14 +562,14 @@ impl Bvh {
 thread_local! {
     /// Each thread's traversal stack, kept between queries so traversal never allocates once
     /// warmed up (taken out of the cell during a query; a nested query starts a fresh one).
-    static STACK: std::cell::Cell<Vec<Pending>> = const { std::cell::Cell::new(Vec::new()) };
+    static STACK: std::cell::Cell<Stack> = const { std::cell::Cell::new(Stack { items: Vec::new(), len: 0 }) };
 }
 
 /// Runs `f` with this thread's (empty) traversal stack.
 #[inline]
-fn with_stack<R>(f: impl FnOnce(&mut Vec<Pending>) -> R) -> R {
+fn with_stack<R>(f: impl FnOnce(&mut Stack) -> R) -> R {
     let mut stack = STACK.take();
-    stack.clear();
+    stack.len = 0;
     let r = f(&mut stack);
     STACK.set(stack);
     r

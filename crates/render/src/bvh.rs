@@ -502,7 +502,9 @@ impl Bvh {
                         // The nearest pending entry that the ray can still reach.
                         None => loop {
                             match stack.pop() {
-                                Some(p) if f64::from(p.t()) <= t_max * (1.0 + 4.0 * f64::from(f32::EPSILON)) => break p,
+                                Some(p) if f64::from(p.t()) <= t_max * (1.0 + 4.0 * f64::from(f32::EPSILON)) => {
+                                    break p;
+                                }
                                 Some(_) => {}
                                 None => return t_max,
                             }

@@ -183,6 +183,12 @@ impl Stack {
     }
 
     #[inline(always)]
+    fn push(&mut self, p: Pending) {
+        self.reserve(1);
+        self.push_if(p, true);
+    }
+
+    #[inline(always)]
     fn pop(&mut self) -> Option<Pending> {
         self.len = self.len.checked_sub(1)?;
         Some(self.items[self.len])
@@ -546,8 +552,7 @@ impl Bvh {
                     }
                     let (count, index) = (ChildRef::count(n.child[k]) as usize, ChildRef::index(n.child[k]) as usize);
                     if count == 0 {
-                        stack.reserve(1);
-                        stack.push_if(Pending::new(n.child[k], 0.0), true);
+                        stack.push(Pending::new(n.child[k], 0.0));
                     } else if hit(&self.prims[index..index + count]) {
                         return true;
                     }

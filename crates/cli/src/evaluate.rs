@@ -49,6 +49,7 @@ pub struct Args {
 }
 
 /// A parsed `--crop`.
+#[derive(Debug)]
 struct Crop {
     name: String,
     x0: usize,
@@ -57,17 +58,13 @@ struct Crop {
     y1: usize,
 }
 
-fn parse_crop(text: &str, width: usize, height: usize) -> anyhow::Result<Crop> {
+fn parse_crop(text: &str, width: u32, height: u32) -> anyhow::Result<Crop> {
     let (name, rect) = text.split_once('=').with_context(|| format!("--crop {text}: expected NAME=X0,Y0,X1,Y1"))?;
-    let v: Vec<usize> = rect
-        .split(',')
-        .map(|t| t.trim().parse::<usize>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--crop {text}: expected four whole numbers"))?;
-    let [x0, y0, x1, y1] = v[..] else { bail!("--crop {text}: expected four numbers X0,Y0,X1,Y1") };
-    if x0 >= x1 || y0 >= y1 || x1 > width || y1 > height || name.is_empty() {
-        bail!("--crop {text}: expected a non-empty name and 0 ≤ X0 < X1 ≤ {width}, 0 ≤ Y0 < Y1 ≤ {height}");
+    if name.is_empty() {
+        bail!("--crop {text}: expected a non-empty name before '='");
     }
+    let r = crate::render::parse_crop(rect, width, height).with_context(|| format!("--crop {text}"))?;
+    let [x0, y0, x1, y1] = [r.x0, r.y0, r.x1, r.y1].map(|v| v as usize);
     Ok(Crop { name: name.to_string(), x0, y0, x1, y1 })
 }
 
@@ -167,7 +164,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let crops: Vec<Crop> = args
         .crops
         .iter()
-        .map(|c| parse_crop(c, scene.camera.width as usize, scene.camera.height as usize))
+        .map(|c| parse_crop(c, scene.camera.width, scene.camera.height))
         .collect::<anyhow::Result<_>>()?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let reference = match (&args.reference, &args.table) {
@@ -251,4 +248,26 @@ fn grid(tiles: &[(String, Image)], path: &Path, scale: u32) -> anyhow::Result<()
         root.present().map_err(err)?;
     }
     crate::plot::write_png(path, &buf, size)
+}
+
+#[cfg(test)]
+mod crop_tests {
+    use super::parse_crop;
+
+    #[test]
+    fn crops_parse_and_bad_ones_say_what_was_expected() {
+        let c = parse_crop("glint=2,3,10,12", 16, 16).unwrap();
+        assert_eq!((c.name.as_str(), c.x0, c.y0, c.x1, c.y1), ("glint", 2, 3, 10, 12));
+        for (bad, expected) in [
+            ("2,3,10,12", "NAME=X0,Y0,X1,Y1"),
+            ("=2,3,10,12", "non-empty name"),
+            ("a=2,3,10", "four integers"),
+            ("a=2,x,10,12", "four integers"),
+            ("a=10,3,2,12", "x0 < x1 ≤ 16"),
+            ("a=2,3,10,17", "y1 ≤ 16"),
+        ] {
+            let err = format!("{:#}", parse_crop(bad, 16, 16).unwrap_err());
+            assert!(err.contains(expected), "{bad}: {err}");
+        }
+    }
 }

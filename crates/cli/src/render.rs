@@ -64,7 +64,8 @@ fn parse_tile(text: &str, w: u32, h: u32) -> anyhow::Result<Region> {
     Ok(Region::part(i, n, w, h))
 }
 
-fn parse_crop(text: &str, w: u32, h: u32) -> anyhow::Result<Region> {
+/// A pixel rectangle `x0,y0,x1,y1` (half-open) inside a `w`×`h` image, for `--crop`.
+pub(crate) fn parse_crop(text: &str, w: u32, h: u32) -> anyhow::Result<Region> {
     let v: Vec<u32> = text
         .split(',')
         .map(|s| s.trim().parse::<u32>())

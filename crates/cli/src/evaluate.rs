@@ -7,7 +7,7 @@ use crate::compare::{Image, compare, load};
 use anyhow::{Context, bail};
 use fiberlab_io::{LinearImage, ToneMap};
 use fiberlab_render::integrator::{RenderSettings, render};
-use fiberlab_render::scene::{Material, Scene};
+use fiberlab_render::scene::Scene;
 use fiberlab_render::scene_file::SceneFile;
 use fiberlab_scatter::Model;
 use std::path::{Path, PathBuf};
@@ -70,18 +70,12 @@ fn parse_crop(text: &str, width: u32, height: u32) -> anyhow::Result<Crop> {
 
 /// Replaces every hair material of `scene` by `model`.
 fn set_hair_model(scene: &mut Scene, model: &Model) {
-    let indices: Vec<usize> = scene.fibers.iter().map(|f| f.material).collect();
-    for i in indices {
-        scene.materials[i] = Material::Fiber(Box::new(model.clone()));
-    }
+    scene.fiber_models_mut().for_each(|m| *m = model.clone());
 }
 
-/// The scene's own hair model (first fiber material).
+/// The scene's own hair model (the first fibers' material).
 fn scene_hair_model(scene: &Scene) -> Option<Model> {
-    scene.fibers.first().and_then(|f| match &scene.materials[f.material] {
-        Material::Fiber(m) => Some((**m).clone()),
-        _ => None,
-    })
+    scene.fibers().first().map(|f| scene.fiber_model(f.material()).clone())
 }
 
 fn build_model(name: &str, args: &Args, target: &Model) -> anyhow::Result<Model> {
@@ -164,7 +158,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let crops: Vec<Crop> = args
         .crops
         .iter()
-        .map(|c| parse_crop(c, scene.camera.width, scene.camera.height))
+        .map(|c| parse_crop(c, scene.camera().width, scene.camera().height))
         .collect::<anyhow::Result<_>>()?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let reference = match (&args.reference, &args.table) {

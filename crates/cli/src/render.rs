@@ -90,7 +90,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let (scene, mut settings) = file.build()?;
     let build_seconds = t0.elapsed().as_secs_f64();
-    let (w, h) = (scene.camera.width, scene.camera.height);
+    let (w, h) = (scene.camera().width, scene.camera().height);
     if let Some(spp) = args.spp {
         settings.spp = spp.max(1);
     }

@@ -1,0 +1,202 @@
+//! Command-line values as clap value parsers (`#[arg(value_parser = …)]`): each flag's text is
+//! read and validated while the command line is parsed, into a type that can only hold a
+//! valid value, before any file is loaded. Degrees are read here and held as [`Angle`]s
+//! (radians inside); checks that need a file's contents (a pixel rectangle inside the
+//! scene's image) are methods of these types, run once the file is parsed.
+
+use fiberlab_render::integrator::Region;
+
+/// An angle written in degrees: the radians the code uses, and the degrees as written
+/// (for titles and messages).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Angle {
+    /// The angle in radians.
+    pub radians: f64,
+    /// The angle as written, in degrees.
+    pub degrees: f64,
+}
+
+fn number<T: std::str::FromStr>(text: &str, what: &str) -> Result<T, String> {
+    text.trim().parse().map_err(|_| format!("expected {what}, got `{text}`"))
+}
+
+/// Finite degrees.
+pub fn degrees(text: &str) -> Result<Angle, String> {
+    let d: f64 = number(text, "degrees")?;
+    if !d.is_finite() {
+        return Err(format!("expected finite degrees, got `{text}`"));
+    }
+    Ok(Angle { radians: d.to_radians(), degrees: d })
+}
+
+/// An inclination from the normal plane strictly inside (−90°, 90°), degrees.
+pub fn inclination(text: &str) -> Result<Angle, String> {
+    let a = degrees(text)?;
+    if a.degrees.abs() >= 90.0 {
+        return Err(format!("expected degrees in (-90, 90), got `{text}`"));
+    }
+    Ok(a)
+}
+
+/// An incidence of the goniophotometer, within (−89.9°, 89.9°), degrees.
+pub fn incidence(text: &str) -> Result<Angle, String> {
+    let a = degrees(text)?;
+    if a.degrees.abs() >= 89.9 {
+        return Err(format!("expected degrees in (-89.9, 89.9), got `{text}`"));
+    }
+    Ok(a)
+}
+
+/// A count ≥ 1.
+pub fn positive_count(text: &str) -> Result<usize, String> {
+    match number::<usize>(text, "a positive integer")? {
+        0 => Err("expected a positive integer, got 0".into()),
+        n => Ok(n),
+    }
+}
+
+/// Seconds ≥ 0, finite.
+pub fn seconds(text: &str) -> Result<f64, String> {
+    let s: f64 = number(text, "seconds")?;
+    if !(s.is_finite() && s >= 0.0) {
+        return Err(format!("expected seconds ≥ 0, got `{text}`"));
+    }
+    Ok(s)
+}
+
+/// Histogram bins `NT,NP` of the goniophotometer (θ_r and φ).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Bins {
+    /// Bins in θ_r.
+    pub theta: usize,
+    /// Bins in φ.
+    pub phi: usize,
+}
+
+/// `NT,NP`, two positive integers.
+pub fn bins(text: &str) -> Result<Bins, String> {
+    let expected = || format!("expected two positive integers NT,NP, got `{text}`");
+    let (a, b) = text.split_once(',').ok_or_else(expected)?;
+    let (theta, phi) =
+        (a.trim().parse::<usize>().map_err(|_| expected())?, b.trim().parse::<usize>().map_err(|_| expected())?);
+    if theta == 0 || phi == 0 {
+        return Err(expected());
+    }
+    Ok(Bins { theta, phi })
+}
+
+/// Part `index` of `count` bands of rows (`--tile I/N`), `0 ≤ I < N`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Tile {
+    /// I.
+    pub index: u32,
+    /// N.
+    pub count: u32,
+}
+
+impl Tile {
+    /// The band of a `width × height` image.
+    #[must_use]
+    pub fn region(self, width: u32, height: u32) -> Region {
+        Region::part(self.index, self.count, width, height)
+    }
+}
+
+/// `I/N` with `0 ≤ I < N`.
+pub fn tile(text: &str) -> Result<Tile, String> {
+    let (i, n) = text.split_once('/').ok_or_else(|| format!("expected I/N, e.g. 0/4, got `{text}`"))?;
+    let index = i.trim().parse().map_err(|_| format!("`{text}`: I is not a number"))?;
+    let count = n.trim().parse().map_err(|_| format!("`{text}`: N is not a number"))?;
+    if count == 0 || index >= count {
+        return Err(format!("`{text}`: need 0 ≤ I < N"));
+    }
+    Ok(Tile { index, count })
+}
+
+/// A non-empty half-open pixel rectangle `x0,y0,x1,y1` (`x0 < x1`, `y0 < y1`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelRect(Region);
+
+impl PixelRect {
+    /// The rectangle, checked to lie inside a `width × height` image.
+    pub fn within(self, width: u32, height: u32) -> Result<Region, String> {
+        let r = self.0;
+        if r.x1 > width || r.y1 > height {
+            return Err(format!("{},{},{},{}: need x0 < x1 ≤ {width} and y0 < y1 ≤ {height}", r.x0, r.y0, r.x1, r.y1));
+        }
+        Ok(r)
+    }
+}
+
+/// `x0,y0,x1,y1`, four integers with `x0 < x1` and `y0 < y1`.
+pub fn pixel_rect(text: &str) -> Result<PixelRect, String> {
+    let expected = || format!("expected four integers x0,y0,x1,y1, got `{text}`");
+    let v: Vec<u32> =
+        text.split(',').map(|s| s.trim().parse::<u32>()).collect::<Result<_, _>>().map_err(|_| expected())?;
+    let [x0, y0, x1, y1] = v[..] else { return Err(expected()) };
+    if x0 >= x1 || y0 >= y1 {
+        return Err(format!("`{text}`: need x0 < x1 and y0 < y1"));
+    }
+    Ok(PixelRect(Region { x0, y0, x1, y1 }))
+}
+
+/// A named pixel rectangle `NAME=X0,Y0,X1,Y1`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NamedRect {
+    /// The name (non-empty).
+    pub name: String,
+    /// The rectangle.
+    pub rect: PixelRect,
+}
+
+/// `NAME=X0,Y0,X1,Y1` with a non-empty name.
+pub fn named_rect(text: &str) -> Result<NamedRect, String> {
+    let (name, rect) = text.split_once('=').ok_or_else(|| format!("expected NAME=X0,Y0,X1,Y1, got `{text}`"))?;
+    if name.is_empty() {
+        return Err(format!("`{text}`: expected a non-empty name before '='"));
+    }
+    Ok(NamedRect { name: name.to_string(), rect: pixel_rect(rect)? })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn angles_are_degrees_in_and_radians_out_with_their_ranges() {
+        let a = degrees("-30").unwrap();
+        assert_eq!((a.degrees, a.radians), (-30.0, -std::f64::consts::PI / 6.0));
+        assert!(degrees("inf").is_err() && degrees("x").is_err());
+        assert!(inclination("89.99").is_ok() && inclination("90").is_err() && inclination("-90").is_err());
+        assert!(incidence("89.8").is_ok() && incidence("89.9").unwrap_err().contains("(-89.9, 89.9)"));
+    }
+
+    #[test]
+    fn counts_seconds_and_bins() {
+        assert_eq!(positive_count("3"), Ok(3));
+        assert!(positive_count("0").is_err() && positive_count("-1").is_err());
+        assert_eq!(seconds("0"), Ok(0.0));
+        assert!(seconds("-1").is_err() && seconds("NaN").is_err());
+        assert_eq!(bins("18, 36"), Ok(Bins { theta: 18, phi: 36 }));
+        for bad in ["18", "0,36", "18,x", "18,36,2"] {
+            assert!(bins(bad).unwrap_err().contains("NT,NP"), "{bad}");
+        }
+    }
+
+    #[test]
+    fn tiles_and_rectangles_say_what_was_expected() {
+        assert_eq!(tile("1/3"), Ok(Tile { index: 1, count: 3 }));
+        assert_eq!(tile("2/3").unwrap().region(10, 9), Region { x0: 0, y0: 6, x1: 10, y1: 9 });
+        for (bad, expected) in [("3/3", "0 ≤ I < N"), ("0/0", "0 ≤ I < N"), ("a/3", "I is not"), ("1", "I/N")] {
+            assert!(tile(bad).unwrap_err().contains(expected), "{bad}");
+        }
+        let r = pixel_rect("2,3,10,12").unwrap();
+        assert_eq!(r.within(16, 16), Ok(Region { x0: 2, y0: 3, x1: 10, y1: 12 }));
+        assert!(r.within(9, 16).unwrap_err().contains("x0 < x1 ≤ 9"));
+        assert!(pixel_rect("10,3,2,12").unwrap_err().contains("x0 < x1"));
+        assert!(pixel_rect("1,2,3").unwrap_err().contains("four integers"));
+        assert_eq!(named_rect("g=0,0,1,1").unwrap().name, "g");
+        assert!(named_rect("=0,0,1,1").unwrap_err().contains("non-empty name"));
+        assert!(named_rect("0,0,1,1").unwrap_err().contains("NAME=X0,Y0,X1,Y1"));
+    }
+}

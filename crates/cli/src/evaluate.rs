@@ -12,8 +12,9 @@ use fiberlab_render::integrator::{Region, RenderSettings, render};
 use fiberlab_render::model_loader::load_model;
 use fiberlab_render::scene::Scene;
 use fiberlab_render::scene_file::SceneFile;
-use fiberlab_scatter::params::{RawValue, split_key_value};
-use fiberlab_scatter::{ExternalData, Model, kajiya_kay_1989, measured};
+use fiberlab_scatter::kajiya_kay_1989::{self, KajiyaKay, KajiyaKayParams};
+use fiberlab_scatter::params::{ParamSet, RawValue, split_key_value};
+use fiberlab_scatter::{ExternalData, Model, measured};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
@@ -84,32 +85,29 @@ fn build_model(name: &str, args: &Args, target: &Model) -> anyhow::Result<Model>
         pairs.push((key.to_string(), RawValue::Text(table.to_string_lossy().into_owned())));
     }
     if spec.name == kajiya_kay_1989::SPEC.name && pairs.is_empty() {
-        pairs = fitted_kajiya_kay(target)?;
+        return fitted_kajiya_kay(target);
     }
     load_model(spec.name, &pairs, Path::new("")).with_context(|| format!("model `{name}`"))
 }
 
-/// Kajiya–Kay's parameters fitted to `target` (in luminance, then coloured by the target's
-/// mean colour).
-fn fitted_kajiya_kay(target: &Model) -> anyhow::Result<Vec<(String, RawValue)>> {
+/// Kajiya–Kay fitted to `target` (in luminance, then coloured by the target's mean colour).
+fn fitted_kajiya_kay(target: &Model) -> anyhow::Result<Model> {
     let data = crate::fit::from_model(target);
     let free = [("k_d".to_string(), 0.02), ("k_s".to_string(), 0.1), ("p".to_string(), 10.0)];
-    let r = fiberlab_fit::fit(kajiya_kay_1989::SPEC.name, &[], &free, &data, 400)?;
+    let spec = &kajiya_kay_1989::SPEC;
+    let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[])?;
+    let r = fiberlab_fit::fit(&base, &free, &data, 400)?;
+    let value = |key: &str| r.params.iter().find(|(k, _)| k == key).map_or(0.0, |(_, v)| *v);
     let tint = mean_colour(target);
-    let fitted: Vec<(String, RawValue)> = r
-        .params
-        .iter()
-        .map(|(k, v)| {
-            let value = if k == "p" {
-                RawValue::Number(*v)
-            } else {
-                Rgb::new((v * tint[0]).min(10.0), (v * tint[1]).min(10.0), (v * tint[2]).min(10.0)).into()
-            };
-            (k.clone(), value)
-        })
-        .collect();
+    let fitted = KajiyaKayParams {
+        k_d: Rgb::new(tint[0], tint[1], tint[2]) * value("k_d"),
+        k_s: Rgb::new(tint[0], tint[1], tint[2]) * value("k_s"),
+        p: value("p"),
+    };
+    let fitted =
+        KajiyaKayParams { k_d: fitted.k_d.map(|c| c.min(10.0)), k_s: fitted.k_s.map(|c| c.min(10.0)), ..fitted };
     eprintln!("kajiya-kay fitted to the scene's hair model: {fitted:?}");
-    Ok(fitted)
+    Ok(KajiyaKay::new(fitted)?.into())
 }
 
 /// Mean colour of `f_s` over directions, divided by its luminance (a tint with luminance 1).

@@ -4,6 +4,7 @@
 //! (radians inside); checks that need a file's contents (a pixel rectangle inside the
 //! scene's image) are methods of these types, run once the file is parsed.
 
+use fiberlab_math::DVec3;
 use fiberlab_render::integrator::Region;
 
 /// An angle written in degrees: the radians the code uses, and the degrees as written
@@ -62,6 +63,40 @@ pub fn seconds(text: &str) -> Result<f64, String> {
         return Err(format!("expected seconds ≥ 0, got `{text}`"));
     }
     Ok(s)
+}
+
+/// A finite number > 0.
+pub fn positive(text: &str) -> Result<f64, String> {
+    let x: f64 = number(text, "a number > 0")?;
+    if !(x.is_finite() && x > 0.0) {
+        return Err(format!("expected a number > 0, got `{text}`"));
+    }
+    Ok(x)
+}
+
+/// An offset across a fiber, in [−1, 1].
+pub fn offset(text: &str) -> Result<f64, String> {
+    let h: f64 = number(text, "a number in [-1, 1]")?;
+    if !(-1.0..=1.0).contains(&h) {
+        return Err(format!("expected a number in [-1, 1], got `{text}`"));
+    }
+    Ok(h)
+}
+
+/// A unit direction `x,y,z` (|w| within 1e−3 of 1, then normalized).
+pub fn unit_vector(text: &str) -> Result<DVec3, String> {
+    let parts: Vec<f64> = text
+        .split(',')
+        .map(|s| s.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("expected three numbers x,y,z, got `{text}`"))?;
+    let [x, y, z] = parts[..] else { return Err(format!("expected three numbers x,y,z, got `{text}`")) };
+    let w = DVec3::new(x, y, z);
+    let len = w.length();
+    if !(w.is_finite() && (len - 1.0).abs() <= 1e-3) {
+        return Err(format!("expected a unit vector, got ({x}, {y}, {z}) of length {len}"));
+    }
+    Ok(w / len)
 }
 
 /// Histogram bins `NT,NP` of the goniophotometer (θ_r and φ).
@@ -169,6 +204,17 @@ mod tests {
         assert!(degrees("inf").is_err() && degrees("x").is_err());
         assert!(inclination("89.99").is_ok() && inclination("90").is_err() && inclination("-90").is_err());
         assert!(incidence("89.8").is_ok() && incidence("89.9").unwrap_err().contains("(-89.9, 89.9)"));
+    }
+
+    #[test]
+    fn numbers_offsets_and_directions() {
+        assert_eq!(positive("2.5"), Ok(2.5));
+        assert!(positive("0").is_err() && positive("inf").is_err());
+        assert_eq!(offset("-1"), Ok(-1.0));
+        assert!(offset("1.01").unwrap_err().contains("[-1, 1]") && offset("NaN").is_err());
+        assert_eq!(unit_vector("0, 0.6, 0.8"), Ok(DVec3::new(0.0, 0.6, 0.8) / DVec3::new(0.0, 0.6, 0.8).length()));
+        assert!(unit_vector("0,1").unwrap_err().contains("x,y,z"));
+        assert!(unit_vector("0,2,0").unwrap_err().contains("length 2"));
     }
 
     #[test]

@@ -26,16 +26,6 @@ pub fn write_output(path: Option<&Path>, bytes: &[u8]) -> anyhow::Result<()> {
     }
 }
 
-/// Parses `x,y,z` into a vector, naming `what` in errors.
-pub fn parse_vec3(text: &str, what: &str) -> anyhow::Result<fiberlab_math::DVec3> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    let [x, y, z] = parts.as_slice() else {
-        anyhow::bail!("{what}: expected three numbers x,y,z, got `{text}`");
-    };
-    let n = |s: &str| s.parse::<f64>().with_context(|| format!("{what}: cannot read `{s}` as a number"));
-    Ok(fiberlab_math::DVec3::new(n(x)?, n(y)?, n(z)?))
-}
-
 /// Checks that `w` is a finite unit vector (|w| within 1e−3 of 1).
 pub fn require_unit(w: fiberlab_math::DVec3, what: &str) -> anyhow::Result<fiberlab_math::DVec3> {
     let len = w.length();

@@ -27,8 +27,8 @@ pub struct Args {
     /// Colour scale of the image.
     #[arg(long, value_enum, default_value_t = Scale::Log)]
     scale: Scale,
-    /// Decades shown by the log scale.
-    #[arg(long, default_value_t = 4.0)]
+    /// Decades shown by the log scale (> 0).
+    #[arg(long, default_value = "4", value_parser = arg_values::positive)]
     decades: f64,
 }
 
@@ -96,7 +96,6 @@ fn compute(model: &Model, theta_i: f64) -> Grids {
 
 /// Draws the figure.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    anyhow::ensure!(args.decades > 0.0, "--decades must be positive");
     let model = args.model.build()?;
     let grids = compute(&model, args.theta_i.radians);
     let title = format!("{}   θ_i = {}°", args.model.label(), args.theta_i.degrees);

@@ -345,3 +345,38 @@ impl Scene {
             || self.fibers.iter().any(|f| f.curves.occluded(ray)))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An emitting sphere is one object: a ray hitting it reports it as the emitter, the picker
+    /// offers it with weight π L beside the lights at infinity (added before or after it), and
+    /// its light is made from its own centre and radius; a sphere without emission is no light.
+    #[test]
+    fn an_emitting_sphere_is_one_object_and_the_picker_sees_it() {
+        let camera = Camera::look_at(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 30.0, 4, 4).unwrap();
+        let mut b = SceneBuilder::new(camera);
+        let white = b.surface_material(SurfaceMaterial::Lambert(Rgb::ONE));
+        b.sphere(DVec3::ZERO, 1.0, white, Some(Rgb::splat(2.0)));
+        b.sphere(DVec3::new(0.0, 3.0, 0.0), 0.5, white, None);
+        b.light(Light::Constant { radiance: Rgb::splat(1.0) });
+        let scene = b.build();
+        let ray = Ray { o: DVec3::new(0.0, 0.0, 5.0), d: -DVec3::Z, t_min: 0.0, t_max: f64::INFINITY };
+        let Some(Hit::Surface { t, emitter, .. }) = scene.intersect(&ray) else { panic!("the sphere is hit") };
+        assert_eq!((t, emitter), (4.0, Some(0)));
+        let up = Ray { o: DVec3::ZERO + DVec3::new(0.0, 1.5, 0.0), d: DVec3::Y, ..ray };
+        assert!(matches!(scene.intersect(&up), Some(Hit::Surface { emitter: None, .. })));
+        let p = scene.light_picker();
+        // Weights π·2 (sphere) and π·1 (sky): 2/3 and 1/3.
+        assert!(
+            (p.sphere_probability(0) - 2.0 / 3.0).abs() < 1e-12 && (p.light_probability(0) - 1.0 / 3.0).abs() < 1e-12
+        );
+        assert_eq!(p.sphere_probability(1), 0.0);
+        assert_eq!(p.pick(0.0).map(|(e, _)| e), Some(Emitter::Light(0)), "lights at infinity come first");
+        let s = scene.sample_emitter(Emitter::Sphere(0), DVec3::new(0.0, 0.0, 5.0), [0.5, 0.5]).unwrap();
+        // The sample ends on the sphere's surface, and carries its radiance.
+        let end = DVec3::new(0.0, 0.0, 5.0) + s.wi * s.distance;
+        assert!((end.length() - 1.0).abs() < 1e-9 && s.radiance == Rgb::splat(2.0), "{end:?}");
+    }
+}

@@ -344,19 +344,14 @@ impl SceneFile {
             let material = if let Some(model) = &md.model {
                 MaterialRef::Fiber(scene.fiber_material(self.fiber_model(name, model, md.params.as_ref())?))
             } else {
-                let (key, value) = match (md.lambert, md.mirror) {
-                    (Some(a), _) => ("lambert", a),
-                    (None, r) => ("mirror", r.unwrap_or([1.0; 3])),
+                let (key, value, surface): (_, _, fn(Rgb) -> SurfaceMaterial) = match (md.lambert, md.mirror) {
+                    (Some(a), _) => ("lambert", a, SurfaceMaterial::Lambert),
+                    (None, r) => ("mirror", r.unwrap_or([1.0; 3]), SurfaceMaterial::Mirror),
                 };
                 if !value.iter().all(|x| (0.0..=1.0).contains(x)) {
                     return Err(self.error(m.span(), format!("material `{name}`: {key} = {value:?} must be in [0, 1]")));
                 }
-                let surface = if key == "lambert" {
-                    SurfaceMaterial::Lambert(rgb(value))
-                } else {
-                    SurfaceMaterial::Mirror(rgb(value))
-                };
-                MaterialRef::Surface(scene.surface_material(surface))
+                MaterialRef::Surface(scene.surface_material(surface(rgb(value))))
             };
             names.insert(name.clone(), material);
         }

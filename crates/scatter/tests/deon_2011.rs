@@ -5,14 +5,29 @@
 mod hair_common;
 
 use fiberlab_math::frame::{cos_theta, direction};
+use fiberlab_math::special::wrapped_gaussian;
 use fiberlab_math::{Rgb, fresnel};
-use fiberlab_scatter::chiang_2016::Absorption;
-use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, wrapped_gaussian};
+use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, DeonParams};
+use fiberlab_scatter::hair::absorption::Absorption;
 use fiberlab_scatter::radiometry::{Quadrature, albedo, furnace};
 use fiberlab_scatter::{ModelError, ScatteringFunction, build};
 use hair_common::{Pcg, chi2};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::time::Instant;
+
+/// The fiber with the tilt `alpha_deg` in degrees (as the registry takes it).
+fn deon(
+    eta: f64,
+    beta_m: f64,
+    beta_n: f64,
+    alpha_deg: f64,
+    p_max: usize,
+    theta_n: AzimuthalInclination,
+    absorption: Absorption,
+) -> Result<Deon, ModelError> {
+    let alpha = alpha_deg.to_radians();
+    Ok(Deon::new(DeonParams { eta, beta_m, beta_n, alpha, absorption, theta_n, p_max })?)
+}
 
 fn melanin() -> Absorption {
     Absorption::Melanin { eumelanin: 0.8, pheomelanin: 0.3 }
@@ -44,9 +59,9 @@ fn attenuation_2d(p: usize, eta: f64, sigma_a: Rgb, theta_d: f64, h: f64) -> (Rg
 #[test]
 fn construction_is_fast() {
     for &bn in &[0.1, 0.3, 1.0] {
-        let _warm = Deon::new(1.55, 0.3, bn, 2.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
+        let _warm = deon(1.55, 0.3, bn, 2.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
         let t0 = Instant::now();
-        let d = Deon::new(1.55, 0.3, bn, 2.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
+        let d = deon(1.55, 0.3, bn, 2.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         println!("deon β_n={bn}: {} φ nodes, built in {ms:.1} ms", d.table_phi_nodes());
         assert!(ms < 500.0, "{ms} ms");
@@ -55,8 +70,8 @@ fn construction_is_fast() {
 
 #[test]
 fn lobe_masses_equal_half_the_width_integral_of_a_p() {
-    let d = Deon::new(1.55, 0.3, 0.3, 2.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
-    let sigma_a = d.params().sigma_a;
+    let d = deon(1.55, 0.3, 0.3, 2.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
+    let sigma_a = d.sigma_a();
     // On table rows (cosθ_d = j/63) and between rows.
     for &cos_d in &[1.0, 40.0 / 63.0, 0.87, 0.5, 0.2] {
         let theta_d = f64::acos(cos_d);
@@ -80,7 +95,7 @@ fn lobe_masses_equal_half_the_width_integral_of_a_p() {
 #[test]
 fn tabulated_n_p_matches_direct_integration() {
     for &(bn, tol) in &[(0.3, 0.01), (0.1, 0.03)] {
-        let d = Deon::new(1.55, 0.3, bn, 0.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
+        let d = deon(1.55, 0.3, bn, 0.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
         let sigma = d.azimuthal_sigma();
         let mut worst: f64 = 0.0;
         for &cos_d in &[0.95, 0.8, 0.55] {
@@ -92,7 +107,7 @@ fn tabulated_n_p_matches_direct_integration() {
                 let hs: Vec<(f64, f64)> = (0..n_g)
                     .map(|k| {
                         let g = -FRAC_PI_2 + (k as f64 + 0.5) * dg;
-                        let (a, ph) = attenuation_2d(p, 1.55, d.params().sigma_a, theta_d, g.sin());
+                        let (a, ph) = attenuation_2d(p, 1.55, d.sigma_a(), theta_d, g.sin());
                         (0.5 * a[1] * g.cos() * dg, ph)
                     })
                     .collect();
@@ -120,11 +135,10 @@ fn camera_side_furnace_is_one_when_lossless_and_at_most_one_otherwise() {
     let q = Quadrature { theta: 384, phi: 384, h: 1 };
     let mut table = String::new();
     for &(bm, bn) in &[(0.1, 0.1), (0.3, 0.3), (0.5, 0.5), (0.9, 0.9), (0.2, 0.7)] {
-        let lossless =
-            Deon::new(1.55, bm, bn, 2.0, 3, AzimuthalInclination::Camera, Absorption::SigmaA(Rgb::ZERO)).unwrap();
+        let lossless = deon(1.55, bm, bn, 2.0, 3, AzimuthalInclination::Camera, Absorption::SigmaA(Rgb::ZERO)).unwrap();
         let literal =
-            Deon::new(1.55, bm, bn, 2.0, 3, AzimuthalInclination::Difference, Absorption::SigmaA(Rgb::ZERO)).unwrap();
-        let brown = Deon::new(1.55, bm, bn, 2.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
+            deon(1.55, bm, bn, 2.0, 3, AzimuthalInclination::Difference, Absorption::SigmaA(Rgb::ZERO)).unwrap();
+        let brown = deon(1.55, bm, bn, 2.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
         for &theta_o in &[0.0, -1.0, 1.45] {
             let wo = direction(theta_o, 0.7);
             let one = furnace(&lossless, wo, &q)[1];
@@ -150,7 +164,7 @@ fn sampled_furnace_weights_and_eval_pdf_consistency() {
     for theta_n in [AzimuthalInclination::Camera, AzimuthalInclination::Difference] {
         for &bm in &[0.1, 0.3, 0.5, 0.7, 0.9] {
             for &bn in &[0.1, 0.3, 0.5, 0.7, 0.9] {
-                let d = Deon::new(1.55, bm, bn, 2.0, 3, theta_n, Absorption::SigmaA(Rgb::ZERO)).unwrap();
+                let d = deon(1.55, bm, bn, 2.0, 3, theta_n, Absorption::SigmaA(Rgb::ZERO)).unwrap();
                 let n = 5_000;
                 let (mut sum, mut worst) = (0.0, 0.0f64);
                 for _ in 0..n {
@@ -186,7 +200,7 @@ fn chi2_goodness_of_fit_down_to_beta_0_1() {
         (0.9, 0.9, AzimuthalInclination::Camera, 64, 128),
         (0.1, 0.1, AzimuthalInclination::Difference, 160, 640),
     ] {
-        let d = Deon::new(1.55, bm, bn, 2.0, 3, theta_n, melanin()).unwrap();
+        let d = deon(1.55, bm, bn, 2.0, 3, theta_n, melanin()).unwrap();
         for &theta_o in &[0.4, -1.2] {
             let r = chi2(&d, direction(theta_o, 0.3), 0.0, 300_000, n_s, n_phi, 13);
             let (stat, dof, z) = (r.statistic, r.dof, r.z);
@@ -208,7 +222,7 @@ fn no_nan_at_grazing_angles_and_extreme_roughness() {
             (3, AzimuthalInclination::Difference),
             (6, AzimuthalInclination::Camera),
         ] {
-            let d = Deon::new(1.55, bm, bn, 2.0, p_max, theta_n, Absorption::SigmaA(Rgb::ZERO)).unwrap();
+            let d = deon(1.55, bm, bn, 2.0, p_max, theta_n, Absorption::SigmaA(Rgb::ZERO)).unwrap();
             for &to in &angles {
                 for &ti in &angles {
                     let (wo, wi) = (direction(to, 0.2), direction(ti, 2.1));
@@ -230,7 +244,7 @@ fn no_nan_at_grazing_angles_and_extreme_roughness() {
 #[test]
 fn light_side_albedo_matches_direct_quadrature_and_exceeds_one_at_grazing() {
     for theta_n in [AzimuthalInclination::Camera, AzimuthalInclination::Difference] {
-        let d = Deon::new(1.55, 0.5, 0.5, 2.0, 3, theta_n, Absorption::SigmaA(Rgb::ZERO)).unwrap();
+        let d = deon(1.55, 0.5, 0.5, 2.0, 3, theta_n, Absorption::SigmaA(Rgb::ZERO)).unwrap();
         let direct = albedo(&d, direction(0.6, 0.4), &Quadrature { theta: 256, phi: 256, h: 1 })[0];
         let formula = d.light_side_albedo(0.6)[0];
         assert!((direct - formula).abs() < 3e-3 * formula, "{theta_n:?}: {direct} vs {formula}");
@@ -242,7 +256,7 @@ fn light_side_albedo_matches_direct_quadrature_and_exceeds_one_at_grazing() {
 
 #[test]
 fn backward_form_is_measurably_non_reciprocal() {
-    let d = Deon::new(1.55, 0.3, 0.3, 2.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
+    let d = deon(1.55, 0.3, 0.3, 2.0, 3, AzimuthalInclination::Camera, melanin()).unwrap();
     let x = d.non_reciprocity(2000, 3);
     println!("deon β=0.3 max relative non-reciprocity over 2000 pairs: {x:.3}");
     assert!(x > 0.1 && x <= 1.0, "{x}");
@@ -252,8 +266,7 @@ fn backward_form_is_measurably_non_reciprocal() {
 fn more_lobes_keep_the_furnace_and_p_max_must_be_an_integer() {
     let q = Quadrature { theta: 256, phi: 256, h: 1 };
     for p_max in [1, 2, 6] {
-        let d =
-            Deon::new(1.55, 0.4, 0.4, 2.0, p_max, AzimuthalInclination::Camera, Absorption::SigmaA(Rgb::ZERO)).unwrap();
+        let d = deon(1.55, 0.4, 0.4, 2.0, p_max, AzimuthalInclination::Camera, Absorption::SigmaA(Rgb::ZERO)).unwrap();
         let one = furnace(&d, direction(0.3, 0.0), &q)[0];
         assert!((one - 1.0).abs() < 1e-3, "p_max={p_max}: {one}");
     }
@@ -268,7 +281,7 @@ fn more_lobes_keep_the_furnace_and_p_max_must_be_an_integer() {
 #[test]
 fn pdf_integrates_to_one_at_extreme_configurations() {
     for theta_n in [AzimuthalInclination::Camera, AzimuthalInclination::Difference] {
-        let d = Deon::new(1.55, 0.3, 0.3, 5.0, 3, theta_n, melanin()).unwrap();
+        let d = deon(1.55, 0.3, 0.3, 5.0, 3, theta_n, melanin()).unwrap();
         for &theta_o in &[FRAC_PI_2, -FRAC_PI_2 + 1e-9, 1.4] {
             let r = chi2(&d, direction(theta_o, 1.0), 0.0, 1000, 160, 320, 3);
             assert!((r.pdf_integral - 1.0).abs() < 1e-3, "{theta_n:?} θo={theta_o}: ∫pdf = {}", r.pdf_integral);

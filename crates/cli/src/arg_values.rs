@@ -99,6 +99,46 @@ pub fn unit_vector(text: &str) -> Result<DVec3, String> {
     Ok(w / len)
 }
 
+/// A parameter `KEY=VALUE`, optionally for one model (`MODEL:KEY=VALUE`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct KeyValue {
+    /// The model it is for (`MODEL:` prefix), if any.
+    pub model: Option<String>,
+    /// The key.
+    pub key: String,
+    /// The value, as written.
+    pub value: String,
+}
+
+impl std::fmt::Display for KeyValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.model {
+            Some(m) => write!(f, "{m}:{}={}", self.key, self.value),
+            None => write!(f, "{}={}", self.key, self.value),
+        }
+    }
+}
+
+/// `KEY=VALUE` with a non-empty key.
+pub fn key_value(text: &str) -> Result<KeyValue, String> {
+    let (key, value) = text.split_once('=').ok_or_else(|| format!("expected KEY=VALUE, got `{text}`"))?;
+    let key = key.trim();
+    if key.is_empty() {
+        return Err(format!("expected KEY=VALUE with a non-empty key, got `{text}`"));
+    }
+    Ok(KeyValue { model: None, key: key.into(), value: value.trim().into() })
+}
+
+/// `MODEL:KEY=VALUE` with a non-empty model name and key.
+pub fn model_key_value(text: &str) -> Result<KeyValue, String> {
+    let expected = || format!("expected MODEL:KEY=VALUE, got `{text}`");
+    let (model, kv) = text.split_once(':').ok_or_else(expected)?;
+    if model.trim().is_empty() {
+        return Err(expected());
+    }
+    Ok(KeyValue { model: Some(model.trim().into()), ..key_value(kv).map_err(|_| expected())? })
+}
+
 /// Histogram bins `NT,NP` of the goniophotometer (θ_r and φ).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Bins {
@@ -215,6 +255,18 @@ mod tests {
         assert_eq!(unit_vector("0, 0.6, 0.8"), Ok(DVec3::new(0.0, 0.6, 0.8) / DVec3::new(0.0, 0.6, 0.8).length()));
         assert!(unit_vector("0,1").unwrap_err().contains("x,y,z"));
         assert!(unit_vector("0,2,0").unwrap_err().contains("length 2"));
+    }
+
+    #[test]
+    fn key_values_with_and_without_a_model() {
+        let kv = key_value(" sigma_a = 0.1,0.2,0.3").unwrap();
+        assert_eq!((kv.model, kv.key.as_str(), kv.value.as_str()), (None, "sigma_a", "0.1,0.2,0.3"));
+        assert!(key_value("sigma_a").unwrap_err().contains("KEY=VALUE") && key_value("=1").is_err());
+        let kv = model_key_value("chiang:eumelanin=0.5").unwrap();
+        assert_eq!(kv.to_string(), "chiang:eumelanin=0.5");
+        for bad in ["eumelanin=0.5", ":a=1", "chiang:=1", "chiang:a"] {
+            assert!(model_key_value(bad).unwrap_err().contains("MODEL:KEY=VALUE"), "{bad}");
+        }
     }
 
     #[test]

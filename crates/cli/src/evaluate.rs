@@ -3,7 +3,7 @@
 //! reference — a photograph, or a high-sample render with the measured scattering function
 //! from explicit geometry — and assembled into a labelled grid.
 
-use crate::arg_values::{self, NamedRect};
+use crate::arg_values::{self, KeyValue, NamedRect};
 use crate::compare::{Image, compare, load};
 use anyhow::{Context, bail};
 use fiberlab_io::{LinearImage, ToneMap};
@@ -13,7 +13,7 @@ use fiberlab_render::model_loader::load_model;
 use fiberlab_render::scene::Scene;
 use fiberlab_render::scene_file::SceneFile;
 use fiberlab_scatter::kajiya_kay_1989::{self, KajiyaKay, KajiyaKayParams};
-use fiberlab_scatter::params::{ParamSet, RawValue, split_key_value};
+use fiberlab_scatter::params::{ParamSet, RawValue};
 use fiberlab_scatter::{ExternalData, Model, measured};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -30,8 +30,8 @@ pub struct Args {
     #[arg(long, default_value = "kajiya-kay,marschner,chiang")]
     models: String,
     /// Parameter of one model as MODEL:KEY=VALUE (repeatable).
-    #[arg(long = "param", value_name = "MODEL:KEY=VALUE")]
-    params: Vec<String>,
+    #[arg(long = "param", value_name = "MODEL:KEY=VALUE", value_parser = arg_values::model_key_value)]
+    params: Vec<KeyValue>,
     /// Measured table (from `fiberlab measure`) for models built from a table and for the
     /// default reference (the `measured` model).
     #[arg(long)]
@@ -69,14 +69,12 @@ fn scene_hair_model(scene: &Scene) -> Option<Model> {
 /// model built from a table gets `--table` unless its parameters name one. Kajiya–Kay without
 /// parameters is fitted to the scene's model (`target`).
 fn build_model(name: &str, args: &Args, target: &Model) -> anyhow::Result<Model> {
-    let mut pairs: Vec<(String, RawValue)> = Vec::new();
-    for p in &args.params {
-        let (m, kv) = p.split_once(':').with_context(|| format!("--param {p}: expected MODEL:KEY=VALUE"))?;
-        if m == name {
-            let (k, v) = split_key_value(kv)?;
-            pairs.push((k, RawValue::Text(v)));
-        }
-    }
+    let mut pairs: Vec<(String, RawValue)> = args
+        .params
+        .iter()
+        .filter(|p| p.model.as_deref() == Some(name))
+        .map(|p| (p.key.clone(), RawValue::Text(p.value.clone())))
+        .collect();
     let spec = fiberlab_scatter::find(name)?;
     if let Some(ExternalData::Table { key }) = spec.data
         && !pairs.iter().any(|(k, _)| k == key)

@@ -2,13 +2,13 @@
 //! and writes `PREFIX.csv` (one row per bin and lobe) and `PREFIX.png` (the `all` lobe over
 //! (φ, θ_r), like the figures of Marschner et al. 2003).
 
-use crate::arg_values::{self, Angle, Bins};
+use crate::arg_values::{self, Angle, Bins, KeyValue};
 use crate::files::{read_toml, write_atomically};
 use crate::plot::{Grids, Scale, write_figure};
 use anyhow::Context;
 use fiberlab_gonio::{Fiber, Measurement, Setup, measure};
 use fiberlab_render::toml_params::raw_pairs;
-use fiberlab_scatter::params::{RawValue, split_key_value};
+use fiberlab_scatter::params::RawValue;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -21,8 +21,8 @@ pub struct Args {
     /// Fiber parameter as KEY=VALUE (repeatable): eta, sigma_a, aspect, orientation (degrees
     /// or `average`), scale_angle (degrees), scale_length, medulla_radius, medulla_sigma_s,
     /// medulla_sigma_a, medulla_g, surface, albedo.
-    #[arg(long = "param", value_name = "KEY=VALUE")]
-    params: Vec<String>,
+    #[arg(long = "param", value_name = "KEY=VALUE", value_parser = arg_values::key_value)]
+    params: Vec<KeyValue>,
     /// A TOML file with the same keys (command-line --param values override it).
     #[arg(long)]
     fiber: Option<PathBuf>,
@@ -56,9 +56,8 @@ fn fiber(args: &Args) -> anyhow::Result<Fiber> {
         None => Vec::new(),
     };
     for p in &args.params {
-        let (k, v) = split_key_value(p)?;
-        pairs.retain(|(key, _)| *key != k);
-        pairs.push((k, RawValue::Text(v)));
+        pairs.retain(|(key, _)| *key != p.key);
+        pairs.push((p.key.clone(), RawValue::Text(p.value.clone())));
     }
     let fiber = Fiber::from_raw(&pairs);
     match &args.fiber {
@@ -104,7 +103,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     write_csv(&measurements, &args.out.with_extension("csv"))?;
     let first = &measurements[0];
-    let title = format!("measured fiber {}   θ_i = {}°", args.params.join(" "), thetas[0].degrees);
+    let params: Vec<String> = args.params.iter().map(ToString::to_string).collect();
+    let title = format!("measured fiber {}   θ_i = {}°", params.join(" "), thetas[0].degrees);
     write_figure(&args.out.with_extension("png"), &figure(first), &title, Scale::Log, 4.0)?;
     write_exr(first, &args.out.with_extension("exr"))?;
     let traced: usize = measurements.iter().map(|m| m.traced).sum();

@@ -1,13 +1,13 @@
 //! Unidirectional path tracing with next-event estimation and multiple importance sampling
 //! (power heuristic, Veach 1997 §9.2), Russian roulette, tiles in parallel, parts and merging.
 //!
-//! # Fiber hits (models.md §1.4)
+//! # Fiber hits (`docs/theory/conventions.md`, "Fiber scattering function versus renderer BSDF")
 //! At a fiber hit the frame `(u, v, w)` and `h` come from [`crate::curves`]; directions are
 //! converted to that frame and the model's `f_s(ω_i, ω_o; h)` is evaluated. The throughput of
 //! a light sample is `f_s·cosθ_i·L_i/pdf` with `cosθ_i = sqrt(1 − (ω_i·u)²)` measured from the
 //! fiber's normal plane; a scattering sample multiplies the throughput by the model's
 //! `weight = f_s·cosθ_i/pdf`. Because the tube is hit at a uniformly distributed `h` across
-//! the pixel footprint, near-field models are averaged over the width exactly as §1.4 states;
+//! the pixel footprint, near-field models are averaged over the width as that section states;
 //! far-field models ignore `h`. Delta models (`Lobes::Delta`) get no light sampling and no MIS.
 //!
 //! # Determinism

@@ -27,7 +27,7 @@ pub struct Args {
     #[arg(long)]
     data: Option<PathBuf>,
     /// Fit to another model instead of data (e.g. Kajiya–Kay to `chiang`), over a (θ_i, θ_r, φ)
-    /// grid weighted by cosθ_i cosθ_r (models.md §3).
+    /// grid weighted by cosθ_i cosθ_r (`docs/theory/radiometry.md`, "Kajiya–Kay as a scattering function").
     #[arg(long, conflicts_with_all = ["table", "data"])]
     target: Option<String>,
     /// Parameter of the --target model, KEY=VALUE (repeatable).

@@ -103,6 +103,30 @@ impl<'a> Config<'a> {
     }
 }
 
+/// A stable 64-bit hash (FNV-1a) of what determines the image besides seed, spp and pixels:
+/// the scene text (the default scene's when none is given), the `--hair` file's bytes and
+/// the maximum depth. Written as hex into each part's header and compared by `merge`.
+fn scene_hash(args: &Args) -> anyhow::Result<String> {
+    use anyhow::Context;
+    fn fnv1a(mut h: u64, bytes: &[u8]) -> u64 {
+        for &b in bytes {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+        h
+    }
+    let read = |p: &PathBuf| std::fs::read(p).with_context(|| format!("reading {}", p.display()));
+    let mut h = 0xcbf2_9ce4_8422_2325;
+    h = match &args.scene {
+        Some(p) => fnv1a(h, &read(p)?),
+        None => fnv1a(h, fiberlab_render::scene_file::DEFAULT_SCENE.as_bytes()),
+    };
+    if let Some(p) = &args.hair {
+        h = fnv1a(fnv1a(h, b"hair"), &read(p)?);
+    }
+    h = fnv1a(h, format!("max_depth={:?}", args.max_depth).as_bytes());
+    Ok(format!("{h:016x}"))
+}
+
 /// Runs `fiberlab render`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let config = Config::new(args);
@@ -117,6 +141,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(h) = &args.hair {
         file.override_hair(h.clone());
     }
+    let scene_hash = scene_hash(args)?;
     let (scene, scene_settings) = file.build()?;
     let build_seconds = t0.elapsed().as_secs_f64();
     let settings = config.settings(scene_settings, region);
@@ -144,9 +169,22 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let s = &out.stats;
     let exr = PathBuf::from(format!("{}.exr", args.out));
     let png = PathBuf::from(format!("{}.png", args.out));
-    out.image.write_exr(&exr)?;
+    let mut image = out.image;
+    // What the image is, in its header, so that `fiberlab merge` can check its parts.
+    image.set_attribute("scene", scene_hash);
+    image.set_attribute("seed", settings.seed.to_string());
+    image.set_attribute("spp", settings.spp.to_string());
+    match config.pixels {
+        Pixels::All => {}
+        Pixels::Tile(t) => image.set_attribute("part", format!("{}/{}", t.index, t.count)),
+        Pixels::Crop(_) => {
+            let r = region.expect("a crop has a region");
+            image.set_attribute("crop", format!("{},{},{},{}", r.x0, r.y0, r.x1, r.y1));
+        }
+    }
+    image.write_exr(&exr)?;
     let exposure = args.exposure.unwrap_or(file.render_settings().exposure);
-    out.image.write_png(&png, exposure, ToneMap::Filmic)?;
+    image.write_png(&png, exposure, ToneMap::Filmic)?;
     eprintln!(
         "{}×{} at {} spp: scene {:.2} s, render {:.2} s ({:.0} samples/s, {} rays, {:.3} Mrays/s), {}/{} tiles{}, {} non-finite samples dropped → {}, {}",
         w,

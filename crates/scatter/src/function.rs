@@ -9,6 +9,11 @@
 
 use fiberlab_math::{DVec3, Rgb};
 
+/// Smallest `cosθ_i` used where a model divides by `cosθ_i` (the convention's cosine, e.g.
+/// `f_s = g/cosθ_i` of the backward-form hair models, Kajiya–Kay's specular term) at exactly
+/// grazing light, so that the value stays finite; one constant for every model.
+pub const MIN_COS: f64 = 1e-8;
+
 /// Whether a model depends on the offset `h` across the fiber.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Field {

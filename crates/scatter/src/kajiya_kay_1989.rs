@@ -21,6 +21,7 @@
 //! specular lobe, whose longitudinal variable `x = θ_i + θ_o` is drawn from a 4096-cell
 //! tabulation of `cos^p x`; φ is uniform. The pdf is exactly the density of the samples.
 
+use crate::function::MIN_COS;
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::Tabulated1D;
 use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
@@ -29,8 +30,6 @@ use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::Arc;
 
-/// Smallest `cos θ_i` used in the `1/cosθ_i` of the specular term.
-const MIN_COS: f64 = 1e-8;
 /// Cells of the tabulated `cos^p x` on [−π/2, π/2].
 const LOBE_CELLS: usize = 4096;
 

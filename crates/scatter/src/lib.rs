@@ -27,5 +27,5 @@ pub mod marschner_2003;
 pub mod measured;
 
 pub use error::ModelError;
-pub use function::{ConeValue, Field, Lobes, Properties, Sample, ScatteringFunction};
+pub use function::{ConeValue, Field, Lobes, MIN_COS, Properties, Sample, ScatteringFunction};
 pub use model::{ALL_MODELS, ExternalData, MODELS, Model, ModelSpec, build, build_raw, find};

@@ -19,8 +19,7 @@ use fiberlab_math::frame::direction_from_sin_cos;
 use fiberlab_math::special::safe_sqrt;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
-/// Smallest `cosθ_i` used in the `1/cosθ_i` of `f_s = g/cosθ_i` (exactly grazing light).
-pub const MIN_COS: f64 = 1e-8;
+pub use crate::function::MIN_COS;
 
 /// Light-side albedo of a single lobe seen as a backward-form fiber scattering function
 /// (see the module docs): `(1/cosθ_i)·∫ cos²θ_o M_p(θ_i, θ_o) dθ_o`, by 4096-node midpoint

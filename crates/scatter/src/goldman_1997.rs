@@ -110,6 +110,19 @@ impl From<GoldmanError> for ModelError {
 }
 
 /// Goldman's directional Kajiya–Kay fiber.
+///
+/// At backscatter (κ = cos φ = 1) the directional factor is ρ_reflect and straight through
+/// (κ = −1) it is ρ_transmit, multiplying Kajiya–Kay's `k_d + k_s` at θ_i = θ_r = 0:
+/// ```
+/// use fiberlab_scatter::ScatteringFunction;
+/// use fiberlab_scatter::goldman_1997::{Goldman, GoldmanParams};
+/// use fiberlab_math::{Rgb, frame::direction};
+/// let p = GoldmanParams { rho_reflect: Rgb::splat(0.9), rho_transmit: Rgb::splat(0.3), ..GoldmanParams::default() };
+/// let f = Goldman::new(p).unwrap();
+/// let back = f.eval(direction(0.0, 0.4), direction(0.0, 0.4), 0.0);
+/// let through = f.eval(direction(0.0, 0.4), direction(0.0, 0.4 + std::f64::consts::PI), 0.0);
+/// assert!((back[0] - 0.9 * 0.15).abs() < 1e-12 && (through[0] - 0.3 * 0.15).abs() < 1e-12);
+/// ```
 #[derive(Clone, Debug)]
 pub struct Goldman {
     kk: KajiyaKay,

@@ -42,6 +42,17 @@ parameter_error! {
 }
 
 /// Ideal diffuse fiber: constant `f_s = ρ/π²`.
+///
+/// The value follows from the albedo alone: `∫ f_s cosθ_r dω_r = f_s·π²` must equal ρ, since
+/// `∫_{S²} cosθ dω = 2π·∫cos²θ dθ = π²`:
+/// ```
+/// use fiberlab_scatter::ScatteringFunction;
+/// use fiberlab_scatter::ideal_diffuse::{IdealDiffuse, IdealDiffuseParams};
+/// use fiberlab_math::{Rgb, frame::direction};
+/// let f = IdealDiffuse::new(IdealDiffuseParams { albedo: Rgb::splat(0.5) }).unwrap();
+/// let value = f.eval(direction(0.3, 0.0), direction(-1.1, 2.0), 0.0);
+/// assert!((value[0] - 0.5 / (std::f64::consts::PI * std::f64::consts::PI)).abs() < 1e-15);
+/// ```
 #[derive(Clone, Debug)]
 pub struct IdealDiffuse {
     albedo: Rgb,

@@ -106,6 +106,16 @@ pub enum Azimuth {
 }
 
 /// Ideal specular fiber.
+///
+/// A mirror cylinder hit uniformly across its width reflects the ray at offset h into
+/// φ = −2 asin h, so the azimuthal density is `|dh/dφ|/2 = cos(φ/2)/4`: 1/4 at backscatter.
+/// ```
+/// use fiberlab_scatter::ScatteringFunction;
+/// use fiberlab_scatter::ideal_specular::{IdealSpecular, IdealSpecularParams};
+/// let f = IdealSpecular::new(IdealSpecularParams::default()).unwrap();
+/// assert!((f.cone(0.2, 0.0).value[0] - 0.25).abs() < 1e-15);
+/// assert!((f.cone(0.2, 2.0).value[0] - (1.0f64).cos() / 4.0).abs() < 1e-15);
+/// ```
 #[derive(Clone, Debug)]
 pub struct IdealSpecular {
     azimuth: Azimuth,

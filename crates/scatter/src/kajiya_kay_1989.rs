@@ -110,6 +110,17 @@ parameter_error! {
 }
 
 /// Kajiya–Kay fiber.
+///
+/// At θ_i = θ_r = 0 the viewer sits on the specular cone (`cos(θ_i + θ_r) = 1`) and
+/// `cosθ_i = 1`, so `f_s = k_d + k_s`, whatever the azimuth:
+/// ```
+/// use fiberlab_scatter::ScatteringFunction;
+/// use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
+/// use fiberlab_math::{Rgb, frame::direction};
+/// let f = KajiyaKay::new(KajiyaKayParams { k_d: Rgb::splat(0.05), k_s: Rgb::splat(0.1), p: 30.0 }).unwrap();
+/// let value = f.eval(direction(0.0, 0.0), direction(0.0, 2.5), 0.0);
+/// assert!((value[0] - 0.15).abs() < 1e-15);
+/// ```
 #[derive(Clone, Debug)]
 pub struct KajiyaKay {
     k_d: Rgb,

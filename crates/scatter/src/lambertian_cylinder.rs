@@ -44,6 +44,19 @@ parameter_error! {
 }
 
 /// Opaque Lambertian cylinder.
+///
+/// Seen from the light (backscatter, φ = 0, θ = 0) under irradiance E the visible
+/// half-circle has normals at γ ∈ [−π/2, π/2]; each point reflects radiance `(ρ/π)·E·cosγ`,
+/// and its share of the projected width is `cosγ dγ/2`, so the width-averaged radiance is
+/// `(ρE/2π)∫cos²γ dγ = ρE/4`, i.e. `f_s = ρ/4`:
+/// ```
+/// use fiberlab_scatter::ScatteringFunction;
+/// use fiberlab_scatter::lambertian_cylinder::{LambertianCylinder, LambertianCylinderParams};
+/// use fiberlab_math::{Rgb, frame::direction};
+/// let f = LambertianCylinder::new(LambertianCylinderParams { albedo: Rgb::splat(0.8) }).unwrap();
+/// let w = direction(0.0, 0.7);
+/// assert!((f.eval(w, w, 0.0)[0] - 0.8 / 4.0).abs() < 1e-15);
+/// ```
 #[derive(Clone, Debug)]
 pub struct LambertianCylinder {
     albedo: Rgb,

@@ -103,6 +103,17 @@ pub struct MeasuredTable {
 }
 
 /// A tabulated scattering function.
+///
+/// A table holding one value everywhere is that value, whatever the directions (the
+/// shift rule moves rows that are all alike), here from a single incidence:
+/// ```
+/// use fiberlab_scatter::ScatteringFunction;
+/// use fiberlab_scatter::measured::{Measured, MeasuredTable};
+/// use fiberlab_math::{Rgb, frame::direction};
+/// let table = MeasuredTable { theta_in: vec![0.3], bins_theta: 8, bins_phi: 8, f: vec![vec![Rgb::splat(0.07); 64]] };
+/// let f = Measured::new(table).unwrap();
+/// assert_eq!(f.eval(direction(0.3, 0.0), direction(-0.2, 1.0), 0.0), Rgb::splat(0.07));
+/// ```
 #[derive(Clone, Debug)]
 pub struct Measured {
     table: Arc<MeasuredTable>,

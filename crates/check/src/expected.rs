@@ -1,5 +1,6 @@
-//! Independent expected values: closed forms from models.md, computed here without calling
-//! the models' own code paths (1D quadratures of the formulas, Gamma functions).
+//! Independent expected values: closed forms of docs/theory/radiometry.md, computed here
+//! without calling the models' own code paths (1D quadratures of the formulas, Gamma
+//! functions).
 
 use fiberlab_math::{Rgb, fresnel};
 use fiberlab_scatter::Model;
@@ -19,7 +20,8 @@ pub fn simpson(a: f64, b: f64, n: usize, f: impl Fn(f64) -> f64) -> f64 {
 }
 
 /// Kajiya–Kay specular energy `E_p(θ_i) = (2π/cosθ_i) ∫ max(0, cos(θ_i+θ_r))^p cos²θ_r dθ_r`
-/// (models.md §3), by Simpson's rule over the non-zero part of the lobe.
+/// (docs/theory/radiometry.md, "Energy of Kajiya–Kay"), by Simpson's rule over the non-zero
+/// part of the lobe.
 #[must_use]
 pub fn kajiya_kay_energy(p: f64, theta_i: f64) -> f64 {
     let lo = (-FRAC_PI_2 - theta_i).max(-FRAC_PI_2);
@@ -28,14 +30,15 @@ pub fn kajiya_kay_energy(p: f64, theta_i: f64) -> f64 {
     TAU * integral / theta_i.cos()
 }
 
-/// `E_p(0) = 2π^{3/2} Γ((p+3)/2)/Γ((p+4)/2)` (models.md §3).
+/// `E_p(0) = 2π^{3/2} Γ((p+3)/2)/Γ((p+4)/2)` (docs/theory/radiometry.md, "Energy of Kajiya–Kay").
 #[must_use]
 pub fn kajiya_kay_energy_normal(p: f64) -> f64 {
     use statrs::function::gamma::ln_gamma;
     2.0 * PI.powf(1.5) * (ln_gamma((p + 3.0) / 2.0) - ln_gamma((p + 4.0) / 2.0)).exp()
 }
 
-/// The light-side albedo `ρ(θ_i)` a model must have, when models.md gives a closed form.
+/// The light-side albedo `ρ(θ_i)` a model must have, when a closed form is known
+/// (docs/theory/radiometry.md, "Reference fibers", "Kajiya–Kay as a scattering function").
 #[must_use]
 pub fn albedo(model: &Model, theta_i: f64) -> Option<Rgb> {
     match model {
@@ -44,7 +47,8 @@ pub fn albedo(model: &Model, theta_i: f64) -> Option<Rgb> {
         Model::Specular(m) => Some(Rgb::splat(match (m.fresnel_eta(), m.azimuth()) {
             (None, _) => 1.0,
             (Some(eta), Azimuth::Uniform) => fresnel::dielectric(theta_i.cos(), eta),
-            // h uniform on [−1, 1], incidence cos ι = cosθ·sqrt(1 − h²) (§2.4).
+            // h uniform on [−1, 1], incidence cos ι = cosθ·sqrt(1 − h²)
+            // (docs/theory/radiometry.md, "Ideal specular fiber").
             (Some(eta), Azimuth::Mirror) => {
                 0.5 * simpson(-1.0, 1.0, 20_000, |h| fresnel::dielectric(theta_i.cos() * (1.0 - h * h).sqrt(), eta))
             }
@@ -62,8 +66,8 @@ pub fn albedo(model: &Model, theta_i: f64) -> Option<Rgb> {
 
 /// The camera-side white furnace `∫ f_s(ω_i, ω_o) cosθ_i dω_i` a model must have for every
 /// `ω_o` (and h), when it claims exact camera-side energy conservation: 1 for lossless
-/// Chiang (Σ_p A_p = 1, models.md §5.3) and for lossless d'Eon with the camera-side azimuthal
-/// inclination.
+/// Chiang (Σ_p A_p = 1, docs/theory/hair.md, "Attenuation") and for lossless d'Eon with the
+/// camera-side azimuthal inclination.
 #[must_use]
 pub fn camera_furnace(model: &Model) -> Option<Rgb> {
     match model {
@@ -89,9 +93,10 @@ mod tests {
     use super::*;
     use approx::assert_relative_eq;
 
-    /// The values printed in models.md §3 (independently derived there).
+    /// The values in docs/theory/radiometry.md, "Energy of Kajiya–Kay" (derived there
+    /// independently: Wallis integral at θ_i = 0, separate quadrature elsewhere).
     #[test]
-    fn kajiya_kay_energy_matches_models_md() {
+    fn kajiya_kay_energy_matches_the_derived_values() {
         for (p, e0) in [(1.0, 8.378), (10.0, 4.453), (100.0, 1.556)] {
             assert_relative_eq!(kajiya_kay_energy(p, 0.0), e0, max_relative = 1e-3);
             assert_relative_eq!(kajiya_kay_energy_normal(p), e0, max_relative = 1e-3);

@@ -3,11 +3,12 @@
 //!
 //! [`check_model`] runs, for one configured model: finiteness and non-negativity sweeps
 //! (including θ = ±π/2 and h = ±1), the light-side albedo by quadrature against closed forms
-//! from models.md ([`expected`]), the energy bound when claimed, the camera-side furnace by
-//! quadrature against Monte Carlo of `sample()`, reciprocity (tested when claimed, measured
-//! and reported otherwise), `∫ pdf dω = 1`, `sample()` agreeing with `eval()`/`pdf()`, and a
-//! χ² goodness-of-fit test of `sample()` against `pdf()`. It stops at reporting: printing
-//! and exit codes belong to the CLI.
+//! of docs/theory/radiometry.md ([`expected`]), the energy bound when claimed, the
+//! camera-side furnace by quadrature against Monte Carlo of `sample()`, reciprocity (tested
+//! when claimed, measured and reported otherwise), `∫ pdf dω = 1`, `sample()` agreeing with
+//! `eval()`/`pdf()`, and a χ² goodness-of-fit test of `sample()` against `pdf()`. What each
+//! test asserts and how it relates to upstream tests: docs/theory/validation.md. It stops at
+//! reporting: printing and exit codes belong to the CLI.
 #![forbid(unsafe_code)]
 
 pub mod chi2;
@@ -436,7 +437,8 @@ fn reciprocity(f: &Model, pairs: usize, rng: &mut TestRng) -> (f64, Vec<(DVec3, 
     (worst, samples)
 }
 
-/// Kajiya–Kay: `(f(i,r) − k_d)/(f(r,i) − k_d)` must equal `cosθ_r/cosθ_i` (models.md §3).
+/// Kajiya–Kay: `(f(i,r) − k_d)/(f(r,i) − k_d)` must equal `cosθ_r/cosθ_i`
+/// (docs/theory/radiometry.md, "Reciprocity ratio").
 fn kajiya_kay_ratio_defect(
     kk: &fiberlab_scatter::kajiya_kay_1989::KajiyaKay,
     pairs: &[(DVec3, DVec3, Rgb, Rgb)],

@@ -1,6 +1,7 @@
 //! Model-specific measurements printed by `fiberlab check` beside the generic tests:
 //! Marschner's caustic positions, cubic-vs-exact root errors and albedo under both
-//! normalizations; the hair models' light-side albedo at grazing light (models.md §5.6).
+//! normalizations; the hair models' light-side albedo at grazing light
+//! (docs/theory/radiometry.md, "Backward-form models").
 
 use crate::Row;
 use fiberlab_math::frame::direction;

@@ -5,7 +5,7 @@ use fiberlab_check::tolerance::CHI2_SIGNIFICANCE;
 use fiberlab_check::{Effort, check_cases, default_cases};
 use fiberlab_math::frame::{direction, phi, theta};
 use fiberlab_math::{DVec3, Rgb};
-use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
+use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
 use fiberlab_scatter::{Model, Properties, Sample, ScatteringFunction, build};
 
 #[test]
@@ -43,7 +43,7 @@ impl ScatteringFunction for WrongPdf {
 
 #[test]
 fn chi2_rejects_a_wrong_pdf_and_accepts_the_right_one() {
-    let kk = |p: f64| KajiyaKay::new(Rgb::splat(0.02), Rgb::splat(0.3), p).unwrap();
+    let kk = |p: f64| KajiyaKay::new(KajiyaKayParams { k_d: Rgb::splat(0.02), k_s: Rgb::splat(0.3), p }).unwrap();
     let wo = direction(0.4, 0.0);
     let cfg = Chi2Config { samples: 300_000, ..Default::default() };
     let wrong = WrongPdf { sampler: kk(30.0), claimed: kk(36.0) };
@@ -112,7 +112,7 @@ fn chi2_of_the_hair_tests_rejects_small_pdf_errors_of_narrow_lobes() {
 fn tabulated_measured_model_passes_the_harness() {
     use fiberlab_scatter::measured::{Measured, MeasuredTable};
     use std::f64::consts::{FRAC_PI_2, PI, TAU};
-    let kk = KajiyaKay::new(Rgb::splat(0.03), Rgb::splat(0.2), 8.0).unwrap();
+    let kk = KajiyaKay::new(KajiyaKayParams { k_d: Rgb::splat(0.03), k_s: Rgb::splat(0.2), p: 8.0 }).unwrap();
     let (nt, np) = (36, 72);
     let theta_in: Vec<f64> = (-7..=7).map(|k| k as f64 * 0.2).collect();
     let f = theta_in

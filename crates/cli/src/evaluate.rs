@@ -6,10 +6,12 @@
 use crate::compare::{Image, compare, load};
 use anyhow::{Context, bail};
 use fiberlab_io::{LinearImage, ToneMap};
+use fiberlab_math::Rgb;
 use fiberlab_render::integrator::{RenderSettings, render};
 use fiberlab_render::scene::{Material, Scene};
 use fiberlab_render::scene_file::SceneFile;
 use fiberlab_scatter::Model;
+use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
@@ -101,23 +103,24 @@ fn build_model(name: &str, args: &Args, target: &Model) -> anyhow::Result<Model>
             // Fitted to the scene's physically based model (models.md §3).
             let data = crate::fit::from_model(target);
             let free = [("k_d".to_string(), 0.02), ("k_s".to_string(), 0.1), ("p".to_string(), 10.0)];
-            let r = fiberlab_fit::fit("kajiya-kay", &[], &free, &data, 400)?;
+            let spec = &fiberlab_scatter::kajiya_kay_1989::SPEC;
+            let base = fiberlab_scatter::params::ParamSet::parse::<&str, &str>(spec.name, spec.params, &[])?;
+            let r = fiberlab_fit::fit(&base, &free, &data, 400)?;
+            let value = |key: &str| r.params.iter().find(|(k, _)| k == key).map_or(0.0, |(_, v)| *v);
             // The fit is in luminance; colour k_d and k_s by the target's mean colour.
             let tint = mean_colour(target);
-            let fitted: Vec<(String, String)> = r
-                .params
-                .iter()
-                .map(|(k, v)| {
-                    let value = if k == "p" {
-                        v.to_string()
-                    } else {
-                        format!("{},{},{}", (v * tint[0]).min(10.0), (v * tint[1]).min(10.0), (v * tint[2]).min(10.0))
-                    };
-                    (k.clone(), value)
-                })
-                .collect();
+            let fitted = KajiyaKayParams {
+                k_d: Rgb::new(tint[0], tint[1], tint[2]) * value("k_d"),
+                k_s: Rgb::new(tint[0], tint[1], tint[2]) * value("k_s"),
+                p: value("p"),
+            };
+            let fitted = KajiyaKayParams {
+                k_d: fitted.k_d.map(|c| c.min(10.0)),
+                k_s: fitted.k_s.map(|c| c.min(10.0)),
+                ..fitted
+            };
             eprintln!("kajiya-kay fitted to the scene's hair model: {fitted:?}");
-            Ok(fiberlab_scatter::build("kajiya-kay", &fitted)?)
+            Ok(KajiyaKay::new(fitted)?.into())
         }
         _ => Ok(fiberlab_scatter::build(name, &pairs)?),
     }

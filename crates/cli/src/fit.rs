@@ -8,7 +8,7 @@ use crate::plot::{Grids, Scale, write_figure};
 use anyhow::{Context, bail};
 use fiberlab_fit::{Observation, fit};
 use fiberlab_math::frame::direction;
-use fiberlab_scatter::params::split_key_value;
+use fiberlab_scatter::params::{ParamSet, split_key_value};
 use std::path::{Path, PathBuf};
 
 /// Flags of `fiberlab fit`.
@@ -163,7 +163,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             Ok((k, x))
         })
         .collect::<anyhow::Result<_>>()?;
-    let r = fit(&args.model, &fixed, &free, &data, args.iterations)?;
+    let spec = fiberlab_scatter::find(&args.model)?;
+    let base = ParamSet::parse(spec.name, spec.params, &fixed).with_context(|| format!("--fix for `{}`", spec.name))?;
+    let r = fit(&base, &free, &data, args.iterations)?;
     println!("model {}: {} observations, {} iterations", args.model, data.len(), r.iterations);
     for ((k, v), u) in r.params.iter().zip(&r.uncertainties) {
         println!("  {k} = {v:.6} ± {u:.6}");
@@ -175,7 +177,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         toml.push_str(&format!("{k} = \"{v}\"\n"));
     }
     for (k, v) in &r.params {
-        toml.push_str(&format!("{k} = \"{v}\"\n"));
+        // A TOML float (with `{:?}`, `3.0` stays a float and every digit of the value is kept).
+        toml.push_str(&format!("{k} = {v:?}\n"));
     }
     let toml_path = args.out.with_extension("toml");
     write_atomically(&toml_path, toml.as_bytes())?;

@@ -7,7 +7,8 @@
 use argmin::core::{CostFunction, Error, Executor, State};
 use argmin::solver::neldermead::NelderMead;
 use fiberlab_math::DVec3;
-use fiberlab_scatter::{Field, Model, ModelError, ScatteringFunction, build};
+use fiberlab_scatter::params::{ParamKind, ParamSet, RawValue};
+use fiberlab_scatter::{Field, Model, ModelError, ModelSpec, ScatteringFunction, find};
 use thiserror::Error;
 
 /// One measured value.
@@ -55,19 +56,22 @@ pub struct FitResult {
     pub iterations: u64,
 }
 
-/// The least-squares problem: model name, fixed `key=value` pairs and free keys.
+/// The least-squares problem: the model's validated fixed parameters and the free keys,
+/// whose trial values are set as numbers (never formatted to text and parsed back).
 struct Problem<'a> {
-    model: &'a str,
-    fixed: &'a [(String, String)],
+    spec: &'static ModelSpec,
+    base: &'a ParamSet,
     free: &'a [String],
     data: &'a [Observation],
 }
 
 impl Problem<'_> {
     fn model_at(&self, p: &[f64]) -> Result<Model, ModelError> {
-        let mut pairs: Vec<(String, String)> = self.fixed.to_vec();
-        pairs.extend(self.free.iter().zip(p).map(|(k, v)| (k.clone(), v.to_string())));
-        build(self.model, &pairs)
+        let mut params = self.base.clone();
+        for (k, v) in self.free.iter().zip(p) {
+            params.set(k, RawValue::Number(*v))?;
+        }
+        (self.spec.build)(&params)
     }
 
     fn residuals(&self, m: &Model) -> Vec<f64> {
@@ -99,14 +103,37 @@ impl CostFunction for Problem<'_> {
     }
 }
 
-/// Fits the `free` parameters (with starting values) of `model`, other parameters fixed.
+/// Fits the `free` parameters (with starting values) of the model whose other parameters
+/// are `base` (validated; its model is `base.model()`). Free parameters are real numbers or
+/// colours; a colour is fitted as one grey value (all channels equal), since the values
+/// fitted are luminances.
 pub fn fit(
-    model: &str,
-    fixed: &[(String, String)],
+    base: &ParamSet,
     free: &[(String, f64)],
     data: &[Observation],
     max_iters: u64,
 ) -> Result<FitResult, FitError> {
+    let spec = find(base.model())?;
+    if spec.data.is_some() {
+        return Err(FitError::Setup(format!("model `{}` is a table; it has no parameters to fit", spec.name)));
+    }
+    for (key, _) in free {
+        match spec.params.iter().find(|s| s.key == key) {
+            // A colour parameter is fitted as one grey value (all channels equal).
+            Some(s) if matches!(s.kind, ParamKind::Number(_) | ParamKind::Color(_)) => {}
+            Some(_) => {
+                return Err(FitError::Setup(format!("`{key}` is not a real-valued parameter of `{}`", spec.name)));
+            }
+            None => {
+                let known: Vec<&str> = spec.params.iter().map(|s| s.key).collect();
+                return Err(FitError::Setup(format!(
+                    "model `{}` has no parameter `{key}`; its parameters are: {}",
+                    spec.name,
+                    known.join(", ")
+                )));
+            }
+        }
+    }
     if free.is_empty() {
         return Err(FitError::Setup("no free parameters (give --init key=value)".into()));
     }
@@ -118,7 +145,7 @@ pub fn fit(
     }
     let keys: Vec<String> = free.iter().map(|(k, _)| k.clone()).collect();
     let start: Vec<f64> = free.iter().map(|(_, v)| *v).collect();
-    let problem = Problem { model, fixed, free: &keys, data };
+    let problem = Problem { spec, base, free: &keys, data };
     problem.model_at(&start)?;
     let mut simplex = vec![start.clone()];
     for k in 0..start.len() {
@@ -127,7 +154,7 @@ pub fn fit(
         simplex.push(p);
     }
     let solver = NelderMead::new(simplex).with_sd_tolerance(1e-9).map_err(|e| FitError::Optimizer(e.to_string()))?;
-    let res = Executor::new(Problem { model, fixed, free: &keys, data }, solver)
+    let res = Executor::new(Problem { spec, base, free: &keys, data }, solver)
         .configure(|s| s.max_iters(max_iters))
         .run()
         .map_err(|e| FitError::Optimizer(e.to_string()))?;
@@ -201,6 +228,12 @@ fn invert(mut a: Vec<Vec<f64>>) -> Option<Vec<Vec<f64>>> {
 mod tests {
     use super::*;
     use fiberlab_math::frame::direction;
+    use fiberlab_scatter::build;
+
+    fn chiang(pairs: &[(&str, &str)]) -> ParamSet {
+        let spec = find("chiang").unwrap();
+        ParamSet::parse(spec.name, spec.params, pairs).unwrap()
+    }
 
     /// Synthetic data from known Chiang parameters plus 2 % Gaussian-like noise: the fit
     /// recovers them within a few standard errors.
@@ -226,9 +259,8 @@ mod tests {
                 data.push(Observation { wi, wo, value: f + sigma * z, sigma });
             }
         }
-        let fixed = vec![("sigma_a".to_string(), "0.5".to_string())];
         let free = vec![("beta_m".to_string(), 0.25), ("beta_n".to_string(), 0.3), ("alpha".to_string(), 0.5)];
-        let r = fit("chiang", &fixed, &free, &data, 400).unwrap();
+        let r = fit(&chiang(&[("sigma_a", "0.5")]), &free, &data, 400).unwrap();
         let expect = [0.35, 0.45, 3.0];
         for (k, ((key, v), u)) in r.params.iter().zip(&r.uncertainties).enumerate() {
             assert!((v - expect[k]).abs() < 5.0 * u + 1e-3, "{key} = {v} ± {u}, truth {}", expect[k]);
@@ -239,12 +271,23 @@ mod tests {
     #[test]
     fn bad_setups_are_errors() {
         let o = Observation { wi: direction(0.0, 0.0), wo: direction(0.1, 1.0), value: 1.0, sigma: 0.0 };
-        assert!(fit("chiang", &[], &[("beta_m".into(), 0.3)], &[o, o, o], 10).is_err());
-        assert!(fit("chiang", &[], &[], &[o], 10).is_err());
+        let base = chiang(&[]);
+        assert!(fit(&base, &[("beta_m".into(), 0.3)], &[o, o, o], 10).is_err());
+        assert!(fit(&base, &[], &[o], 10).is_err());
+        // A key the model does not have, and a key that is not a real number, are named.
+        let ok = [o, o, o, o].map(|mut x| {
+            x.sigma = 1.0;
+            x
+        });
+        let e = fit(&base, &[("beta".into(), 0.3)], &ok, 10).unwrap_err().to_string();
+        assert!(e.contains("`beta`") && e.contains("beta_m"), "{e}");
+        let spec = find("marschner").unwrap();
+        let marschner = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
+        let e = fit(&marschner, &[("glints".into(), 0.3)], &ok, 10).unwrap_err().to_string();
+        assert!(e.contains("`glints`") && e.contains("real-valued"), "{e}");
         assert!(
             fit(
-                "chiang",
-                &[],
+                &base,
                 &[("beta_m".into(), 7.0)],
                 &[o, o, o].map(|mut x| {
                     x.sigma = 1.0;

@@ -1,7 +1,7 @@
 //! The virtual goniophotometer: the full scattering distribution of a fiber measured by
 //! tracing rays through explicit geometry (elliptical cross-section, tilted cuticle scales,
 //! absorbing interior, scattering medulla), binned per path class into tables of `f_s`
-//! with curve-radiometric normalization (models.md §2.1).
+//! with curve-radiometric normalization (docs/theory/radiometry.md).
 //!
 //! A collimated beam from `ω_i` illuminates the fiber uniformly over its projected width
 //! and along one scale period; each bin's `f_s` is the fraction of intercepted power that
@@ -240,7 +240,8 @@ mod tests {
     #[test]
     fn smooth_reflection_matches_fresnel_weighted_mirror_cone() {
         // R lands exactly on θ_r = −θ_i; per φ-column the power is
-        // ∫_col F(η, cosθ_i cos(φ/2)) cos(φ/2)/4 dφ (models.md §2.4).
+        // ∫_col F(η, cosθ_i cos(φ/2)) cos(φ/2)/4 dφ (docs/theory/radiometry.md, "Ideal specular
+        // fiber").
         let theta_i = 0.3;
         let (nt, np) = (180, 36);
         let m = run(&Fiber::default(), theta_i, 2_000_000, (nt, np));
@@ -339,7 +340,8 @@ mod tests {
 
     #[test]
     fn lambertian_surface_reproduces_the_analytic_lambertian_cylinder() {
-        // f_s = (ρ/4π)·[(π − |φ|)cosφ + sin|φ|], independent of θ (models.md §2.3).
+        // f_s = (ρ/4π)·[(π − |φ|)cosφ + sin|φ|], independent of θ (docs/theory/radiometry.md,
+        // "Lambertian cylinder").
         let rho = 0.7;
         let fiber = Fiber { surface: SurfaceKind::Lambertian(Rgb::splat(rho)), ..Fiber::default() };
         let (nt, np) = (12, 24);

@@ -9,7 +9,7 @@ use fiberlab_math::{DVec3, FiberFrame, Rgb, fresnel};
 use rand::Rng;
 use std::f64::consts::TAU;
 
-/// Path classes (models.md §4: p = 0, 1, 2 and the rest).
+/// Path classes (p = 0, 1, 2 and the rest; docs/theory/hair.md, "Lobes and notation").
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Lobe {
     /// One external reflection.

@@ -1,6 +1,7 @@
 //! The explicit smooth circular fiber against Marschner's azimuthal term: per-azimuth power
 //! of the measured TT and TRT lobes equals `∫_bin N_p dφ` of `marschner` with exact roots
-//! (glints off), and the measured TRT caustic sits where models.md §4.5 puts it.
+//! (glints off), and the measured TRT caustic sits where docs/theory/hair.md, "Caustics and
+//! glints", puts it.
 
 use fiberlab_gonio::{Fiber, Setup, measure};
 use fiberlab_scatter::Model;
@@ -75,7 +76,8 @@ fn tt_and_trt_azimuthal_power_matches_exact_root_n_p() {
 
 #[test]
 fn measured_trt_caustic_matches_the_exact_position() {
-    // θ_i = 0: θ_d = 0, φ_c = 18.62° (models.md §4.5); histogram in 0.25° bins.
+    // θ_i = 0: θ_d = 0, φ_c = 18.62° (docs/theory/hair.md, "Caustics and glints"); histogram in
+    // 0.25° bins.
     let np = 1440;
     let (power, _) = column_power(0.0, np, 4_000_000, "trt");
     let bin = |deg: f64| ((deg + 180.0) / 360.0 * np as f64) as usize;

@@ -1,4 +1,4 @@
-//! Cem Yuksel's binary `.hair` format (cyHair, `cyHairFile.h`; models.md §9).
+//! Cem Yuksel's binary `.hair` format (cyHair, `cyHairFile.h`), laid out as below.
 //!
 //! # Layout (little-endian)
 //! | offset | size | field |

@@ -1,4 +1,5 @@
-//! Bravais' modified indices for oblique incidence on a cylinder (models.md §1.2).
+//! Bravais' modified indices for oblique incidence on a cylinder
+//! (docs/theory/conventions.md, "Bravais indices").
 //!
 //! A ray inclined by θ to the normal plane refracts, in the normal-plane projection, as if
 //! the index were `η′` (perpendicular polarization) or `η″` (parallel). Formulas are

@@ -1,4 +1,5 @@
-//! The fiber frame (models.md §1.1) and the angles every model is written in.
+//! The fiber frame and the angles every model is written in (docs/theory/conventions.md,
+//! "Fiber frame", "Angles", "Relative azimuth").
 //!
 //! Local coordinates: `x` = tangent (root → tip), `y` = `v`, `z` = `w`. A direction is
 //! `ω = (sinθ, cosθ·cosφ, cosθ·sinφ)`.

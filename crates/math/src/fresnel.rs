@@ -29,9 +29,9 @@ pub fn dielectric(cos_i: f64, eta: f64) -> f64 {
     0.5 * (r_s * r_s + r_p * r_p)
 }
 
-/// Fresnel reflectance written with Bravais' indices in the normal plane (Marschner 2003,
-/// §4.4 of models.md): `γ_i` is the 2D incidence angle, `η′`, `η″` the modified indices,
-/// `γ_t = asin(sinγ_i/η′)` in both polarizations.
+/// Fresnel reflectance written with Bravais' indices in the normal plane (Marschner 2003;
+/// docs/theory/hair.md, "Fresnel with Bravais indices"): `γ_i` is the 2D incidence angle,
+/// `η′`, `η″` the modified indices, `γ_t = asin(sinγ_i/η′)` in both polarizations.
 ///
 /// It equals [`dielectric`] at `cos ι = cosθ·cosγ_i` to rounding error (tested); models use
 /// [`dielectric`]. This form exists to document and test that equivalence.

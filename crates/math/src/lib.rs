@@ -2,7 +2,7 @@
 //! the RGB spectrum type, special functions (stable `i0e`, logistic, Gaussian),
 //! dielectric Fresnel and Bravais' modified indices. No I/O, no allocation.
 //!
-//! # Conventions (models.md §1.1), used by every crate
+//! # Conventions (docs/theory/conventions.md), used by every crate
 //! Directions are unit vectors in the **fiber frame**: `x` = tangent `u` (root → tip),
 //! `y` = `v` (for elliptical fibers the major axis), `z` = `w = u × v`. The normal plane is
 //! span(y, z). For a direction `ω = sinθ·u + cosθ·(cosφ·v + sinφ·w)`:

@@ -128,7 +128,8 @@ fn chebyshev(coeffs: &[f64], t: f64) -> f64 {
 /// `i0e(x) = e^{−|x|}·I₀(x)`, where `I₀(x) = Σ_k (x²/4)^k / (k!)²`.
 ///
 /// Never overflows; relative error below 1e−15 for all finite x (tested against the
-/// power series and the asymptotic expansion). Used by d'Eon's longitudinal term (§5.1).
+/// power series and the asymptotic expansion). Used by d'Eon's longitudinal term
+/// (docs/theory/hair.md, "d'Eon's longitudinal function").
 ///
 /// ```
 /// // I₀(1) = 1.2660658777520082 (A&S Table 9.8), so i0e(1) = I₀(1)/e.

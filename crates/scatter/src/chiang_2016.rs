@@ -150,12 +150,13 @@ pub const SPEC: ModelSpec = ModelSpec {
     summary: "Chiang 2016 / pbrt-v4 near-field hair: d'Eon M_p, logistic N_p, exact sampling",
     citation: "Chiang et al. 2016; d'Eon et al. 2011; models.md §5",
     params: &PARAMS,
+    data: None,
     build: |p: &ParamSet| {
         Ok(Chiang::new(
-            p.number("eta"),
-            p.number("beta_m"),
-            p.number("beta_n"),
-            p.number("alpha"),
+            p.number("eta")?,
+            p.number("beta_m")?,
+            p.number("beta_n")?,
+            p.number("alpha")?,
             Absorption::from_params(p)?,
         )?
         .into())
@@ -215,13 +216,14 @@ impl Absorption {
     /// Validates the values (errors name the key and range).
     pub fn validate(&self) -> Result<(), ModelError> {
         match *self {
-            Absorption::SigmaA(s) => SIGMA_A_RANGE.check_rgb("sigma_a", s).map(|_| ()),
+            Absorption::SigmaA(s) => SIGMA_A_RANGE.check_rgb("sigma_a", s).map(|_| ())?,
             Absorption::Melanin { eumelanin, pheomelanin } => {
                 MELANIN_RANGE.check("eumelanin", eumelanin)?;
-                MELANIN_RANGE.check("pheomelanin", pheomelanin).map(|_| ())
+                MELANIN_RANGE.check("pheomelanin", pheomelanin).map(|_| ())?
             }
-            Absorption::Color(c) => COLOR_RANGE.check_rgb("color", c).map(|_| ()),
+            Absorption::Color(c) => COLOR_RANGE.check_rgb("color", c).map(|_| ())?,
         }
+        Ok(())
     }
 
     /// σ_a per unit radius; `beta_n` is needed only by the colour inversion.

@@ -121,8 +121,9 @@ pub const SPEC: ModelSpec = ModelSpec {
     summary: "d'Eon 2011 far-field hair: d'Eon M_p, exact width-integrated N_p (tabulated), exact sampling",
     citation: "d'Eon et al. 2011; models.md §5.1, §5.2",
     params: &PARAMS,
+    data: None,
     build: |p: &ParamSet| {
-        let p_max = p.number("p_max");
+        let p_max = p.number("p_max")?;
         if p_max.fract() != 0.0 {
             return Err(ModelError::BadValue {
                 key: "p_max".into(),
@@ -130,16 +131,16 @@ pub const SPEC: ModelSpec = ModelSpec {
                 expected: "an integer in [1, 16]".into(),
             });
         }
-        let theta_n = if p.choice("theta_n") == "difference" {
+        let theta_n = if p.choice("theta_n")? == "difference" {
             AzimuthalInclination::Difference
         } else {
             AzimuthalInclination::Camera
         };
         Ok(Deon::new(
-            p.number("eta"),
-            p.number("beta_m"),
-            p.number("beta_n"),
-            p.number("alpha"),
+            p.number("eta")?,
+            p.number("beta_m")?,
+            p.number("beta_n")?,
+            p.number("alpha")?,
             p_max as usize,
             theta_n,
             Absorption::from_params(p)?,

@@ -1,5 +1,6 @@
 //! Errors raised when a model is constructed from invalid parameters.
 
+use crate::params::ParameterError;
 use thiserror::Error;
 
 /// Why a model could not be built. Every message names the parameter and what is valid.
@@ -34,26 +35,9 @@ pub enum ModelError {
         /// What was expected, e.g. "a number" or "one of r, tt, trt".
         expected: String,
     },
-    /// NaN or ±∞.
-    #[error("parameter `{key}` = {value} is not finite; valid range {range}")]
-    NotFinite {
-        /// Parameter key.
-        key: String,
-        /// The offending value.
-        value: f64,
-        /// The valid range.
-        range: String,
-    },
-    /// A finite value outside the valid range.
-    #[error("parameter `{key}` = {value} is out of range; valid range {range}")]
-    OutOfRange {
-        /// Parameter key.
-        key: String,
-        /// The offending value.
-        value: f64,
-        /// The valid range.
-        range: String,
-    },
+    /// A value outside its valid range (NaN, ±∞ or finite but out of range).
+    #[error(transparent)]
+    Parameter(#[from] ParameterError),
     /// The same key was given more than once.
     #[error("parameter `{key}` is given more than once")]
     Duplicate {
@@ -63,4 +47,24 @@ pub enum ModelError {
     /// Parameters that are individually valid but inconsistent together.
     #[error("{0}")]
     Inconsistent(String),
+    /// The model is built from external data (see [`crate::ExternalData`]) that the caller
+    /// must load; its parameters alone cannot build it.
+    #[error("model `{model}` is built from a table file: give its path as `{key}=PATH`")]
+    NeedsData {
+        /// Model name.
+        model: &'static str,
+        /// The parameter that names the data file.
+        key: &'static str,
+    },
+    /// A model's reader asked for a parameter its specification does not define with that
+    /// kind: a programming error in the model, reported instead of panicking.
+    #[error("model `{model}`: its specification has no {kind} parameter `{key}`")]
+    Specification {
+        /// Model name.
+        model: &'static str,
+        /// The key asked for.
+        key: String,
+        /// The kind asked for.
+        kind: &'static str,
+    },
 }

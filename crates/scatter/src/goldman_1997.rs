@@ -14,17 +14,18 @@
 //! Sampling: θ_i as Kajiya–Kay, φ from the density `(a + b·cosφ)/(2πa)` with a, b the
 //! luminance of the two halves, by safeguarded Newton inversion of its CDF.
 
-use crate::kajiya_kay_1989::{self, KajiyaKay, theta_of};
-use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
+use crate::kajiya_kay_1989::{self, KajiyaKay, KajiyaKayError, KajiyaKayParams, theta_of};
+use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
 use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, relative_phi};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{PI, TAU};
+use thiserror::Error;
 
 const PARAMS: [ParamSpec; 5] = [
-    kajiya_kay_1989::PARAMS[0],
-    kajiya_kay_1989::PARAMS[1],
-    kajiya_kay_1989::PARAMS[2],
+    kajiya_kay_1989::PARAMS[kajiya_kay_1989::K_D],
+    kajiya_kay_1989::PARAMS[kajiya_kay_1989::K_S],
+    kajiya_kay_1989::PARAMS[kajiya_kay_1989::P],
     ParamSpec {
         key: "rho_reflect",
         kind: ParamKind::Color(Range::UNIT),
@@ -47,10 +48,65 @@ pub const SPEC: ModelSpec = ModelSpec {
     summary: "Kajiya–Kay with Goldman's forward/backward directional factor",
     citation: "Goldman 1997; models.md §3.1",
     params: &PARAMS,
-    build: |p: &ParamSet| {
-        Ok(Goldman::new(KajiyaKay::from_params(p)?, p.color("rho_reflect"), p.color("rho_transmit"))?.into())
-    },
+    data: None,
+    build: |p: &ParamSet| Ok(Goldman::new(GoldmanParams::from_param_set(p)?)?.into()),
 };
+
+/// Parameters of [`Goldman`]: a Kajiya–Kay fiber and the directional weights.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GoldmanParams {
+    /// The underlying Kajiya–Kay terms.
+    pub kajiya_kay: KajiyaKayParams,
+    /// Weight ρ_reflect ∈ [0, 1] of backward (reflected) scattering, κ = +1.
+    pub rho_reflect: Rgb,
+    /// Weight ρ_transmit ∈ [0, 1] of forward (transmitted) scattering, κ = −1.
+    pub rho_transmit: Rgb,
+}
+
+impl Default for GoldmanParams {
+    /// Kajiya–Kay's defaults, `ρ_reflect = 1`, `ρ_transmit = 0.5`.
+    fn default() -> Self {
+        Self { kajiya_kay: KajiyaKayParams::default(), rho_reflect: Rgb::ONE, rho_transmit: Rgb::splat(0.5) }
+    }
+}
+
+impl GoldmanParams {
+    /// Back-lit fur that glows: forward scattering stronger than backward
+    /// (`ρ_reflect = 0.4`, `ρ_transmit = 1`).
+    #[must_use]
+    pub fn backlit() -> Self {
+        Self { rho_reflect: Rgb::splat(0.4), rho_transmit: Rgb::ONE, ..Self::default() }
+    }
+
+    /// Reads the registry parameters.
+    pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Ok(Self {
+            kajiya_kay: KajiyaKayParams::from_param_set(p)?,
+            rho_reflect: p.color("rho_reflect")?,
+            rho_transmit: p.color("rho_transmit")?,
+        })
+    }
+}
+
+/// Why a [`Goldman`] fiber cannot be built.
+#[non_exhaustive]
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum GoldmanError {
+    /// A parameter outside its range.
+    #[error(transparent)]
+    Parameter(#[from] ParameterError),
+    /// The Kajiya–Kay part is invalid.
+    #[error(transparent)]
+    KajiyaKay(#[from] KajiyaKayError),
+}
+
+impl From<GoldmanError> for ModelError {
+    fn from(e: GoldmanError) -> Self {
+        match e {
+            GoldmanError::Parameter(p) | GoldmanError::KajiyaKay(KajiyaKayError::Parameter(p)) => p.into(),
+        }
+    }
+}
 
 /// Goldman's directional Kajiya–Kay fiber.
 #[derive(Clone, Debug)]
@@ -65,7 +121,9 @@ pub struct Goldman {
 
 impl Goldman {
     /// Goldman's model on top of a Kajiya–Kay fiber.
-    pub fn new(kk: KajiyaKay, rho_reflect: Rgb, rho_transmit: Rgb) -> Result<Self, ModelError> {
+    pub fn new(params: GoldmanParams) -> Result<Self, GoldmanError> {
+        let GoldmanParams { kajiya_kay, rho_reflect, rho_transmit } = params;
+        let kk = KajiyaKay::new(kajiya_kay)?;
         Range::UNIT.check_rgb("rho_reflect", rho_reflect)?;
         Range::UNIT.check_rgb("rho_transmit", rho_transmit)?;
         let (lr, lt) = (rho_reflect.luminance(), rho_transmit.luminance());
@@ -155,8 +213,7 @@ mod tests {
 
     #[test]
     fn phi_sampler_inverts_its_cdf() {
-        let kk = KajiyaKay::new(Rgb::splat(0.05), Rgb::splat(0.1), 30.0).unwrap();
-        let g = Goldman::new(kk, Rgb::splat(1.0), Rgb::splat(0.2)).unwrap();
+        let g = Goldman::new(GoldmanParams { rho_transmit: Rgb::splat(0.2), ..GoldmanParams::default() }).unwrap();
         for i in 0..=100 {
             let u = i as f64 / 100.0;
             let x = g.sample_phi(u);

@@ -9,12 +9,13 @@
 //! `∫_{S²} cosθ dω = π²`. Reciprocal, far-field, energy conserving.
 //! Sampling is exact: density `cosθ_i/π²` per sr, weight ρ.
 
-use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
+use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
 use crate::sampling::{cos_theta_direction, cos_theta_pdf};
 use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::cos_theta;
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{PI, TAU};
+use thiserror::Error;
 
 /// Registry entry: `diffuse`.
 pub const SPEC: ModelSpec = ModelSpec {
@@ -28,8 +29,53 @@ pub const SPEC: ModelSpec = ModelSpec {
         default: "0.8",
         doc: "albedo ρ = π²·f_s",
     }],
-    build: |p: &ParamSet| Ok(IdealDiffuse::new(p.color("albedo"))?.into()),
+    data: None,
+    build: |p: &ParamSet| Ok(IdealDiffuse::new(IdealDiffuseParams::from_param_set(p)?)?.into()),
 };
+
+/// Parameters of [`IdealDiffuse`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IdealDiffuseParams {
+    /// Albedo ρ ∈ [0, 1] per channel (`f_s = ρ/π²`).
+    pub albedo: Rgb,
+}
+
+impl Default for IdealDiffuseParams {
+    /// Albedo 0.8.
+    fn default() -> Self {
+        Self { albedo: Rgb::splat(0.8) }
+    }
+}
+
+impl IdealDiffuseParams {
+    /// A white (ρ = 1) fiber: the white-furnace reference.
+    #[must_use]
+    pub fn white() -> Self {
+        Self { albedo: Rgb::ONE }
+    }
+
+    /// Reads the registry parameters.
+    pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Ok(Self { albedo: p.color("albedo")? })
+    }
+}
+
+/// Why an [`IdealDiffuse`] fiber cannot be built.
+#[non_exhaustive]
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum IdealDiffuseError {
+    /// A parameter outside its range.
+    #[error(transparent)]
+    Parameter(#[from] ParameterError),
+}
+
+impl From<IdealDiffuseError> for ModelError {
+    fn from(e: IdealDiffuseError) -> Self {
+        match e {
+            IdealDiffuseError::Parameter(p) => p.into(),
+        }
+    }
+}
 
 /// Ideal diffuse fiber: constant `f_s = ρ/π²`.
 #[derive(Clone, Debug)]
@@ -38,9 +84,9 @@ pub struct IdealDiffuse {
 }
 
 impl IdealDiffuse {
-    /// A diffuse fiber of albedo `albedo` ∈ [0, 1] per channel.
-    pub fn new(albedo: Rgb) -> Result<Self, ModelError> {
-        Ok(Self { albedo: Range::UNIT.check_rgb("albedo", albedo)? })
+    /// A diffuse fiber of albedo ∈ [0, 1] per channel.
+    pub fn new(params: IdealDiffuseParams) -> Result<Self, IdealDiffuseError> {
+        Ok(Self { albedo: Range::UNIT.check_rgb("albedo", params.albedo)? })
     }
 
     /// The albedo ρ.

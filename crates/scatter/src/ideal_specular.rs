@@ -19,11 +19,12 @@
 //! lies in the plane of incidence). Reciprocal (the lobe is symmetric), far-field, delta.
 //! Sampling is exact: `φ = 2·asin(2ξ − 1)` (mirror) or `φ = π(2ξ − 1)` (uniform).
 
-use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
+use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
 use crate::{ConeValue, Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta};
 use fiberlab_math::{DVec3, Rgb, fresnel};
 use std::f64::consts::{PI, TAU};
+use thiserror::Error;
 
 /// Registry entry: `specular`.
 pub const SPEC: ModelSpec = ModelSpec {
@@ -53,12 +54,58 @@ pub const SPEC: ModelSpec = ModelSpec {
             doc: "index of refraction (used with fresnel=on)",
         },
     ],
-    build: |p: &ParamSet| {
-        let azimuth = if p.choice("azimuth") == "uniform" { Azimuth::Uniform } else { Azimuth::Mirror };
-        let eta = (p.choice("fresnel") == "on").then(|| p.number("eta"));
-        Ok(IdealSpecular::new(azimuth, eta)?.into())
-    },
+    data: None,
+    build: |p: &ParamSet| Ok(IdealSpecular::new(IdealSpecularParams::from_param_set(p)?)?.into()),
 };
+
+/// Parameters of [`IdealSpecular`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IdealSpecularParams {
+    /// The azimuthal distribution on the cone.
+    pub azimuth: Azimuth,
+    /// `Some(η)`: the lobe is weighted by the dielectric reflectance of index η ∈ (1, 4];
+    /// `None`: a perfect reflector.
+    pub fresnel_eta: Option<f64>,
+}
+
+impl Default for IdealSpecularParams {
+    /// A perfect mirror cylinder (`azimuth = mirror`, no Fresnel).
+    fn default() -> Self {
+        Self { azimuth: Azimuth::Mirror, fresnel_eta: None }
+    }
+}
+
+impl IdealSpecularParams {
+    /// A smooth dielectric cylinder of index 1.55 (hair keratin), R path only.
+    #[must_use]
+    pub fn keratin() -> Self {
+        Self { azimuth: Azimuth::Mirror, fresnel_eta: Some(1.55) }
+    }
+
+    /// Reads the registry parameters.
+    pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        let azimuth = if p.choice("azimuth")? == "uniform" { Azimuth::Uniform } else { Azimuth::Mirror };
+        let fresnel_eta = if p.switch("fresnel")? { Some(p.number("eta")?) } else { None };
+        Ok(Self { azimuth, fresnel_eta })
+    }
+}
+
+/// Why a [`IdealSpecular`] cannot be built.
+#[non_exhaustive]
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum IdealSpecularError {
+    /// A parameter outside its range.
+    #[error(transparent)]
+    Parameter(#[from] ParameterError),
+}
+
+impl From<IdealSpecularError> for ModelError {
+    fn from(e: IdealSpecularError) -> Self {
+        match e {
+            IdealSpecularError::Parameter(p) => p.into(),
+        }
+    }
+}
 
 const ETA_RANGE: Range = Range::open_closed(1.0, 4.0);
 
@@ -80,12 +127,12 @@ pub struct IdealSpecular {
 }
 
 impl IdealSpecular {
-    /// A specular fiber; `eta = Some(η)` weights the lobe by Fresnel reflectance.
-    pub fn new(azimuth: Azimuth, eta: Option<f64>) -> Result<Self, ModelError> {
-        if let Some(e) = eta {
+    /// A specular fiber; `fresnel_eta = Some(η)` weights the lobe by Fresnel reflectance.
+    pub fn new(params: IdealSpecularParams) -> Result<Self, IdealSpecularError> {
+        if let Some(e) = params.fresnel_eta {
             ETA_RANGE.check("eta", e)?;
         }
-        Ok(Self { azimuth, eta })
+        Ok(Self { azimuth: params.azimuth, eta: params.fresnel_eta })
     }
 
     /// The azimuthal distribution.

@@ -21,13 +21,14 @@
 //! specular lobe, whose longitudinal variable `x = θ_i + θ_o` is drawn from a 4096-cell
 //! tabulation of `cos^p x`; φ is uniform. The pdf is exactly the density of the samples.
 
-use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
+use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
 use crate::sampling::Tabulated1D;
 use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::Arc;
+use thiserror::Error;
 
 /// Smallest `cos θ_i` used in the `1/cosθ_i` of the specular term.
 const MIN_COS: f64 = 1e-8;
@@ -37,7 +38,15 @@ const LOBE_CELLS: usize = 4096;
 const K_RANGE: Range = Range::closed(0.0, 10.0);
 const P_RANGE: Range = Range::closed(0.5, 1e4);
 
-/// Parameter table shared with [`crate::goldman_1997`].
+/// Index of `k_d` in [`PARAMS`].
+pub(crate) const K_D: usize = 0;
+/// Index of `k_s` in [`PARAMS`].
+pub(crate) const K_S: usize = 1;
+/// Index of `p` in [`PARAMS`].
+pub(crate) const P: usize = 2;
+
+/// Parameter table shared with [`crate::goldman_1997`] (which names the entries by
+/// [`K_D`], [`K_S`], [`P`]; a test checks that they match the keys).
 pub(crate) const PARAMS: [ParamSpec; 3] = [
     ParamSpec {
         key: "k_d",
@@ -62,8 +71,57 @@ pub const SPEC: ModelSpec = ModelSpec {
     summary: "Kajiya–Kay diffuse + specular cone, as a scattering function",
     citation: "Kajiya & Kay 1989; models.md §3",
     params: &PARAMS,
-    build: |p: &ParamSet| Ok(KajiyaKay::from_params(p)?.into()),
+    data: None,
+    build: |p: &ParamSet| Ok(KajiyaKay::new(KajiyaKayParams::from_param_set(p)?)?.into()),
 };
+
+/// Parameters of [`KajiyaKay`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KajiyaKayParams {
+    /// Diffuse coefficient `k_d` ∈ [0, 10] sr⁻¹ per channel.
+    pub k_d: Rgb,
+    /// Specular coefficient `k_s` ∈ [0, 10] sr⁻¹ per channel.
+    pub k_s: Rgb,
+    /// Specular exponent `p` ∈ [0.5, 10⁴].
+    pub p: f64,
+}
+
+impl Default for KajiyaKayParams {
+    /// `k_d = 0.05`, `k_s = 0.1`, `p = 30`.
+    fn default() -> Self {
+        Self { k_d: Rgb::splat(0.05), k_s: Rgb::splat(0.1), p: 30.0 }
+    }
+}
+
+impl KajiyaKayParams {
+    /// A dark, glossy look: little diffuse, a sharp highlight (`k_d = 0.01`, `k_s = 0.2`, `p = 80`).
+    #[must_use]
+    pub fn dark_glossy() -> Self {
+        Self { k_d: Rgb::splat(0.01), k_s: Rgb::splat(0.2), p: 80.0 }
+    }
+
+    /// Reads the registry parameters.
+    pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Ok(Self { k_d: p.color("k_d")?, k_s: p.color("k_s")?, p: p.number("p")? })
+    }
+}
+
+/// Why a [`KajiyaKay`] fiber cannot be built.
+#[non_exhaustive]
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum KajiyaKayError {
+    /// A parameter outside its range.
+    #[error(transparent)]
+    Parameter(#[from] ParameterError),
+}
+
+impl From<KajiyaKayError> for ModelError {
+    fn from(e: KajiyaKayError) -> Self {
+        match e {
+            KajiyaKayError::Parameter(p) => p.into(),
+        }
+    }
+}
 
 /// Kajiya–Kay fiber.
 #[derive(Clone, Debug)]
@@ -77,16 +135,13 @@ pub struct KajiyaKay {
 
 impl KajiyaKay {
     /// A Kajiya–Kay fiber with diffuse `k_d`, specular `k_s` (sr⁻¹) and exponent `p`.
-    pub fn new(k_d: Rgb, k_s: Rgb, p: f64) -> Result<Self, ModelError> {
+    pub fn new(params: KajiyaKayParams) -> Result<Self, KajiyaKayError> {
+        let KajiyaKayParams { k_d, k_s, p } = params;
         K_RANGE.check_rgb("k_d", k_d)?;
         K_RANGE.check_rgb("k_s", k_s)?;
         P_RANGE.check("p", p)?;
         let lobe = Tabulated1D::new(-FRAC_PI_2, FRAC_PI_2, LOBE_CELLS, 8, |x| x.cos().max(0.0).powf(p));
         Ok(Self { k_d, k_s, p, lobe: Arc::new(lobe) })
-    }
-
-    pub(crate) fn from_params(p: &ParamSet) -> Result<Self, ModelError> {
-        Self::new(p.color("k_d"), p.color("k_s"), p.number("p"))
     }
 
     /// Diffuse coefficient `k_d` (sr⁻¹).

@@ -26,4 +26,4 @@ pub mod measured;
 
 pub use error::ModelError;
 pub use function::{ConeValue, Field, Lobes, Properties, Sample, ScatteringFunction};
-pub use model::{ALL_MODELS, EXTERNAL_DATA, MODELS, Model, ModelSpec, build, find};
+pub use model::{ALL_MODELS, ExternalData, MODELS, Model, ModelSpec, build, build_raw, find};

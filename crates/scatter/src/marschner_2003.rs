@@ -261,6 +261,7 @@ pub const SPEC: ModelSpec = ModelSpec {
     summary: "Marschner et al. 2003 hair: R, TT, TRT with caustic glints and eccentricity",
     citation: "Marschner et al. 2003; models.md §4",
     params: &PARAMS,
+    data: None,
     build: |p: &ParamSet| Ok(Marschner::new(MarschnerParams::from_param_set(p)?)?.into()),
 };
 
@@ -382,25 +383,25 @@ impl Default for MarschnerParams {
 impl MarschnerParams {
     /// Reads the registry parameters (degrees → radians).
     pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
-        let lobes = p.subset("lobes");
+        let lobes = p.subset("lobes")?;
         Ok(Self {
-            eta: p.number("eta"),
-            sigma_a: p.color("sigma_a"),
-            alpha_r: p.number("alpha_r").to_radians(),
-            beta_r: p.number("beta_r").to_radians(),
-            k_g: p.number("k_g"),
-            w_c: p.number("w_c").to_radians(),
-            delta_eta: p.number("delta_eta"),
-            delta_h_m: p.number("delta_h_m"),
-            eccentricity: p.number("eccentricity"),
-            roots: if p.choice("roots") == "cubic" { RootMode::Cubic } else { RootMode::Exact },
-            glints: p.choice("glints") == "on",
-            normalization: if p.choice("normalization") == "paper" {
+            eta: p.number("eta")?,
+            sigma_a: p.color("sigma_a")?,
+            alpha_r: p.number("alpha_r")?.to_radians(),
+            beta_r: p.number("beta_r")?.to_radians(),
+            k_g: p.number("k_g")?,
+            w_c: p.number("w_c")?.to_radians(),
+            delta_eta: p.number("delta_eta")?,
+            delta_h_m: p.number("delta_h_m")?,
+            eccentricity: p.number("eccentricity")?,
+            roots: if p.choice("roots")? == "cubic" { RootMode::Cubic } else { RootMode::Exact },
+            glints: p.choice("glints")? == "on",
+            normalization: if p.choice("normalization")? == "paper" {
                 Normalization::Paper
             } else {
                 Normalization::Energy
             },
-            absorption: if p.choice("absorption") == "paper" { Absorption::Paper } else { Absorption::Chord },
+            absorption: if p.choice("absorption")? == "paper" { Absorption::Paper } else { Absorption::Chord },
             lobes: LOBE_NAMES.map(|n| lobes.contains(&n)),
         })
     }
@@ -654,20 +655,6 @@ impl NormalPlane {
     }
 }
 
-/// Checks an angle given in radians against a range in degrees; an end of the range that
-/// the degree → radian → degree round trip misses by rounding (≤ 1e−9°) counts as the end.
-fn check_degrees(range: Range, key: &str, radians: f64) -> Result<f64, ModelError> {
-    let d = radians.to_degrees();
-    let d = if (d - range.min).abs() <= 1e-9 {
-        range.min
-    } else if (d - range.max).abs() <= 1e-9 {
-        range.max
-    } else {
-        d
-    };
-    range.check(key, d).map(f64::to_radians)
-}
-
 /// The representative of φ modulo 2π in (pπ − π, pπ + π], where Φ(p, ·) takes its values.
 fn representative(p: usize, phi: f64) -> f64 {
     match p {
@@ -741,10 +728,10 @@ impl Marschner {
     pub fn new(params: MarschnerParams) -> Result<Self, ModelError> {
         ETA_RANGE.check("eta", params.eta)?;
         SIGMA_RANGE.check_rgb("sigma_a", params.sigma_a)?;
-        check_degrees(ALPHA_RANGE, "alpha_r", params.alpha_r)?;
-        check_degrees(BETA_RANGE, "beta_r", params.beta_r)?;
+        ALPHA_RANGE.check_degrees("alpha_r", params.alpha_r)?;
+        BETA_RANGE.check_degrees("beta_r", params.beta_r)?;
         K_G_RANGE.check("k_g", params.k_g)?;
-        check_degrees(W_C_RANGE, "w_c", params.w_c)?;
+        W_C_RANGE.check_degrees("w_c", params.w_c)?;
         DELTA_ETA_RANGE.check("delta_eta", params.delta_eta)?;
         DELTA_H_RANGE.check("delta_h_m", params.delta_h_m)?;
         ECCENTRICITY_RANGE.check("eccentricity", params.eccentricity)?;

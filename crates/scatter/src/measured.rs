@@ -16,11 +16,12 @@
 //! energy hold only as well as the measurement does, so neither is claimed.
 
 use crate::params::{ParamKind, ParamSet, ParamSpec};
-use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{ExternalData, Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{direction_from_sin_cos, phi, relative_phi, theta};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::Arc;
+use thiserror::Error;
 
 /// Registry entry: `measured`. Building it needs the table's data, which the I/O layer
 /// loads; [`crate::build`] alone reports how to provide it.
@@ -35,14 +36,38 @@ pub const SPEC: ModelSpec = ModelSpec {
         default: "",
         doc: "CSV written by `fiberlab measure` (rows with lobe=all are used)",
     }],
-    build: |_: &ParamSet| {
-        Err(ModelError::Inconsistent(
-            "model `measured` reads its table from a file: give `--param table=PATH` to the fiberlab command line \
-             or `table = \"PATH\"` in a scene"
-                .into(),
-        ))
-    },
+    data: Some(ExternalData::Table { key: "table" }),
+    build: |_: &ParamSet| Err(ModelError::NeedsData { model: "measured", key: "table" }),
 };
+
+/// Why a [`Measured`] function cannot be built from a table.
+#[non_exhaustive]
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum MeasuredError {
+    /// No incidence or no bins.
+    #[error("measured table: no data")]
+    Empty,
+    /// Slice count or sizes disagree with the bins.
+    #[error("measured table: expected {slices} slices of {cells} bins")]
+    Shape {
+        /// Incidences.
+        slices: usize,
+        /// Bins per slice.
+        cells: usize,
+    },
+    /// Incidences not strictly increasing inside (−90°, 90°).
+    #[error("measured table: incidence angles must be distinct, increasing, in (−90°, 90°)")]
+    Incidences,
+    /// A NaN, infinite or negative value.
+    #[error("measured table: values must be finite and non-negative")]
+    Values,
+}
+
+impl From<MeasuredError> for ModelError {
+    fn from(e: MeasuredError) -> Self {
+        ModelError::Inconsistent(e.to_string())
+    }
+}
 
 /// Bin values of `f_s` (sr⁻¹) for each measured incidence inclination.
 #[derive(Clone, Debug, PartialEq)]
@@ -67,20 +92,19 @@ pub struct Measured {
 
 impl Measured {
     /// Validates the table (finite, non-negative, consistent sizes, increasing θ_in).
-    pub fn new(table: MeasuredTable) -> Result<Self, ModelError> {
-        let bad = |m: String| Err(ModelError::Inconsistent(format!("measured table: {m}")));
+    pub fn new(table: MeasuredTable) -> Result<Self, MeasuredError> {
         let cells = table.bins_theta * table.bins_phi;
         if table.theta_in.is_empty() || cells == 0 {
-            return bad("no data".into());
+            return Err(MeasuredError::Empty);
         }
         if table.f.len() != table.theta_in.len() || table.f.iter().any(|s| s.len() != cells) {
-            return bad(format!("expected {} slices of {cells} bins", table.theta_in.len()));
+            return Err(MeasuredError::Shape { slices: table.theta_in.len(), cells });
         }
         if table.theta_in.windows(2).any(|w| w[1] <= w[0]) || table.theta_in.iter().any(|t| t.abs() >= FRAC_PI_2) {
-            return bad("incidence angles must be distinct, in (−90°, 90°)".into());
+            return Err(MeasuredError::Incidences);
         }
         if table.f.iter().flatten().any(|v| !v.is_finite() || v.min_component() < 0.0) {
-            return bad("values must be finite and non-negative".into());
+            return Err(MeasuredError::Values);
         }
         let cdf = table
             .f

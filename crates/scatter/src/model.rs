@@ -1,7 +1,7 @@
 //! [`Model`]: the closed set of models, dispatched statically (no virtual calls in the
 //! renderer's hot loop), and the registry that builds them from `key=value` parameters.
 
-use crate::params::{ParamSet, ParamSpec};
+use crate::params::{ParamSet, ParamSpec, RawValue};
 use crate::{ConeValue, ModelError, Properties, Sample, ScatteringFunction};
 use fiberlab_math::{DVec3, Rgb};
 
@@ -16,8 +16,23 @@ pub struct ModelSpec {
     pub citation: &'static str,
     /// Parameters with units, defaults and valid ranges.
     pub params: &'static [ParamSpec],
-    /// Builds the model from validated parameters.
+    /// External data the model is built from, loaded by the caller (`None`: parameters
+    /// alone build it, with [`ModelSpec::build`]).
+    pub data: Option<ExternalData>,
+    /// Builds the model from validated parameters (for models with [`ModelSpec::data`],
+    /// [`ModelError::NeedsData`]: the caller loads the data and builds the model itself).
     pub build: fn(&ParamSet) -> Result<Model, ModelError>,
+}
+
+/// External data a model is built from, which a pure crate cannot read: the caller (the
+/// renderer's model loader) reads it and constructs the model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExternalData {
+    /// A measured table file (`fiberlab measure` CSV), whose path is the text parameter `key`.
+    Table {
+        /// The parameter holding the path.
+        key: &'static str,
+    },
 }
 
 macro_rules! models {
@@ -32,8 +47,8 @@ macro_rules! models {
             )*
         }
 
-        /// Every model the enum can hold, in the order `fiberlab models` lists them; those in
-        /// [`EXTERNAL_DATA`] cannot be built from parameters alone.
+        /// Every model the enum can hold, in the order `fiberlab models` lists them; those with
+        /// [`ModelSpec::data`] cannot be built from parameters alone.
         pub const ALL_MODELS: &[ModelSpec] = &[$($spec),*];
 
         impl ScatteringFunction for Model {
@@ -77,12 +92,8 @@ models! {
     Measured(crate::measured::Measured) = crate::measured::SPEC,
 }
 
-/// Models that need data loaded by the caller (a table file): listed by `fiberlab models`
-/// but skipped by code that builds every model from its defaults.
-pub const EXTERNAL_DATA: &[&str] = &["measured"];
-
-/// The models that can be built from parameters alone (every entry of [`ALL_MODELS`] not in
-/// [`EXTERNAL_DATA`]).
+/// The models that can be built from parameters alone (every entry of [`ALL_MODELS`] without
+/// [`ModelSpec::data`]), what code that builds every model from its defaults iterates.
 pub const MODELS: &[ModelSpec] = &[
     crate::ideal_diffuse::SPEC,
     crate::lambertian_cylinder::SPEC,
@@ -102,12 +113,17 @@ pub fn find(name: &str) -> Result<&'static ModelSpec, ModelError> {
     })
 }
 
-/// Builds model `name` from `key=value` pairs (unknown keys, bad values and out-of-range
-/// values are errors naming the key).
+/// Builds model `name` from textual `key=value` pairs (unknown keys, bad values and
+/// out-of-range values are errors naming the key).
 pub fn build<K: AsRef<str>, V: AsRef<str>>(name: &str, pairs: &[(K, V)]) -> Result<Model, ModelError> {
     let spec = find(name)?;
-    let params = ParamSet::parse(spec.name, spec.params, pairs)?;
-    (spec.build)(&params)
+    (spec.build)(&ParamSet::parse(spec.name, spec.params, pairs)?)
+}
+
+/// Builds model `name` from pairs of any edge (see [`RawValue`]).
+pub fn build_raw<K: AsRef<str>>(name: &str, pairs: &[(K, RawValue)]) -> Result<Model, ModelError> {
+    let spec = find(name)?;
+    (spec.build)(&ParamSet::from_raw(spec.name, spec.params, pairs)?)
 }
 
 #[cfg(test)]
@@ -116,7 +132,7 @@ mod tests {
 
     #[test]
     fn models_lists_every_buildable_entry_of_all_models() {
-        let buildable: Vec<&str> = ALL_MODELS.iter().map(|m| m.name).filter(|n| !EXTERNAL_DATA.contains(n)).collect();
+        let buildable: Vec<&str> = ALL_MODELS.iter().filter(|m| m.data.is_none()).map(|m| m.name).collect();
         assert_eq!(buildable, MODELS.iter().map(|m| m.name).collect::<Vec<_>>());
     }
 
@@ -127,6 +143,25 @@ mod tests {
             assert_eq!(MODELS.iter().filter(|m| m.name == spec.name).count(), 1);
         }
         assert!(matches!(build::<&str, &str>("nope", &[]), Err(ModelError::UnknownModel { .. })));
+    }
+
+    /// Each model's documented `Default` is what the registry builds without parameters.
+    #[test]
+    fn typed_defaults_match_the_registry_defaults() {
+        use crate::lambertian_cylinder as l;
+        use crate::{goldman_1997 as g, ideal_diffuse as d, ideal_specular as s, kajiya_kay_1989 as k};
+        let defaults = |spec: &ModelSpec| ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
+        assert_eq!(d::IdealDiffuseParams::from_param_set(&defaults(&d::SPEC)), Ok(d::IdealDiffuseParams::default()));
+        assert_eq!(
+            l::LambertianCylinderParams::from_param_set(&defaults(&l::SPEC)),
+            Ok(l::LambertianCylinderParams::default())
+        );
+        assert_eq!(s::IdealSpecularParams::from_param_set(&defaults(&s::SPEC)), Ok(s::IdealSpecularParams::default()));
+        assert_eq!(k::KajiyaKayParams::from_param_set(&defaults(&k::SPEC)), Ok(k::KajiyaKayParams::default()));
+        assert_eq!(g::GoldmanParams::from_param_set(&defaults(&g::SPEC)), Ok(g::GoldmanParams::default()));
+        // Goldman names Kajiya–Kay's entries by index: the indices must point at the keys.
+        let kk = &k::SPEC.params;
+        assert_eq!([kk[k::K_D].key, kk[k::K_S].key, kk[k::P].key], ["k_d", "k_s", "p"]);
     }
 
     /// The fused `eval_and_pdf` of every model returns exactly what `eval` and `pdf` do.

@@ -7,6 +7,7 @@
 use crate::ModelError;
 use fiberlab_math::Rgb;
 use std::fmt;
+use thiserror::Error;
 
 /// An interval of valid values, each end open or closed (`f64::INFINITY` for unbounded).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -32,6 +33,11 @@ impl Range {
     pub const fn open_closed(min: f64, max: f64) -> Self {
         Self { min, max, min_inclusive: false, max_inclusive: true }
     }
+    /// `[min, max)`.
+    #[must_use]
+    pub const fn closed_open(min: f64, max: f64) -> Self {
+        Self { min, max, min_inclusive: true, max_inclusive: false }
+    }
     /// `(min, max)`.
     #[must_use]
     pub const fn open(min: f64, max: f64) -> Self {
@@ -49,22 +55,91 @@ impl Range {
     }
 
     /// Returns `x` if it is finite and in range, else the error naming `key`.
-    pub fn check(&self, key: &str, x: f64) -> Result<f64, ModelError> {
-        if !x.is_finite() {
-            return Err(ModelError::NotFinite { key: key.into(), value: x, range: self.to_string() });
-        }
-        if !self.contains(x) {
-            return Err(ModelError::OutOfRange { key: key.into(), value: x, range: self.to_string() });
-        }
-        Ok(x)
+    pub fn check(&self, key: &'static str, x: f64) -> Result<f64, ParameterError> {
+        self.check_in(key, x, "")
     }
 
     /// [`Range::check`] for every channel of a colour.
-    pub fn check_rgb(&self, key: &str, c: Rgb) -> Result<Rgb, ModelError> {
+    pub fn check_rgb(&self, key: &'static str, c: Rgb) -> Result<Rgb, ParameterError> {
         for i in 0..3 {
             self.check(key, c[i])?;
         }
         Ok(c)
+    }
+
+    /// Checks an angle given in **radians** against this range read in **degrees**, and
+    /// reports a violation in degrees (the unit the user wrote). An end of the range that
+    /// the degree → radian → degree round trip misses by rounding (≤ 1e−9°) counts as the end.
+    pub fn check_degrees(&self, key: &'static str, radians: f64) -> Result<f64, ParameterError> {
+        let d = radians.to_degrees();
+        let d = if (d - self.min).abs() <= 1e-9 {
+            self.min
+        } else if (d - self.max).abs() <= 1e-9 {
+            self.max
+        } else {
+            d
+        };
+        self.check_in(key, d, "degrees").map(|_| radians)
+    }
+
+    fn check_in(&self, key: &'static str, x: f64, unit: &'static str) -> Result<f64, ParameterError> {
+        let range = if unit.is_empty() { self.to_string() } else { format!("{self} {unit}") };
+        if !x.is_finite() {
+            return Err(ParameterError::NotFinite { key, value: x, range });
+        }
+        if !self.contains(x) {
+            return Err(ParameterError::OutOfRange { key, value: x, range });
+        }
+        Ok(x)
+    }
+}
+
+/// A value outside its parameter's valid range, named by the parameter's key. Shared by
+/// every model's error type (each model's `XError` wraps it).
+#[non_exhaustive]
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum ParameterError {
+    /// NaN or ±∞.
+    #[error("parameter `{key}` = {} is not finite; valid range {range}", Shown(*.value))]
+    NotFinite {
+        /// Parameter key.
+        key: &'static str,
+        /// The offending value.
+        value: f64,
+        /// The valid range, with its unit.
+        range: String,
+    },
+    /// A finite value outside the valid range.
+    #[error("parameter `{key}` = {} is out of range; valid range {range}", Shown(*.value))]
+    OutOfRange {
+        /// Parameter key.
+        key: &'static str,
+        /// The offending value (in the range's unit).
+        value: f64,
+        /// The valid range, with its unit.
+        range: String,
+    },
+}
+
+impl ParameterError {
+    /// The key of the parameter at fault.
+    #[must_use]
+    pub fn key(&self) -> &'static str {
+        match self {
+            ParameterError::NotFinite { key, .. } | ParameterError::OutOfRange { key, .. } => key,
+        }
+    }
+}
+
+/// A number as a person reads it: twelve significant digits, plain for ordinary magnitudes,
+/// in exponent form for huge or tiny ones (so 1e308 is not printed with 309 digits).
+struct Shown(f64);
+
+impl fmt::Display for Shown {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        // Twelve significant digits: hides the rounding of unit conversions (29.999999999999996°).
+        let x = if self.0.is_finite() { format!("{:.11e}", self.0).parse().unwrap_or(self.0) } else { self.0 };
+        if x.is_finite() && x != 0.0 && !(1e-4..1e7).contains(&x.abs()) { write!(f, "{x:e}") } else { write!(f, "{x}") }
     }
 }
 
@@ -76,7 +151,7 @@ impl fmt::Display for Range {
             } else if x == f64::NEG_INFINITY {
                 "−∞".to_string()
             } else {
-                format!("{x}")
+                Shown(x).to_string()
             }
         };
         write!(
@@ -122,7 +197,66 @@ pub struct ParamSpec {
     pub doc: &'static str,
 }
 
-/// A parsed parameter value.
+/// A parameter value as it arrives at an edge of the program — a command-line `key=value`,
+/// a scene file or a `--params-file` — before it is checked against its [`ParamSpec`].
+/// Every edge converts its syntax into this one type (text stays text, TOML numbers,
+/// booleans and arrays keep their structure) and [`ParamSpec::convert`] is the one place
+/// that turns it into a validated [`ParamValue`], so arrays and booleans mean the same
+/// everywhere: `lobes = ["r", "tt"]` ≡ `lobes=r,tt`, `glints = false` ≡ `glints=off`,
+/// `sigma_a = [0.1, 0.2, 0.3]` ≡ `sigma_a=0.1,0.2,0.3`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RawValue {
+    /// Text as written (`--param k=TEXT`, a TOML string).
+    Text(String),
+    /// A number (TOML integer or float; a fitted value).
+    Number(f64),
+    /// A boolean (TOML `true`/`false`); means `on`/`off` for on/off choices.
+    Bool(bool),
+    /// A list (TOML array): a colour's channels or a subset's elements.
+    List(Vec<RawValue>),
+}
+
+impl From<&str> for RawValue {
+    fn from(t: &str) -> Self {
+        RawValue::Text(t.into())
+    }
+}
+impl From<String> for RawValue {
+    fn from(t: String) -> Self {
+        RawValue::Text(t)
+    }
+}
+impl From<f64> for RawValue {
+    fn from(x: f64) -> Self {
+        RawValue::Number(x)
+    }
+}
+impl From<bool> for RawValue {
+    fn from(b: bool) -> Self {
+        RawValue::Bool(b)
+    }
+}
+impl From<Rgb> for RawValue {
+    fn from(c: Rgb) -> Self {
+        RawValue::List(vec![RawValue::Number(c[0]), RawValue::Number(c[1]), RawValue::Number(c[2])])
+    }
+}
+
+impl fmt::Display for RawValue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RawValue::Text(t) => write!(f, "{t}"),
+            RawValue::Number(x) => write!(f, "{}", Shown(*x)),
+            RawValue::Bool(b) => write!(f, "{b}"),
+            RawValue::List(items) => {
+                let parts: Vec<String> = items.iter().map(ToString::to_string).collect();
+                write!(f, "[{}]", parts.join(", "))
+            }
+        }
+    }
+}
+
+/// A validated parameter value.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ParamValue {
     /// A number.
@@ -138,70 +272,86 @@ pub enum ParamValue {
 }
 
 impl ParamSpec {
-    /// Parses and validates `text` for this parameter.
+    /// Parses and validates `text` for this parameter (a command-line value).
     pub fn parse(&self, text: &str) -> Result<ParamValue, ModelError> {
-        let text = text.trim();
-        let number = |t: &str| -> Result<f64, ModelError> {
-            t.trim().parse::<f64>().map_err(|_| ModelError::BadValue {
-                key: self.key.into(),
-                value: text.into(),
-                expected: "a number".into(),
-            })
+        self.convert(&RawValue::Text(text.into()))
+    }
+
+    /// Converts and validates a value from any edge: the one conversion from text, numbers,
+    /// booleans and lists to a typed value (see [`RawValue`]).
+    pub fn convert(&self, raw: &RawValue) -> Result<ParamValue, ModelError> {
+        let bad = |expected: String| ModelError::BadValue { key: self.key.into(), value: raw.to_string(), expected };
+        let number = |r: &RawValue| -> Result<f64, ModelError> {
+            match r {
+                RawValue::Number(x) => Ok(*x),
+                RawValue::Text(t) => t.trim().parse::<f64>().map_err(|_| bad("a number".into())),
+                _ => Err(bad("a number".into())),
+            }
+        };
+        // A list given as text is comma-separated; a TOML array is already a list.
+        let items = |r: &RawValue| -> Vec<RawValue> {
+            match r {
+                RawValue::List(items) => items.clone(),
+                RawValue::Text(t) => t.split(',').map(|s| RawValue::Text(s.trim().into())).collect(),
+                other => vec![other.clone()],
+            }
+        };
+        let word = |r: &RawValue| -> Option<String> {
+            match r {
+                RawValue::Text(t) => Some(t.trim().to_string()),
+                RawValue::Bool(b) => Some(if *b { "on" } else { "off" }.into()),
+                _ => None,
+            }
+        };
+        // `true`/`false` written as text mean on/off too, for on/off choices.
+        let choose = |choices: &'static [&'static str], w: &str| -> Option<&'static str> {
+            let w = match w.to_ascii_lowercase().as_str() {
+                "true" if choices.contains(&"on") => "on".to_string(),
+                "false" if choices.contains(&"off") => "off".to_string(),
+                other => other.to_string(),
+            };
+            choices.iter().find(|c| c.eq_ignore_ascii_case(&w)).copied()
         };
         match self.kind {
-            ParamKind::Number(r) => Ok(ParamValue::Number(r.check(self.key, number(text)?)?)),
+            ParamKind::Number(r) => Ok(ParamValue::Number(r.check(self.key, number(raw)?)?)),
             ParamKind::Integer(r) => {
-                let x = r.check(self.key, number(text)?)?;
+                let x = r.check(self.key, number(raw)?)?;
                 if x.fract() != 0.0 {
-                    return Err(ModelError::BadValue {
-                        key: self.key.into(),
-                        value: text.into(),
-                        expected: format!("a whole number in {r}"),
-                    });
+                    return Err(bad(format!("a whole number in {r}")));
                 }
                 Ok(ParamValue::Number(x))
             }
             ParamKind::Color(r) => {
-                let parts: Vec<&str> = text.split(',').collect();
-                let c = match parts.as_slice() {
+                let channels = items(raw);
+                let c = match channels.as_slice() {
                     [x] => Rgb::splat(number(x)?),
                     [r, g, b] => Rgb::new(number(r)?, number(g)?, number(b)?),
-                    _ => {
-                        return Err(ModelError::BadValue {
-                            key: self.key.into(),
-                            value: text.into(),
-                            expected: "one number or three numbers r,g,b".into(),
-                        });
-                    }
+                    _ => return Err(bad("one number or three numbers r,g,b".into())),
                 };
                 Ok(ParamValue::Color(r.check_rgb(self.key, c)?))
             }
-            ParamKind::Choice(choices) => {
-                choices.iter().find(|c| c.eq_ignore_ascii_case(text)).map(|c| ParamValue::Choice(c)).ok_or_else(|| {
-                    ModelError::BadValue {
-                        key: self.key.into(),
-                        value: text.into(),
-                        expected: format!("one of {}", choices.join(", ")),
-                    }
-                })
-            }
+            ParamKind::Choice(choices) => word(raw)
+                .and_then(|w| choose(choices, &w))
+                .map(ParamValue::Choice)
+                .ok_or_else(|| bad(format!("one of {}", choices.join(", ")))),
             ParamKind::Subset(choices) => {
+                let expected = || bad(format!("a comma-separated subset of {}", choices.join(", ")));
                 let mut out = Vec::new();
-                for word in text.split(',') {
-                    let c = choices.iter().find(|c| c.eq_ignore_ascii_case(word.trim())).ok_or_else(|| {
-                        ModelError::BadValue {
-                            key: self.key.into(),
-                            value: text.into(),
-                            expected: format!("a comma-separated subset of {}", choices.join(", ")),
-                        }
-                    })?;
-                    if !out.contains(c) {
-                        out.push(*c);
+                for item in items(raw) {
+                    let c = word(&item).and_then(|w| choose(choices, &w)).ok_or_else(expected)?;
+                    if !out.contains(&c) {
+                        out.push(c);
                     }
+                }
+                if out.is_empty() {
+                    return Err(expected());
                 }
                 Ok(ParamValue::Subset(out))
             }
-            ParamKind::Text => Ok(ParamValue::Text(text.into())),
+            ParamKind::Text => match raw {
+                RawValue::Text(t) => Ok(ParamValue::Text(t.trim().into())),
+                _ => Err(bad("text".into())),
+            },
         }
     }
 
@@ -219,8 +369,9 @@ impl ParamSpec {
     }
 }
 
-/// Validated parameters of one model: every key known, every value parsed, defaults
-/// filled in for keys that were not given.
+/// Validated parameters of one model: every key known, every value converted, defaults
+/// filled in for keys that were not given. Models read their typed parameter struct from it
+/// (each model's `XParams::from_param_set`), so text never travels past the edge.
 #[derive(Clone, Debug)]
 pub struct ParamSet {
     model: &'static str,
@@ -229,31 +380,56 @@ pub struct ParamSet {
 }
 
 impl ParamSet {
-    /// Parses `key=value` pairs against `specs`; unknown keys and duplicates are errors.
+    /// Parses textual `key=value` pairs against `specs`; unknown keys and duplicates are errors.
     pub fn parse<K: AsRef<str>, V: AsRef<str>>(
         model: &'static str,
         specs: &'static [ParamSpec],
         pairs: &[(K, V)],
     ) -> Result<Self, ModelError> {
-        let mut values = Vec::with_capacity(specs.len());
+        let raw: Vec<(&str, RawValue)> = pairs.iter().map(|(k, v)| (k.as_ref(), RawValue::from(v.as_ref()))).collect();
+        Self::from_raw(model, specs, &raw)
+    }
+
+    /// Converts pairs from any edge (see [`RawValue`]) against `specs`; unknown keys and
+    /// duplicates are errors.
+    pub fn from_raw<K: AsRef<str>>(
+        model: &'static str,
+        specs: &'static [ParamSpec],
+        pairs: &[(K, RawValue)],
+    ) -> Result<Self, ModelError> {
+        let mut set = Self { model, specs, values: Vec::with_capacity(specs.len()) };
         for (k, v) in pairs {
-            let key = k.as_ref().trim();
-            let spec = specs.iter().find(|s| s.key == key).ok_or_else(|| ModelError::UnknownParameter {
-                model: model.into(),
-                key: key.into(),
-                known: specs.iter().map(|s| s.key).collect::<Vec<_>>().join(", "),
-            })?;
-            if values.iter().any(|(k, _, _)| *k == spec.key) {
-                return Err(ModelError::Duplicate { key: key.into() });
+            let spec = set.spec(k.as_ref())?;
+            if set.values.iter().any(|(k, _, _)| *k == spec.key) {
+                return Err(ModelError::Duplicate { key: spec.key.into() });
             }
-            values.push((spec.key, spec.parse(v.as_ref())?, true));
+            set.values.push((spec.key, spec.convert(v)?, true));
         }
         for spec in specs {
-            if !spec.default.is_empty() && !values.iter().any(|(k, _, _)| *k == spec.key) {
-                values.push((spec.key, spec.parse(spec.default)?, false));
+            if !spec.default.is_empty() && !set.values.iter().any(|(k, _, _)| *k == spec.key) {
+                set.values.push((spec.key, spec.parse(spec.default)?, false));
             }
         }
-        Ok(Self { model, specs, values })
+        Ok(set)
+    }
+
+    fn spec(&self, key: &str) -> Result<&'static ParamSpec, ModelError> {
+        let key = key.trim();
+        self.specs.iter().find(|s| s.key == key).ok_or_else(|| ModelError::UnknownParameter {
+            model: self.model.into(),
+            key: key.into(),
+            known: self.specs.iter().map(|s| s.key).collect::<Vec<_>>().join(", "),
+        })
+    }
+
+    /// Sets `key` (given explicitly), validated like any edge value; e.g. a fitted number
+    /// with `RawValue::Number`. Unknown keys are errors.
+    pub fn set(&mut self, key: &str, value: impl Into<RawValue>) -> Result<(), ModelError> {
+        let spec = self.spec(key)?;
+        let v = spec.convert(&value.into())?;
+        self.values.retain(|(k, _, _)| *k != spec.key);
+        self.values.push((spec.key, v, true));
+        Ok(())
     }
 
     /// The model's name.
@@ -262,7 +438,7 @@ impl ParamSet {
         self.model
     }
 
-    /// The specifications these values were parsed against.
+    /// The specifications these values were converted against.
     #[must_use]
     pub fn specs(&self) -> &'static [ParamSpec] {
         self.specs
@@ -272,20 +448,21 @@ impl ParamSet {
         self.values.iter().find(|(k, _, _)| *k == key).map(|(_, v, _)| v)
     }
 
-    /// True when the user gave `key` explicitly.
+    /// True when `key` was given explicitly (not a default).
     #[must_use]
     pub fn is_given(&self, key: &str) -> bool {
         self.values.iter().any(|(k, _, given)| *k == key && *given)
     }
 
-    /// A number parameter (given or default). Panics if `key` is not a number parameter
-    /// of this model with a default: a programming error, not a user error.
-    #[must_use]
-    pub fn number(&self, key: &str) -> f64 {
-        match self.get(key) {
-            Some(ParamValue::Number(x)) => *x,
-            other => panic!("{}: `{key}` is not a number parameter with a value: {other:?}", self.model),
-        }
+    /// The error for a key that the model's own reader asks for with the wrong kind: a
+    /// mismatch between a model's specification and its reader, reported, never a panic.
+    fn missing(&self, key: &str, kind: &'static str) -> ModelError {
+        ModelError::Specification { model: self.model, key: key.into(), kind }
+    }
+
+    /// A number parameter (given or default).
+    pub fn number(&self, key: &str) -> Result<f64, ModelError> {
+        self.number_opt(key).ok_or_else(|| self.missing(key, "number"))
     }
 
     /// A number parameter if it has a value.
@@ -297,10 +474,14 @@ impl ParamSet {
         }
     }
 
-    /// A colour parameter (given or default); see [`ParamSet::number`].
-    #[must_use]
-    pub fn color(&self, key: &str) -> Rgb {
-        self.color_opt(key).unwrap_or_else(|| panic!("{}: `{key}` is not a colour parameter with a value", self.model))
+    /// An angle parameter given in degrees (given or default), returned in radians.
+    pub fn degrees(&self, key: &str) -> Result<f64, ModelError> {
+        self.number(key).map(f64::to_radians)
+    }
+
+    /// A colour parameter (given or default).
+    pub fn color(&self, key: &str) -> Result<Rgb, ModelError> {
+        self.color_opt(key).ok_or_else(|| self.missing(key, "colour"))
     }
 
     /// A colour parameter if it has a value.
@@ -312,21 +493,24 @@ impl ParamSet {
         }
     }
 
-    /// A choice parameter (given or default); see [`ParamSet::number`].
-    #[must_use]
-    pub fn choice(&self, key: &str) -> &'static str {
+    /// A choice parameter (given or default).
+    pub fn choice(&self, key: &str) -> Result<&'static str, ModelError> {
         match self.get(key) {
-            Some(ParamValue::Choice(c)) => c,
-            other => panic!("{}: `{key}` is not a choice parameter with a value: {other:?}", self.model),
+            Some(ParamValue::Choice(c)) => Ok(c),
+            _ => Err(self.missing(key, "choice")),
         }
     }
 
-    /// A subset parameter (given or default); see [`ParamSet::number`].
-    #[must_use]
-    pub fn subset(&self, key: &str) -> &[&'static str] {
+    /// An on/off choice parameter as a boolean.
+    pub fn switch(&self, key: &str) -> Result<bool, ModelError> {
+        self.choice(key).map(|c| c == "on")
+    }
+
+    /// A subset parameter (given or default).
+    pub fn subset(&self, key: &str) -> Result<&[&'static str], ModelError> {
         match self.get(key) {
-            Some(ParamValue::Subset(c)) => c,
-            other => panic!("{}: `{key}` is not a subset parameter with a value: {other:?}", self.model),
+            Some(ParamValue::Subset(c)) => Ok(c),
+            _ => Err(self.missing(key, "subset")),
         }
     }
 
@@ -363,12 +547,59 @@ mod tests {
     #[test]
     fn parses_colours_choices_and_defaults() {
         let p = ParamSet::parse("m", SPECS, &[("albedo", "0.1,0.2,0.3"), ("mode", "OFF")]).unwrap();
-        assert_eq!(p.color("albedo"), Rgb::new(0.1, 0.2, 0.3));
-        assert_eq!(p.choice("mode"), "off");
+        assert_eq!(p.color("albedo").unwrap(), Rgb::new(0.1, 0.2, 0.3));
+        assert_eq!(p.choice("mode").unwrap(), "off");
         assert_eq!(p.number_opt("p"), None);
         assert!(p.is_given("albedo") && !p.is_given("p"));
         let d = ParamSet::parse::<&str, &str>("m", SPECS, &[]).unwrap();
-        assert_eq!(d.color("albedo"), Rgb::splat(0.5));
+        assert_eq!(d.color("albedo").unwrap(), Rgb::splat(0.5));
+        assert!(matches!(d.number("albedo"), Err(ModelError::Specification { .. })));
+    }
+
+    #[test]
+    fn text_numbers_booleans_and_lists_convert_alike() {
+        const SUB: &[ParamSpec] = &[
+            ParamSpec {
+                key: "lobes",
+                kind: ParamKind::Subset(&["r", "tt", "trt"]),
+                unit: "",
+                default: "r,tt,trt",
+                doc: "",
+            },
+            ParamSpec { key: "glints", kind: ParamKind::Choice(&["on", "off"]), unit: "", default: "on", doc: "" },
+            ParamSpec { key: "c", kind: ParamKind::Color(Range::UNIT), unit: "", default: "0.5", doc: "" },
+        ];
+        let text = ParamSet::parse("m", SUB, &[("lobes", "r, tt"), ("glints", "off"), ("c", "0.1,0.2,0.3")]).unwrap();
+        let list = RawValue::List(vec!["r".into(), "tt".into()]);
+        let raw = ParamSet::from_raw(
+            "m",
+            SUB,
+            &[("lobes", list), ("glints", RawValue::Bool(false)), ("c", Rgb::new(0.1, 0.2, 0.3).into())],
+        )
+        .unwrap();
+        for p in [&text, &raw] {
+            assert_eq!(p.subset("lobes").unwrap(), &["r", "tt"]);
+            assert!(!p.switch("glints").unwrap());
+            assert_eq!(p.color("c").unwrap(), Rgb::new(0.1, 0.2, 0.3));
+        }
+        let t = ParamSet::parse("m", SUB, &[("glints", "true")]).unwrap();
+        assert!(t.switch("glints").unwrap());
+        assert!(ParamSet::from_raw("m", SUB, &[("lobes", RawValue::List(vec![]))]).is_err());
+        assert!(ParamSet::from_raw("m", SUB, &[("c", RawValue::Bool(true))]).is_err());
+        let mut s = ParamSet::parse::<&str, &str>("m", SUB, &[]).unwrap();
+        s.set("c", 0.25).unwrap();
+        assert!(s.is_given("c") && s.color("c").unwrap() == Rgb::splat(0.25));
+        assert!(s.set("c", 2.0).is_err() && s.set("nope", 1.0).is_err());
+    }
+
+    #[test]
+    fn angles_are_checked_and_reported_in_degrees() {
+        let r = Range::closed(-20.0, 20.0);
+        assert_eq!(r.check_degrees("alpha", 20f64.to_radians()).unwrap(), 20f64.to_radians());
+        let e = r.check_degrees("alpha", 30f64.to_radians()).unwrap_err();
+        assert!(e.to_string().contains("`alpha` = 30") && e.to_string().contains("[-20, 20] degrees"), "{e}");
+        let e = Range::UNIT.check("x", 1e308).unwrap_err();
+        assert!(e.to_string().contains("1e308"), "{e}");
     }
 
     #[test]
@@ -376,7 +607,7 @@ mod tests {
         let e = ParamSet::parse("m", SPECS, &[("p", "NaN")]).unwrap_err();
         assert!(e.to_string().contains("`p`") && e.to_string().contains("(0, 10)"), "{e}");
         let e = ParamSet::parse("m", SPECS, &[("p", "10")]).unwrap_err();
-        assert!(matches!(e, ModelError::OutOfRange { .. }), "{e}");
+        assert!(matches!(e, ModelError::Parameter(ParameterError::OutOfRange { key: "p", .. })), "{e}");
         let e = ParamSet::parse("m", SPECS, &[("q", "1")]).unwrap_err();
         assert!(e.to_string().contains("albedo, p, mode"), "{e}");
         let e = ParamSet::parse("m", SPECS, &[("albedo", "1,2")]).unwrap_err();

@@ -204,8 +204,8 @@ pub fn reciprocity_defect(f: &impl ScatteringFunction, section: &CrossSection, w
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ideal_diffuse::IdealDiffuse;
-    use crate::lambertian_cylinder::LambertianCylinder;
+    use crate::ideal_diffuse::{IdealDiffuse, IdealDiffuseParams};
+    use crate::lambertian_cylinder::{LambertianCylinder, LambertianCylinderParams};
     use crate::{Properties, Sample};
     use approx::assert_relative_eq;
 
@@ -233,7 +233,7 @@ mod tests {
 
     #[test]
     fn diffuse_fiber_in_a_furnace_returns_its_albedo() {
-        let f = IdealDiffuse::new(Rgb::new(0.2, 0.5, 0.9)).unwrap();
+        let f = IdealDiffuse::new(IdealDiffuseParams { albedo: Rgb::new(0.2, 0.5, 0.9) }).unwrap();
         let c = CrossSection::circular(0.5).unwrap();
         let wr = direction(0.4, 1.0);
         let q = scattering_integral(&f, &c, wr, |_| Rgb::ONE, &Quadrature::default());
@@ -244,7 +244,7 @@ mod tests {
     #[test]
     fn quadrature_and_monte_carlo_agree_for_a_nonuniform_field() {
         // L_i(ω) = (ω·z)² + 0.1·sinθ + 0.2, elliptical fiber, Lambertian cylinder.
-        let f = LambertianCylinder::new(Rgb::splat(0.7)).unwrap();
+        let f = LambertianCylinder::new(LambertianCylinderParams { albedo: Rgb::splat(0.7) }).unwrap();
         let c = CrossSection::elliptical(1.0, 0.5).unwrap();
         let field = |w: DVec3| Rgb::splat(w.z * w.z + 0.1 * w.x + 0.2);
         let wr = direction(-0.6, 0.3);

@@ -8,7 +8,7 @@
 //! a cell with zero expected mass fails the test outright.
 
 use crate::rng::TestRng;
-use crate::tolerance::{CHI2_MIN_EXPECTED, CHI2_QUADRATURE_SIGMAS};
+use crate::tolerance::{CHI2_MIN_EXPECTED, CHI2_QUADRATURE_SIGMAS, ROUNDING_REL};
 use fiberlab_math::DVec3;
 use fiberlab_math::frame::{direction_from_sin_cos, phi, sin_theta};
 use fiberlab_scatter::ScatteringFunction;
@@ -211,7 +211,7 @@ pub fn chi2_cone(f: &impl ScatteringFunction, wo: DVec3, bins: usize, samples: u
     for _ in 0..samples {
         match f.sample(wo, 0.0, rng.u4()) {
             Some(s) => {
-                if (s.wi.x + wo.x).abs() > 1e-9 {
+                if (s.wi.x + wo.x).abs() > ROUNDING_REL {
                     off_cone += 1;
                 }
                 let rel = fiberlab_math::relative_phi(s.wi, wo);

@@ -204,7 +204,7 @@ pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
                 err <= FURNACE_REL,
             );
         }
-        let tol = MC_SIGMAS * se.luminance() + 1e-3 * quad.luminance().abs() + 1e-9;
+        let tol = MC_SIGMAS * se.luminance() + MC_QUADRATURE_REL * quad.luminance().abs() + ROUNDING_REL;
         let pass = (mc.luminance() - quad.luminance()).abs() <= tol;
         t.test(
             format!("furnace θ_o={:.2} h={h}: MC vs quadrature", WO_THETAS[k]),
@@ -223,7 +223,13 @@ pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
         t.report("non-reciprocity max relative (report)".into(), recip);
         if let Model::KajiyaKay(kk) = f {
             let defect = kajiya_kay_ratio_defect(kk, &recip_samples);
-            t.test("non-reciprocity = cosθ_r/cosθ_i (max rel. error)".into(), defect, 0.0, 1e-9, defect <= 1e-9);
+            t.test(
+                "non-reciprocity = cosθ_r/cosθ_i (max rel. error)".into(),
+                defect,
+                0.0,
+                ROUNDING_REL,
+                defect <= ROUNDING_REL,
+            );
         }
     }
 
@@ -363,7 +369,11 @@ pub fn finiteness(f: &impl ScatteringFunction, pairs: usize, rng: &mut TestRng) 
             negative += 1;
         }
         if let Some(s) = f.sample(wo, h, u) {
-            if !s.weight.is_finite() || !s.pdf.is_finite() || !s.wi.is_finite() || (s.wi.length() - 1.0).abs() > 1e-6 {
+            if !s.weight.is_finite()
+                || !s.pdf.is_finite()
+                || !s.wi.is_finite()
+                || (s.wi.length() - 1.0).abs() > UNIT_LENGTH_ABS
+            {
                 nonfinite += 1;
             }
             if s.weight.min_component() < 0.0 || s.pdf < 0.0 {

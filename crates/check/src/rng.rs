@@ -64,6 +64,7 @@ impl TestRng {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tolerance::{MC_SIGMAS, UNIT_LENGTH_ABS};
 
     #[test]
     fn same_seed_same_stream_and_different_seeds_differ() {
@@ -79,7 +80,7 @@ mod tests {
     #[test]
     fn moments_of_uniforms_offsets_and_directions() {
         // Mean and variance of U[0, 1) are 1/2 and 1/12; a uniform direction has zero mean and
-        // E[x²] = E[y²] = E[z²] = 1/3. 5σ bounds for n = 200 000.
+        // E[x²] = E[y²] = E[z²] = 1/3; bounds of MC_SIGMAS standard errors.
         let n = 200_000;
         let mut rng = TestRng::new(1);
         let (mut m, mut m2, mut h2) = (0.0, 0.0, 0.0);
@@ -90,12 +91,12 @@ mod tests {
             m2 += u * u;
             h2 += rng.offset().powi(2);
             let w = rng.sphere_direction();
-            assert!((w.length() - 1.0).abs() < 1e-12);
+            assert!((w.length() - 1.0).abs() < UNIT_LENGTH_ABS);
             d += w;
             d2 += w * w;
         }
         let nf = n as f64;
-        let se = |var: f64| 5.0 * (var / nf).sqrt();
+        let se = |var: f64| MC_SIGMAS * (var / nf).sqrt();
         assert!((m / nf - 0.5).abs() < se(1.0 / 12.0));
         assert!((m2 / nf - 1.0 / 3.0).abs() < se(4.0 / 45.0));
         // h uniform on [−1, 1): E[h²] = 1/3, Var[h²] = 4/45.

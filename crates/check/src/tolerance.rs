@@ -36,6 +36,14 @@ pub const CHI2_QUADRATURE_SIGMAS: f64 = 0.03;
 /// Monte Carlo estimates must agree with quadrature within this many standard errors.
 pub const MC_SIGMAS: f64 = 5.0;
 
+/// Relative slack added to [`MC_SIGMAS`] standard errors when the reference is itself a
+/// quadrature (the camera-side furnace on the default grid): its own error, about 1e−3.
+pub const MC_QUADRATURE_REL: f64 = 1e-3;
+
+/// `|‖ω_i‖ − 1|` allowed for a sampled direction: directions built from rotated frames and
+/// square roots of clamped cosines are unit to about 1e−15; 1e−6 flags only a wrong formula.
+pub const UNIT_LENGTH_ABS: f64 = 1e-6;
+
 /// Relative error allowed in a camera-side white furnace computed by quadrature (models
 /// that conserve energy exactly on the camera side, e.g. Chiang with σ_a = 0): midpoint
 /// quadrature of lobes with β ≥ 0.3 on the default grid.

@@ -290,7 +290,7 @@ fn no_nan_at_silhouette_grazing_angles_and_extreme_roughness() {
                     for u in [[0.0; 4], [0.999_999_999_999; 4], rng.u4()] {
                         if let Some(s) = f.sample(direction(to, 0.2), h, u) {
                             assert!(s.weight.is_finite() && s.pdf.is_finite() && s.pdf > 0.0, "{s:?}");
-                            assert!((s.wi.length() - 1.0).abs() < ROUNDING_REL);
+                            assert!((s.wi.length() - 1.0).abs() < UNIT_LENGTH_ABS);
                         }
                     }
                 }

@@ -71,10 +71,8 @@ pub fn albedo(model: &Model, theta_i: f64) -> Option<Rgb> {
 #[must_use]
 pub fn camera_furnace(model: &Model) -> Option<Rgb> {
     match model {
-        Model::Chiang(m) if m.params().sigma_a.is_black() => Some(Rgb::ONE),
-        Model::Deon(m)
-            if m.params().sigma_a.is_black() && m.azimuthal_inclination() == AzimuthalInclination::Camera =>
-        {
+        Model::Chiang(m) if m.sigma_a().is_black() => Some(Rgb::ONE),
+        Model::Deon(m) if m.sigma_a().is_black() && m.azimuthal_inclination() == AzimuthalInclination::Camera => {
             Some(Rgb::ONE)
         }
         _ => None,

@@ -49,12 +49,12 @@ const KNOWN_FLAGS: u32 = FLAG_SEGMENTS | FLAG_POINTS | FLAG_THICKNESS | FLAG_TRA
 #[derive(Debug, Error)]
 pub enum HairError {
     /// The file could not be opened, read or written.
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     Io {
         /// File path.
         path: PathBuf,
-        /// Underlying error.
-        source: std::io::Error,
+        /// Underlying error (shown in the message, not chained, so it is not printed twice).
+        error: std::io::Error,
     },
     /// A parse error in a named file.
     #[error("{path}: {error}")]
@@ -71,7 +71,7 @@ pub enum HairError {
         len: usize,
     },
     /// The first four bytes are not `"HAIR"`.
-    #[error("byte 0: expected the magic \"HAIR\", found {found:?}")]
+    #[error("byte 0: expected the magic \"HAIR\", found \"{}\"", found.escape_ascii())]
     BadMagic {
         /// The four bytes found.
         found: [u8; 4],
@@ -129,7 +129,7 @@ pub enum HairError {
     /// A point coordinate, thickness, transparency or colour is NaN or infinite.
     #[error("byte {offset}: {array}[{index}] is not finite ({value})")]
     NotFinite {
-        /// Which array (or `"header"`).
+        /// Which array.
         array: &'static str,
         /// Element index within the array.
         index: usize,
@@ -138,13 +138,31 @@ pub enum HairError {
         /// The value.
         value: f32,
     },
+    /// A default value of the header (thickness, transparency, colour) is NaN or infinite.
+    #[error("byte {offset}: the header's {field} is not finite ({value})")]
+    HeaderNotFinite {
+        /// Which default: `"default thickness"`, `"default transparency"`, `"default colour (r)"`, ….
+        field: &'static str,
+        /// Byte offset of the value.
+        offset: usize,
+        /// The value.
+        value: f32,
+    },
     /// A thickness is negative.
     #[error("byte {offset}: {array}[{index}] = {value} is negative; thickness is a diameter ≥ 0")]
     NegativeThickness {
-        /// `"thickness"` or `"header"`.
+        /// The array (`"thickness"`).
         array: &'static str,
         /// Element index.
         index: usize,
+        /// Byte offset of the value.
+        offset: usize,
+        /// The value.
+        value: f32,
+    },
+    /// The header's default thickness is negative.
+    #[error("byte {offset}: the header's default thickness {value} is negative; thickness is a diameter ≥ 0")]
+    NegativeDefaultThickness {
         /// Byte offset of the value.
         offset: usize,
         /// The value.
@@ -330,18 +348,20 @@ impl HairFile {
         let default_thickness = r.f32_at(20);
         let default_transparency = r.f32_at(24);
         let default_color = [r.f32_at(28), r.f32_at(32), r.f32_at(36)];
+        const FIELDS: [&str; 5] = [
+            "default thickness",
+            "default transparency",
+            "default colour (r)",
+            "default colour (g)",
+            "default colour (b)",
+        ];
         for (k, &value) in [default_thickness, default_transparency].iter().chain(default_color.iter()).enumerate() {
             if !value.is_finite() {
-                return Err(HairError::NotFinite { array: "header", index: k, offset: 20 + 4 * k, value });
+                return Err(HairError::HeaderNotFinite { field: FIELDS[k], offset: 20 + 4 * k, value });
             }
         }
         if default_thickness < 0.0 {
-            return Err(HairError::NegativeThickness {
-                array: "header",
-                index: 0,
-                offset: 20,
-                value: default_thickness,
-            });
+            return Err(HairError::NegativeDefaultThickness { offset: 20, value: default_thickness });
         }
         let info: [u8; INFO_BYTES] = bytes[40..HEADER_BYTES].try_into().expect("88 bytes");
 
@@ -400,7 +420,7 @@ impl HairFile {
 
     /// Reads and parses a file; errors carry the path.
     pub fn read(path: &Path) -> Result<Self, HairError> {
-        let bytes = std::fs::read(path).map_err(|source| HairError::Io { path: path.into(), source })?;
+        let bytes = std::fs::read(path).map_err(|source| HairError::Io { path: path.into(), error: source })?;
         Self::parse(&bytes).map_err(|e| HairError::InFile { path: path.into(), error: Box::new(e) })
     }
 
@@ -482,7 +502,7 @@ impl HairFile {
             use std::io::Write;
             file.write_all(&bytes)
         })
-        .map_err(|source| HairError::Io { path: path.into(), source })
+        .map_err(|source| HairError::Io { path: path.into(), error: source })
     }
 }
 
@@ -539,7 +559,26 @@ mod tests {
     fn wrong_magic() {
         let mut b = two_strands().to_bytes().unwrap();
         b[0] = b'X';
-        assert!(matches!(HairFile::parse(&b), Err(HairError::BadMagic { found }) if &found == b"XAIR"));
+        let e = HairFile::parse(&b).unwrap_err();
+        assert!(matches!(e, HairError::BadMagic { found } if &found == b"XAIR"));
+        assert_eq!(e.to_string(), "byte 0: expected the magic \"HAIR\", found \"XAIR\"");
+        b[1] = 0;
+        assert!(HairFile::parse(&b).unwrap_err().to_string().ends_with("found \"X\\x00IR\""));
+    }
+
+    #[test]
+    fn header_defaults_are_named_in_errors() {
+        let mut b = two_strands().to_bytes().unwrap();
+        b[20..24].copy_from_slice(&f32::NAN.to_le_bytes());
+        let e = HairFile::parse(&b).unwrap_err().to_string();
+        assert_eq!(e, "byte 20: the header's default thickness is not finite (NaN)");
+        b[20..24].copy_from_slice(&(-1.0f32).to_le_bytes());
+        let e = HairFile::parse(&b).unwrap_err().to_string();
+        assert!(e.starts_with("byte 20: the header's default thickness -1 is negative"), "{e}");
+        let mut b = two_strands().to_bytes().unwrap();
+        b[36..40].copy_from_slice(&f32::INFINITY.to_le_bytes());
+        let e = HairFile::parse(&b).unwrap_err().to_string();
+        assert_eq!(e, "byte 36: the header's default colour (b) is not finite (inf)");
     }
 
     #[test]

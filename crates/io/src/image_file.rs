@@ -4,6 +4,7 @@
 //! destination's directory, which is renamed over the destination only when complete, so an
 //! interrupted program never leaves half an image behind.
 
+use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
@@ -14,12 +15,12 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum ImageError {
     /// Creating, writing or renaming the file failed.
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     Io {
         /// Destination path.
         path: PathBuf,
-        /// Underlying error.
-        source: std::io::Error,
+        /// Underlying error (shown in the message, not chained, so it is not printed twice).
+        error: std::io::Error,
     },
     /// The EXR encoder or decoder failed.
     #[error("{path}: EXR: {message}")]
@@ -51,19 +52,25 @@ pub enum ImageError {
     },
 }
 
-/// A linear-RGB floating-point image, row-major from the top-left pixel.
+/// A linear-RGB floating-point image, row-major from the top-left pixel, with text
+/// attributes that travel in the EXR header (e.g. how it was rendered: samples per pixel,
+/// seed, the scene's hash, the part `I/N`), so that tools can check what they combine.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LinearImage {
     width: usize,
     height: usize,
     pixels: Vec<[f32; 3]>,
+    attributes: BTreeMap<String, String>,
 }
+
+/// Prefix of fiberlab's attributes in an EXR header (other attributes are not read back).
+pub const ATTRIBUTE_PREFIX: &str = "fiberlab.";
 
 impl LinearImage {
     /// A black image.
     #[must_use]
     pub fn new(width: usize, height: usize) -> Self {
-        Self { width, height, pixels: vec![[0.0; 3]; width * height] }
+        Self { width, height, pixels: vec![[0.0; 3]; width * height], attributes: BTreeMap::new() }
     }
 
     /// An image from its pixels (row-major, top row first).
@@ -71,7 +78,24 @@ impl LinearImage {
         if pixels.len() != width * height {
             return Err(ImageError::Size { width, height, expected: width * height, found: pixels.len() });
         }
-        Ok(Self { width, height, pixels })
+        Ok(Self { width, height, pixels, attributes: BTreeMap::new() })
+    }
+
+    /// The text attribute `key` (written to and read from the EXR header), if set.
+    #[must_use]
+    pub fn attribute(&self, key: &str) -> Option<&str> {
+        self.attributes.get(key).map(String::as_str)
+    }
+
+    /// Every text attribute, by key.
+    #[must_use]
+    pub fn attributes(&self) -> &BTreeMap<String, String> {
+        &self.attributes
+    }
+
+    /// Sets the text attribute `key` (a short ASCII key such as `spp`).
+    pub fn set_attribute(&mut self, key: &str, value: impl Into<String>) {
+        self.attributes.insert(key.into(), value.into());
     }
 
     /// Width in pixels.
@@ -116,7 +140,13 @@ impl LinearImage {
             let p = self.pixels[y * w + x];
             (p[0], p[1], p[2])
         });
-        let image = Image::from_channels((self.width, self.height), channels);
+        let mut image = Image::from_channels((self.width, self.height), channels);
+        for (k, v) in &self.attributes {
+            image.attributes.other.insert(
+                Text::from(format!("{ATTRIBUTE_PREFIX}{k}").as_str()),
+                AttributeValue::Text(Text::from(v.as_str())),
+            );
+        }
         let mut exr_error = None;
         write_atomically(path, |file| {
             image.write().to_buffered(BufWriter::new(file)).map_err(|e| {
@@ -126,7 +156,7 @@ impl LinearImage {
         })
         .map_err(|source| match exr_error.take() {
             Some(message) => ImageError::Exr { path: path.into(), message },
-            None => ImageError::Io { path: path.into(), source },
+            None => ImageError::Io { path: path.into(), error: source },
         })
     }
 
@@ -139,7 +169,13 @@ impl LinearImage {
             |img: &mut LinearImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| img.set(pos.x(), pos.y(), [r, g, b]),
         )
         .map_err(|e| ImageError::Exr { path: path.into(), message: e.to_string() })?;
-        Ok(image.layer_data.channel_data.pixels)
+        let mut out = image.layer_data.channel_data.pixels;
+        for (k, v) in image.attributes.other.iter().chain(&image.layer_data.attributes.other) {
+            if let (Some(key), AttributeValue::Text(text)) = (k.to_string().strip_prefix(ATTRIBUTE_PREFIX), v) {
+                out.attributes.insert(key.to_string(), text.to_string());
+            }
+        }
+        Ok(out)
     }
 
     /// 8-bit sRGB pixels after `exposure` (stops) and the tone map.
@@ -169,7 +205,7 @@ impl LinearImage {
         })
         .map_err(|source| match png_error.take() {
             Some(message) => ImageError::Png { path: path.into(), message },
-            None => ImageError::Io { path: path.into(), source },
+            None => ImageError::Io { path: path.into(), error: source },
         })
     }
 }
@@ -265,9 +301,19 @@ mod tests {
     fn exr_round_trip_is_bit_exact() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a.exr");
-        let img = gradient();
+        let mut img = gradient();
         img.write_exr(&path).unwrap();
         assert_eq!(LinearImage::read_exr(&path).unwrap(), img);
+        // Attributes travel in the header.
+        img.set_attribute("spp", "64");
+        img.set_attribute("part", "1/4");
+        img.write_exr(&path).unwrap();
+        let back = LinearImage::read_exr(&path).unwrap();
+        assert_eq!(
+            (back.attribute("spp"), back.attribute("part"), back.attribute("seed")),
+            (Some("64"), Some("1/4"), None)
+        );
+        assert_eq!(back, img);
         // Only the final file remains in the directory.
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }

@@ -1,38 +1,44 @@
 //! d'Eon, Francois, Hill, Letteri & Aubry 2011, *An energy-conserving hair reflectance
-//! model* (EGSR 2011): a far-field hair fiber with d'Eon's longitudinal term
-//! [`Longitudinal`] (shared with [`crate::chiang_2016`]) and the exact azimuthal integral
-//! over the fiber width, tabulated (models.md §5.1, §5.2).
+//! model* (Computer Graphics Forum 30(4), EGSR 2011): a far-field hair fiber with d'Eon's
+//! normalized longitudinal function and the exact azimuthal integral over the fiber width,
+//! tabulated. Built from the hair core ([`crate::hair`]); the shared mathematics is in
+//! `docs/theory/hair.md` ("d'Eon's longitudinal function", "d'Eon's azimuthal integral"), the
+//! peers' differences in `docs/theory/peer-discrepancies.md`. Equations are cited by the
+//! quantity they define.
 //!
 //! | parameter | unit | default | range |
 //! |---|---|---|---|
 //! | `eta` | — | 1.55 | (1, 4] |
 //! | `beta_m` | — | 0.3 | (0, 1] longitudinal roughness (Chiang's map to v_p) |
 //! | `beta_n` | — | 0.3 | (0, 1] azimuthal roughness (Gaussian std `σ_n = πs/√3`) |
-//! | `alpha` | degrees | 2 | [−20, 20] cuticle scale tilt, sign as `chiang` |
+//! | `alpha` | degrees at the edge, radians in [`DeonParams`] | 2 | [−20, 20] cuticle scale tilt, sign as `chiang` |
 //! | `p_max` | — | 3 | integer in [1, 16]: explicit lobes p < p_max |
 //! | `theta_n` | — | camera | `camera` (θ_o) or `difference` (θ_d): inclination of N_p |
-//! | `sigma_a`, `eumelanin`, `pheomelanin`, `color` | | | as [`crate::chiang_2016`] |
+//! | `sigma_a`, `eumelanin`, `pheomelanin`, `color` | | | as `chiang` ([`Absorption`]) |
 //!
 //! # Formula
-//! Backward form (as Tungsten's `HairBcsdf`): with φ = φ_i − φ_o and θ_n the inclination
-//! chosen by `theta_n` (default the camera side θ_o; d'Eon and Tungsten use
-//! `θ_d = (θ_o − θ_i)/2`; both agree on the specular cone, models.md §1.2),
+//! Backward form (as Tungsten's `HairBcsdf`, [`crate::hair::backward_form`]): with
+//! φ = φ_i − φ_o and θ_n the inclination chosen by `theta_n` (default the camera side θ_o;
+//! d'Eon and Tungsten use `θ_d = (θ_o − θ_i)/2`; both agree on the specular cone),
 //! `f_s(ω_i, ω_o) = [Σ_{p<p_max} M_p(θ_i, θ_o^(p))·N_p(φ; θ_n)
 //!   + M_res(θ_i, θ_o)·Ā_res(θ_n)/(2π)] / cosθ_i`.
-//! * `M_p`: [`Longitudinal`] with `v_0` from β_m (Chiang 2016; models.md §5.3), `v_1 = v_0/4`,
-//!   `v_p = 4v_0` for p ≥ 2 and the residual; tilt of the fixed direction `+2α, −α, −4α`
-//!   for p = 0, 1, 2 and none for p ≥ 3 (models.md §5.3, physical sign).
-//! * `N_p(φ; θ_n) = ½∫_{−1}^{1} A_p(h)·D(σ_n; φ − Φ(p, h)) dh` (d'Eon 2011;
-//!   models.md §5.2), exact `Φ(p, h) = 2pγ_t − 2γ_i + pπ`, D the wrapped unit-area Gaussian,
-//!   `A_0 = f`, `A_p = (1 − f)² f^{p−1} T^p`, with η′, f (exact 3D Fresnel at
-//!   `cosθ_n cosγ_i`) and the chord absorption `T = exp(−σ_a·2cosγ_t/cosθ_t)` at θ_n.
-//!   Caustics need no special treatment. All orders p ≥ p_max are folded into a residual
-//!   lobe `Ā_res = ½∫ A_{p_max}/(1 − fT) dh` with uniform azimuth, so with σ_a = 0 the
-//!   lobe masses sum to 1 at every θ_n. With the default `theta_n = camera` the masses
-//!   depend on ω_o only, so the camera-side furnace is exactly `Σ_p Ā_p(θ_o)` (1 when
-//!   lossless) and every sample weight equals it; with `difference` (paper-literal) the
-//!   masses vary with θ_i across a lobe and the lossless furnace is not 1: measured
-//!   1.000–1.005 at θ_o = 0, 0.94–0.99 at θ_o = −1, 0.78–1.06 at θ_o = 1.45 (β 0.1–0.9).
+//! * `M_p`: d'Eon's normalized longitudinal function
+//!   ([`crate::hair::longitudinal::Longitudinal`]) with `v_0` from β_m by Chiang 2016's map,
+//!   `v_1 = v_0/4`, `v_p = 4v_0` for p ≥ 2 and the residual ([`crate::hair::roughness`]);
+//!   tilt of the fixed direction `+2α, −α, −4α` for p = 0, 1, 2 and none for p ≥ 3
+//!   ([`crate::hair::tilt`], physical sign).
+//! * d'Eon's azimuthal term `N_p(φ; θ_n) = ½∫_{−1}^{1} A_p(h)·D(σ_n; φ − Φ(p, h)) dh`, the
+//!   exact exit azimuth `Φ(p, h) = 2pγ_t − 2γ_i + pπ`, D the wrapped unit-area Gaussian
+//!   ([`fiberlab_math::special::wrapped_gaussian`]), `A_0 = f`, `A_p = (1 − f)² f^{p−1} T^p`,
+//!   with η′, f (exact 3D Fresnel at `cosθ_n cosγ_i`) and the chord absorption
+//!   `T = exp(−σ_a·2cosγ_t/cosθ_t)` at θ_n ([`crate::hair::attenuation`]). Caustics need no
+//!   special treatment. All orders p ≥ p_max are folded into a residual lobe
+//!   `Ā_res = ½∫ A_{p_max}/(1 − fT) dh` with uniform azimuth, so with σ_a = 0 the lobe masses
+//!   sum to 1 at every θ_n. With the default `theta_n = camera` the masses depend on ω_o
+//!   only, so the camera-side furnace is exactly `Σ_p Ā_p(θ_o)` (1 when lossless) and every
+//!   sample weight equals it; with `difference` (paper-literal) the masses vary with θ_i
+//!   across a lobe and the lossless furnace is not 1: measured 1.000–1.005 at θ_o = 0,
+//!   0.94–0.99 at θ_o = −1, 0.78–1.06 at θ_o = 1.45 (β 0.1–0.9).
 //!
 //! # Table (resolution and error)
 //! `N_p` is tabulated at construction on `n_φ × 64` nodes in (φ ∈ [−π, π), cosθ_n ∈ [0, 1]),
@@ -42,9 +48,9 @@
 //! `½A_p cosγ_i dγ_i` deposited at `Φ(p, h)` on the φ grid by linear (cloud-in-cell)
 //! weights, then convolved with D truncated at ±5σ_n (using the symmetry
 //! `N_p(−φ) = N_p(φ)`) and renormalized (mass-preserving). Measured error of the
-//! interpolated table against a direct 10 000-cell evaluation (tests, off-node φ and cosθ): 0.5% of the lobe maximum
-//! at β_n = 0.3 and 0.9% at β_n = 0.1; the masses equal `½∫A_p dh` to 2e−5 on the rows
-//! and 2e−3 between them. Construction takes 10–40 ms (β_n = 1 to 0.1).
+//! interpolated table against a direct 10 000-cell evaluation (tests, off-node φ and cosθ):
+//! 0.5% of the lobe maximum at β_n = 0.3 and 0.9% at β_n = 0.1; the masses equal `½∫A_p dh`
+//! to 2e−5 on the rows and 2e−3 between them. Construction takes 10–40 ms (β_n = 1 to 0.1).
 //!
 //! # Sampling
 //! Lobe p from `u[0]` with weights ∝ the luminance of the lobe masses at `cosθ_n = cosθ_o`
@@ -54,20 +60,68 @@
 //! samples. The weight is exactly `Σ Ā_p(θ_o)` for `theta_n = camera` and close to it for
 //! `difference` (the lobe masses at the sampled θ_d differ from those at θ_o).
 //!
-//! # Caveats
-//! Like Chiang's, this backward form conserves energy on the camera side only and is not
-//! reciprocal (models.md §5.6); `properties()` claims neither.
+//! # Conventions and caveats
+//! * **Tilt sign** as `chiang`: `alpha > 0` puts R toward the root; pbrt-v4, Mitsuba 3 and
+//!   Tungsten use the opposite sign (`docs/theory/peer-discrepancies.md`, "Tilt sign"); the
+//!   orders p ≥ 3 are not tilted ("Tilt of orders beyond TRT").
+//! * **Absorption path**: the chord `2cosγ_t/cosθ_t` (as Tungsten), not the path printed by
+//!   Marschner 2003 and repeated by d'Eon 2011 (`docs/theory/peer-discrepancies.md`,
+//!   "Printed absorption path").
+//! * **Azimuthal width**: d'Eon's Gaussian σ_n is tied to Chiang's β_n at equal variance, so
+//!   the two models are comparable; the paper parametrizes σ_n directly.
+//! * **Non-reciprocity**: like Chiang's, this backward form conserves energy on the camera
+//!   side only and is not reciprocal; `properties()` claims neither
+//!   (`docs/theory/radiometry.md`, "Backward-form models").
+//!
+//! # Example: a lobe mass pinned by quadrature
+//! The mass of lobe p at inclination θ_n is `½∫ A_p dh`. For θ_n = 0 (a table row) and
+//! σ_a = 0: `A_0 = F(cosγ)` and `A_1 = (1 − F(cosγ))²`, F the unpolarized Fresnel
+//! reflectance of η at incidence γ = asin h. The doctest writes Fresnel's equations out
+//! and integrates with 20 000 midpoint cells in γ (dh = cosγ dγ).
+//! ```
+//! use fiberlab_scatter::deon_2011::{Deon, DeonParams};
+//! use fiberlab_scatter::hair::absorption::Absorption;
+//! use std::f64::consts::PI;
+//!
+//! let eta = 1.55;
+//! let fiber = Deon::new(DeonParams { absorption: Absorption::NONE, ..DeonParams::default() })?;
+//! let fresnel = |cos_i: f64| {
+//!     let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (eta * eta)).sqrt();
+//!     let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+//!     let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+//!     0.5 * (rs * rs + rp * rp)
+//! };
+//! let n = 20_000;
+//! let (mut r, mut tt) = (0.0, 0.0);
+//! for k in 0..n {
+//!     let gamma = -0.5 * PI + (k as f64 + 0.5) * PI / n as f64;
+//!     let dh = gamma.cos() * PI / n as f64;
+//!     let f = fresnel(gamma.cos());
+//!     r += 0.5 * f * dh;
+//!     tt += 0.5 * (1.0 - f).powi(2) * dh;
+//! }
+//! let (got_r, got_tt) = (fiber.lobe_mass(0, 1.0)[0], fiber.lobe_mass(1, 1.0)[0]);
+//! assert!((got_r - r).abs() < 1e-4 * r, "R {got_r} vs {r}");
+//! assert!((got_tt - tt).abs() < 1e-4 * tt, "TT {got_tt} vs {tt}");
+//! # Ok::<(), fiberlab_scatter::deon_2011::DeonError>(())
+//! ```
 
-use crate::chiang_2016::{self, Absorption, HairParams, lobe_tilts, logistic_scale, longitudinal_variance, rotate};
-use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
+use crate::hair::absorption::Absorption;
+use crate::hair::attenuation::{chord_length, first_transmission, next_order, surface_fresnel, transmittance};
+use crate::hair::backward_form::{MIN_COS, max_relative_non_reciprocity};
+use crate::hair::longitudinal::Longitudinal;
+use crate::hair::normal_plane::exit_azimuth;
+use crate::hair::parameters::{self, ALPHA_RANGE, BETA_RANGE, ETA_RANGE};
+use crate::hair::roughness::{azimuthal_sigma, lobe_variance, longitudinal_variance};
+use crate::hair::tilt::{lobe_tilts, rotate};
+use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
 use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
-use fiberlab_math::special::gaussian;
-use fiberlab_math::special::{i0e, safe_sqrt};
-use fiberlab_math::{DVec3, Rgb, bravais, fresnel};
-use std::f64::consts::PI;
-use std::f64::consts::TAU;
+use fiberlab_math::special::{safe_sqrt, wrapped_gaussian};
+use fiberlab_math::{DVec3, Rgb, bravais};
+use std::f64::consts::{PI, TAU};
 use std::sync::Arc;
+use thiserror::Error;
 
 /// Rows of the azimuthal table, uniform in cosθ_d ∈ [0, 1] (Tungsten also uses 64).
 pub const TABLE_ROWS: usize = 64;
@@ -85,19 +139,18 @@ const KERNEL_SIGMAS: f64 = 5.0;
 /// Smallest lobe mass (luminance) for which the φ distribution is sampled from the table;
 /// below it the lobe carries no energy there and φ is drawn uniformly.
 const MIN_MASS: f64 = 1e-300;
-/// Smallest `cosθ_i` used in the `1/cosθ_i` of the backward form (grazing light).
-pub const MIN_COS: f64 = chiang_2016::MIN_COS;
 
 const P_MAX_RANGE: Range = Range::closed(1.0, 16.0);
+const THETA_N_CHOICES: [&str; 2] = ["camera", "difference"];
 
 const PARAMS: [ParamSpec; 10] = [
-    chiang_2016::PARAMS[0],
-    chiang_2016::PARAMS[1],
-    chiang_2016::PARAMS[2],
-    chiang_2016::PARAMS[3],
+    parameters::ETA,
+    parameters::BETA_M,
+    parameters::BETA_N,
+    parameters::ALPHA,
     ParamSpec {
         key: "theta_n",
-        kind: ParamKind::Choice(&["camera", "difference"]),
+        kind: ParamKind::Choice(&THETA_N_CHOICES),
         unit: "",
         default: "camera",
         doc: "inclination of N_p's η′, Fresnel, absorption: camera θ_o (exact furnace) or θ_d (d'Eon/Tungsten)",
@@ -109,50 +162,113 @@ const PARAMS: [ParamSpec; 10] = [
         default: "3",
         doc: "explicit lobes p < p_max (integer); higher orders form a uniform residual lobe",
     },
-    chiang_2016::PARAMS[4],
-    chiang_2016::PARAMS[5],
-    chiang_2016::PARAMS[6],
-    chiang_2016::PARAMS[7],
+    parameters::SIGMA_A,
+    parameters::EUMELANIN,
+    parameters::PHEOMELANIN,
+    parameters::COLOR,
 ];
 
 /// Registry entry: `deon`.
 pub const SPEC: ModelSpec = ModelSpec {
     name: "deon",
     summary: "d'Eon 2011 far-field hair: d'Eon M_p, exact width-integrated N_p (tabulated), exact sampling",
-    citation: "d'Eon et al. 2011; models.md §5.1, §5.2",
+    citation: "d'Eon et al. 2011",
     params: &PARAMS,
     data: None,
-    build: |p: &ParamSet| {
-        let p_max = p.number("p_max")?;
-        if p_max.fract() != 0.0 {
-            return Err(ModelError::BadValue {
-                key: "p_max".into(),
-                value: p_max.to_string(),
-                expected: "an integer in [1, 16]".into(),
-            });
-        }
-        let theta_n = if p.choice("theta_n")? == "difference" {
-            AzimuthalInclination::Difference
-        } else {
-            AzimuthalInclination::Camera
-        };
-        Ok(Deon::new(
-            p.number("eta")?,
-            p.number("beta_m")?,
-            p.number("beta_n")?,
-            p.number("alpha")?,
-            p_max as usize,
-            theta_n,
-            Absorption::from_params(p)?,
-        )?
-        .into())
-    },
+    build: |p: &ParamSet| Ok(Deon::new(DeonParams::from_param_set(p)?)?.into()),
 };
+
+/// Parameters of [`Deon`]; the tilt in **radians** (the registry takes degrees).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DeonParams {
+    /// Index of refraction η ∈ (1, 4].
+    pub eta: f64,
+    /// Longitudinal roughness β_m ∈ (0, 1].
+    pub beta_m: f64,
+    /// Azimuthal roughness β_n ∈ (0, 1] (Gaussian width `σ_n = πs(β_n)/√3`).
+    pub beta_n: f64,
+    /// Cuticle tilt α, radians, in [−20°, 20°]; > 0 moves the R lobe toward the root.
+    pub alpha: f64,
+    /// Where σ_a comes from.
+    pub absorption: Absorption,
+    /// Inclination at which `N_p` (η′, Fresnel, absorption) is evaluated.
+    pub theta_n: AzimuthalInclination,
+    /// Number of explicit lobes, 1 to 16; the higher orders form the residual.
+    pub p_max: usize,
+}
+
+impl Default for DeonParams {
+    /// η = 1.55, β_m = β_n = 0.3, α = 2°, eumelanin 1.3, `theta_n = camera`, `p_max = 3`.
+    fn default() -> Self {
+        Self {
+            eta: 1.55,
+            beta_m: 0.3,
+            beta_n: 0.3,
+            alpha: 2f64.to_radians(),
+            absorption: Absorption::default(),
+            theta_n: AzimuthalInclination::Camera,
+            p_max: 3,
+        }
+    }
+}
+
+impl DeonParams {
+    /// Blond hair: the defaults with eumelanin 0.3 ([`Absorption::BLOND`]).
+    #[must_use]
+    pub fn blond() -> Self {
+        Self { absorption: Absorption::BLOND, ..Self::default() }
+    }
+    /// Brown hair: the defaults, eumelanin 1.3 ([`Absorption::BROWN`]).
+    #[must_use]
+    pub fn brown() -> Self {
+        Self { absorption: Absorption::BROWN, ..Self::default() }
+    }
+    /// Black hair: the defaults with eumelanin 8 ([`Absorption::BLACK`]).
+    #[must_use]
+    pub fn black() -> Self {
+        Self { absorption: Absorption::BLACK, ..Self::default() }
+    }
+
+    /// Reads the registry parameters (`alpha` degrees → radians).
+    pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        let theta_n = match p.choice("theta_n")? {
+            "difference" => AzimuthalInclination::Difference,
+            _ => AzimuthalInclination::Camera,
+        };
+        Ok(Self {
+            eta: p.number("eta")?,
+            beta_m: p.number("beta_m")?,
+            beta_n: p.number("beta_n")?,
+            alpha: p.degrees("alpha")?,
+            absorption: Absorption::from_param_set(p)?,
+            theta_n,
+            // An integer in [1, 16]: the parameter's kind has checked it.
+            p_max: p.number("p_max")? as usize,
+        })
+    }
+}
+
+/// Why a [`Deon`] fiber cannot be built.
+#[non_exhaustive]
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum DeonError {
+    /// A parameter outside its range (named, with the range).
+    #[error(transparent)]
+    Parameter(#[from] ParameterError),
+}
+
+impl From<DeonError> for ModelError {
+    fn from(e: DeonError) -> Self {
+        match e {
+            DeonError::Parameter(p) => p.into(),
+        }
+    }
+}
 
 /// Which inclination the azimuthal term `N_p` (η′, Fresnel, absorption) is evaluated at.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum AzimuthalInclination {
-    /// The fixed camera-side θ_o (as Chiang/pbrt/Mitsuba/Cycles, models.md §1.2). The
+    /// The fixed camera-side θ_o (as Chiang/pbrt/Mitsuba/Cycles). The
     /// lobe masses are then functions of ω_o only: the camera-side furnace is exactly
     /// `Σ_p Ā_p(θ_o)` (1 when lossless) and every sample weight is exactly that sum.
     #[default]
@@ -162,23 +278,6 @@ pub enum AzimuthalInclination {
     /// (up to −22% at θ_o = 1.45 rad for β = 0.5, see the module docs) and sample weights
     /// are not exactly 1.
     Difference,
-}
-
-/// Wrapped unit-area Gaussian `D(σ; x) = Σ_k g(σ; x + 2πk)` (d'Eon 2011; models.md §5.2), x in
-/// radians; terms up to `|k| ≤ ⌈6σ/2π⌉ + 1`.
-#[must_use]
-pub fn wrapped_gaussian(sigma: f64, x: f64) -> f64 {
-    let x = wrap_pi(x);
-    let k_max = (6.0 * sigma / TAU).ceil() as i64 + 1;
-    (-k_max..=k_max).map(|k| gaussian(sigma, x + TAU * k as f64)).sum()
-}
-
-/// Gaussian standard deviation of the azimuthal lobes for `beta_n`: the logistic scale of
-/// Chiang 2016 (models.md §5.3) converted at equal variance, `σ_n = π·s/√3`, so that `deon` and
-/// `chiang` with the same β_n have azimuthal lobes of the same width.
-#[must_use]
-pub fn azimuthal_sigma(beta_n: f64) -> f64 {
-    PI * logistic_scale(beta_n) / 3f64.sqrt()
 }
 
 /// Position of `x ∈ [0, 1]` between table rows: `(j0, j1, t)`.
@@ -253,27 +352,27 @@ impl AzimuthalTable {
             deposit.iter_mut().for_each(|d| *d = Rgb::ZERO);
             for &(gamma_i, h, cos_gamma_i) in &cells {
                 let half_dh = 0.5 * cos_gamma_i * dgamma;
-                let f = fresnel::dielectric(cos_d * cos_gamma_i, eta);
+                let f = surface_fresnel(eta, cos_d, cos_gamma_i);
                 let sin_gamma_t = bravais::sin_gamma_t(h, eta, sin_d, cos_d);
                 let cos_gamma_t = safe_sqrt(1.0 - sin_gamma_t * sin_gamma_t);
                 let gamma_t = sin_gamma_t.clamp(-1.0, 1.0).asin();
-                let t = (sigma_a * (-2.0 * cos_gamma_t / cos_theta_t)).exp();
+                let t = transmittance(sigma_a, chord_length(cos_gamma_t, cos_theta_t));
                 let mut a = Rgb::splat(f);
                 for p in 0..lobes {
                     if p == 1 {
-                        a = t * ((1.0 - f) * (1.0 - f));
+                        a = first_transmission(f, t);
                     } else if p > 1 {
-                        a = a * t * f;
+                        a = next_order(a, f, t);
                     }
                     // Cloud-in-cell deposit of the cell's mass at Φ(p, h).
-                    let x = (wrap_pi(chiang_2016::exit_azimuth(p, gamma_i, gamma_t)) + PI) / dphi;
+                    let x = (wrap_pi(exit_azimuth(p, gamma_i, gamma_t)) + PI) / dphi;
                     let k = (x.floor() as usize).min(n_phi - 1);
                     let frac = (x - k as f64).clamp(0.0, 1.0);
                     deposit[p * n_phi + k] += a * (half_dh * (1.0 - frac));
                     deposit[p * n_phi + (k + 1) % n_phi] += a * (half_dh * frac);
                 }
                 // Σ_{p ≥ lobes} A_p = A_lobes/(1 − fT), A_lobes the next order.
-                let next = if lobes == 1 { t * ((1.0 - f) * (1.0 - f)) } else { a * t * f };
+                let next = if lobes == 1 { first_transmission(f, t) } else { next_order(a, f, t) };
                 let ft = t * f;
                 for c in 0..3 {
                     if ft[c] < 1.0 {
@@ -383,7 +482,9 @@ impl AzimuthalTable {
 /// d'Eon 2011 far-field hair fiber.
 #[derive(Clone, Debug)]
 pub struct Deon {
-    params: HairParams,
+    params: DeonParams,
+    /// σ_a per unit radius, resolved from the absorption.
+    sigma_a: Rgb,
     p_max: usize,
     theta_n: AzimuthalInclination,
     sigma_n: f64,
@@ -395,43 +496,35 @@ pub struct Deon {
 }
 
 impl Deon {
-    /// A d'Eon fiber: index `eta`, roughness `beta_m`, `beta_n` ∈ (0, 1], tilt `alpha_deg`
-    /// (degrees), `p_max` explicit lobes (1 to 16), the inclination of `N_p` and the
-    /// absorption. Builds the azimuthal table (a few tens of milliseconds at β_n = 0.1,
-    /// less for rougher fibers).
-    pub fn new(
-        eta: f64,
-        beta_m: f64,
-        beta_n: f64,
-        alpha_deg: f64,
-        p_max: usize,
-        theta_n: AzimuthalInclination,
-        absorption: Absorption,
-    ) -> Result<Self, ModelError> {
-        let params = HairParams::new(eta, beta_m, beta_n, alpha_deg, &absorption)?;
+    /// A d'Eon fiber; builds the azimuthal table (a few tens of milliseconds at β_n = 0.1,
+    /// less for rougher fibers). The error names the parameter out of range.
+    pub fn new(params: DeonParams) -> Result<Self, DeonError> {
+        let DeonParams { eta, beta_m, beta_n, alpha, absorption, theta_n, p_max } = params;
+        ETA_RANGE.check("eta", eta)?;
+        BETA_RANGE.check("beta_m", beta_m)?;
+        BETA_RANGE.check("beta_n", beta_n)?;
+        ALPHA_RANGE.check_degrees("alpha", alpha)?;
+        absorption.validate()?;
         P_MAX_RANGE.check("p_max", p_max as f64)?;
-        let HairParams { alpha, sigma_a, .. } = params;
+        let sigma_a = absorption.sigma_a(beta_n);
         let v0 = longitudinal_variance(beta_m);
-        let longitudinal = (0..=p_max)
-            .map(|p| {
-                Longitudinal::new(match p {
-                    0 => v0,
-                    1 => 0.25 * v0,
-                    _ => 4.0 * v0,
-                })
-            })
-            .collect();
+        let longitudinal = (0..=p_max).map(|p| Longitudinal::new(lobe_variance(v0, p))).collect();
         let tilts = lobe_tilts(alpha);
         let tilt = (0..=p_max).map(|p| if p < 3 && p < p_max { tilts[p] } else { (0.0, 1.0) }).collect();
         let sigma_n = azimuthal_sigma(beta_n);
         let table = Arc::new(AzimuthalTable::new(eta, sigma_a, sigma_n, p_max));
-        Ok(Self { params, p_max, theta_n, sigma_n, longitudinal, tilt, table })
+        Ok(Self { params, sigma_a, p_max, theta_n, sigma_n, longitudinal, tilt, table })
     }
 
-    /// The validated parameters.
+    /// The parameters (radians).
     #[must_use]
-    pub fn params(&self) -> &HairParams {
+    pub fn params(&self) -> &DeonParams {
         &self.params
+    }
+    /// σ_a per unit radius (from the absorption; the colour inversion depends on β_n).
+    #[must_use]
+    pub fn sigma_a(&self) -> Rgb {
+        self.sigma_a
     }
     /// Number of explicit lobes.
     #[must_use]
@@ -486,7 +579,7 @@ impl Deon {
     }
 
     /// Light-side albedo `ρ(ω_i) = ∫ f_s(ω_i, ω_r) cosθ_r dω_r` at light inclination
-    /// `theta_i` (models.md §5.6). Since `∫ N_p dφ` is the lobe mass,
+    /// `theta_i` (see [`crate::hair::backward_form`]). Since `∫ N_p dφ` is the lobe mass,
     /// `ρ = (1/cosθ_i)∫ cos²θ_r Σ_p M_p(θ_i, θ_r^(p)) Ā_p(θ_n) dθ_r`, evaluated with 2048
     /// midpoint cells. Like Chiang's, it exceeds 1 at grazing light.
     #[must_use]
@@ -509,10 +602,10 @@ impl Deon {
 
     /// Measured non-reciprocity `max |f(i, r) − f(r, i)| / max(f(i, r), f(r, i))` over
     /// `pairs` random direction pairs (see
-    /// [`crate::chiang_2016::max_relative_non_reciprocity`]). 0 for a reciprocal model.
+    /// [`crate::hair::backward_form::max_relative_non_reciprocity`]). 0 for a reciprocal model.
     #[must_use]
     pub fn non_reciprocity(&self, pairs: usize, seed: u64) -> f64 {
-        chiang_2016::max_relative_non_reciprocity(self, pairs, seed)
+        max_relative_non_reciprocity(self, pairs, seed)
     }
 
     /// Luminance of the lobe mass of lobe `p` (explicit or residual) at row position `rows`.
@@ -614,227 +707,5 @@ impl ScatteringFunction for Deon {
 impl From<Deon> for Model {
     fn from(m: Deon) -> Self {
         Model::Deon(m)
-    }
-}
-
-/// d'Eon's longitudinal scattering function `M_p` for one lobe (variance-like `v > 0`),
-/// with its constants precomputed (models.md §5.1).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Longitudinal {
-    v: f64,
-    /// `1/(v·(1 − e^{−2/v}))`.
-    inv_norm: f64,
-    /// `e^{−2/v} − 1` (for the sampler).
-    expm1_neg_2_over_v: f64,
-}
-
-impl Longitudinal {
-    /// The lobe of variance-like roughness `v` (must be finite and > 0; callers validate).
-    #[must_use]
-    pub fn new(v: f64) -> Self {
-        debug_assert!(v > 0.0 && v.is_finite());
-        let expm1_neg_2_over_v = (-2.0 / v).exp_m1();
-        Self { v, inv_norm: 1.0 / (v * -expm1_neg_2_over_v), expm1_neg_2_over_v }
-    }
-
-    /// The roughness `v`.
-    #[must_use]
-    pub fn v(&self) -> f64 {
-        self.v
-    }
-
-    /// `M_p(θ_i, θ_o)` (density over `cosθ_i dθ_i`, i.e. per unit `sinθ_i`) from the sines
-    /// and cosines of the two inclinations; both cosines must be ≥ 0 (d'Eon 2011, in the stable
-    /// form of models.md §5.1).
-    #[must_use]
-    #[inline]
-    pub fn eval(&self, sin_i: f64, cos_i: f64, sin_o: f64, cos_o: f64) -> f64 {
-        let a = cos_i * cos_o / self.v;
-        // 1 − cos(θ_i + θ_o), cancellation-free.
-        let one_minus_cos = 0.5 * ((cos_i - cos_o).powi(2) + (sin_i + sin_o).powi(2));
-        let e = (-one_minus_cos / self.v).exp();
-        if e == 0.0 {
-            return 0.0; // far outside a narrow lobe: skip the Bessel function
-        }
-        let m = i0e(a) * e * self.inv_norm;
-        debug_assert!(m.is_finite() && m >= 0.0);
-        m
-    }
-
-    /// Draws `sinθ_i` with density `M_p(·, θ_o)` per unit `sinθ_i` from two independent
-    /// uniforms (exact inversion, models.md §5.1): the cosine `c` of the angle to the mirror
-    /// direction is `1 + v·ln(u₁ + (1 − u₁)e^{−2/v})`, written as `ln1p((1 − u₁)(e^{−2/v} − 1))`
-    /// and clamped to `c ≥ −1` (no tail truncation), and the azimuth about the mirror
-    /// direction is `2πu₂`.
-    #[must_use]
-    #[inline]
-    pub fn sample_sin_theta(&self, sin_o: f64, cos_o: f64, u1: f64, u2: f64) -> f64 {
-        let c = (1.0 + self.v * ((1.0 - u1) * self.expm1_neg_2_over_v).ln_1p()).max(-1.0);
-        let s = safe_sqrt(1.0 - c * c);
-        (-c * sin_o + s * (TAU * u2).cos() * cos_o).clamp(-1.0, 1.0)
-    }
-}
-
-/// Light-side albedo of a single lobe seen as a backward-form fiber scattering function
-/// (models.md §5.6): `(1/cosθ_i)·∫ cos²θ_o M_p(θ_i, θ_o) dθ_o`, by 4096-node midpoint
-/// quadrature. It exceeds 1 at grazing light (e.g. 2.23 at θ_i = 1.4 for v = 0.0846), which
-/// is why Chiang-type models conserve energy only on the camera side.
-#[must_use]
-pub fn single_lobe_light_side_albedo(v: f64, theta_i: f64) -> f64 {
-    let m = Longitudinal::new(v);
-    let (sin_i, cos_i) = theta_i.sin_cos();
-    let n = 4096;
-    let d = std::f64::consts::PI / n as f64;
-    let mut sum = 0.0;
-    for k in 0..n {
-        let (s, c) = (-std::f64::consts::FRAC_PI_2 + (k as f64 + 0.5) * d).sin_cos();
-        sum += c * c * m.eval(sin_i, cos_i, s, c) * d;
-    }
-    sum / cos_i.max(1e-300)
-}
-
-#[cfg(test)]
-mod longitudinal_tests {
-    use super::*;
-    use std::f64::consts::{FRAC_PI_2, PI};
-
-    /// Independent evaluation of `M_p` as the azimuthal integral of the vMF density:
-    /// `M = κ/(2π(1 − e^{−2κ}))·∫_0^{2π} exp(κ(μ·ω − 1)) dψ`, κ = 1/v, by the periodic
-    /// trapezoid rule (exponentially convergent). No Bessel function involved.
-    fn m_by_vmf_quadrature(v: f64, theta_i: f64, theta_o: f64) -> f64 {
-        let k = 1.0 / v;
-        let (si, ci) = theta_i.sin_cos();
-        let (so, co) = theta_o.sin_cos();
-        let n = 200_000;
-        let mut sum = 0.0;
-        for j in 0..n {
-            let psi = TAU * j as f64 / n as f64;
-            let dot = -si * so + ci * co * psi.cos();
-            sum += (k * (dot - 1.0)).exp();
-        }
-        k / (TAU * -(-2.0 * k).exp_m1()) * sum * TAU / n as f64
-    }
-
-    /// Direct form with the I₀ power series, in f64 (only for moderate arguments).
-    fn m_direct_series(v: f64, theta_i: f64, theta_o: f64) -> f64 {
-        let (si, ci) = theta_i.sin_cos();
-        let (so, co) = theta_o.sin_cos();
-        let x = ci * co / v;
-        let q = 0.25 * x * x;
-        let (mut term, mut sum, mut k) = (1.0f64, 1.0f64, 1.0f64);
-        while term > 1e-18 * sum {
-            term *= q / (k * k);
-            sum += term;
-            k += 1.0;
-        }
-        (-si * so / v).exp() * sum / (2.0 * v * (1.0 / v).sinh())
-    }
-
-    #[test]
-    fn m_p_matches_independent_evaluations_for_v_from_1e_4_to_30() {
-        let mut worst: f64 = 0.0;
-        for &v in &[1e-4, 1e-3, 0.00652, 0.0846, 0.32, 1.0, 5.0, 27.44, 30.0] {
-            for &(ti, to) in &[(0.1, -0.12), (-0.4, 0.38), (0.8, -0.75), (1.2, -1.2), (0.0, 0.0), (1.5, -1.49)] {
-                let m = Longitudinal::new(v);
-                let got = m.eval(f64::sin(ti), f64::cos(ti), f64::sin(to), f64::cos(to));
-                let want = m_by_vmf_quadrature(v, ti, to);
-                let rel = (got - want).abs() / want.max(1e-300);
-                // Values below 1e-250 are underflow territory for the quadrature.
-                if want > 1e-250 {
-                    worst = worst.max(rel);
-                    assert!(rel < 1e-9, "v={v} θi={ti} θo={to}: {got} vs {want}");
-                }
-                if v >= 0.05 {
-                    let direct = m_direct_series(v, ti, to);
-                    assert!((got - direct).abs() <= 1e-12 * direct, "v={v}: {got} vs series {direct}");
-                }
-            }
-        }
-        assert!(worst < 1e-9);
-    }
-
-    #[test]
-    fn m_p_is_normalized_to_1e_6_for_every_v() {
-        for &v in &[1e-4, 1e-3, 0.00652, 0.0846, 0.32, 1.0, 27.44, 30.0] {
-            let m = Longitudinal::new(v);
-            for &to in &[0.0, 0.3, -0.9, 1.4, FRAC_PI_2] {
-                let (so, co) = f64::sin_cos(to);
-                // ∫ M cosθ_i dθ_i = ∫ M d(sinθ_i): composite Simpson on panels growing
-                // geometrically (×1.5) away from the peak at sinθ_i = −sinθ_o, the first of
-                // width v (the lobe is v wide in sinθ_i at grazing, √v elsewhere).
-                let peak = -so;
-                let mut edges = vec![peak];
-                let mut w = v;
-                while peak - w > -1.0 || peak + w < 1.0 {
-                    edges.push((peak - w).max(-1.0));
-                    edges.push((peak + w).min(1.0));
-                    w *= 1.5;
-                }
-                edges.push(-1.0);
-                edges.push(1.0);
-                edges.sort_by(f64::total_cmp);
-                edges.dedup();
-                let f = |s: f64| m.eval(s, safe_sqrt(1.0 - s * s), so, co.abs());
-                let mut total = 0.0;
-                for pair in edges.windows(2) {
-                    let (a, b) = (pair[0], pair[1]);
-                    let n = 64;
-                    let hh = (b - a) / n as f64;
-                    let mut acc = f(a) + f(b);
-                    for k in 1..n {
-                        acc += f(a + k as f64 * hh) * if k % 2 == 1 { 4.0 } else { 2.0 };
-                    }
-                    total += acc * hh / 3.0;
-                }
-                assert!((total - 1.0).abs() < 1e-6, "v={v} θo={to}: {total}");
-            }
-        }
-    }
-
-    #[test]
-    fn sampler_inverts_the_marginal_cdf() {
-        // The sampled sinθ_i has density M: compare its histogram-free CDF, i.e. the fraction
-        // of stratified samples below x, with ∫_{−1}^{x} M d(sinθ_i).
-        for &v in &[1e-3, 0.0846, 2.0] {
-            let m = Longitudinal::new(v);
-            let (so, co) = f64::sin_cos(0.5);
-            let n = 400;
-            let mut samples = Vec::with_capacity(n * n);
-            for a in 0..n {
-                for b in 0..n {
-                    let (u1, u2) = ((a as f64 + 0.5) / n as f64, (b as f64 + 0.5) / n as f64);
-                    samples.push(m.sample_sin_theta(so, co, u1, u2));
-                }
-            }
-            samples.sort_by(f64::total_cmp);
-            for &x in &[-0.6, -0.5, -0.45, -0.3, 0.0, 0.5] {
-                let k = 20_000;
-                let d = (x + 1.0) / k as f64;
-                let cdf: f64 = (0..k)
-                    .map(|j| {
-                        let s = -1.0 + (j as f64 + 0.5) * d;
-                        m.eval(s, safe_sqrt(1.0 - s * s), so, co) * d
-                    })
-                    .sum();
-                let frac = samples.partition_point(|&s| s < x) as f64 / samples.len() as f64;
-                assert!((frac - cdf).abs() < 2e-3, "v={v} x={x}: {frac} vs {cdf}");
-            }
-        }
-        // Extreme uniforms never give NaN.
-        let m = Longitudinal::new(1e-4);
-        for &u1 in &[0.0, 1.0, 1e-300] {
-            assert!(m.sample_sin_theta(1.0, 0.0, u1, 0.3).is_finite());
-        }
-    }
-
-    #[test]
-    fn single_lobe_light_side_albedo_matches_models_md_5_6() {
-        let want = [(0.0, 0.959), (0.5, 0.972), (1.0, 1.076), (1.4, 2.23), (1.55, 17.0)];
-        for &(t, w) in &want {
-            let got = single_lobe_light_side_albedo(0.0846, t);
-            assert!((got - w).abs() < 0.006 * w, "θi={t}: {got} vs {w}");
-            let broad = single_lobe_light_side_albedo(1e7, t);
-            assert!((broad - PI / (4.0 * t.cos())).abs() < 1e-5 * broad, "v→∞ θi={t}: {broad}");
-        }
     }
 }

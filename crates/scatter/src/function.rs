@@ -2,7 +2,8 @@
 //!
 //! A fiber scattering function `f_s(ω_i, ω_r)` (sr⁻¹) is the 1D analogue of a BRDF: the
 //! width-averaged outgoing radiance is `L_r(ω_r) = ∫ f_s(ω_i, ω_r) L_i(ω_i) cosθ_i dω_i`,
-//! with θ measured from the fiber's normal plane (models.md §1.4, §2.1). Directions are in
+//! with θ measured from the fiber's normal plane (`docs/theory/conventions.md`, "Fiber scattering function versus renderer BSDF";
+//! `docs/theory/radiometry.md`). Directions are in
 //! the fiber frame of [`fiberlab_math`]; `ω_i` points toward the light, `ω_r` (`wo`) toward
 //! the viewer; `h ∈ [−1, 1]` is the offset across the fiber.
 

@@ -1,5 +1,6 @@
 //! Goldman 1997, *Fake fur rendering*: Kajiya–Kay with a directional (forward/backward)
-//! factor, as a fiber scattering function (models.md §3.1).
+//! factor, as a fiber scattering function (`docs/theory/radiometry.md`, "Goldman's directional
+//! factor").
 //!
 //! | parameter | unit | default | range |
 //! |---|---|---|---|
@@ -46,7 +47,7 @@ const PARAMS: [ParamSpec; 5] = [
 pub const SPEC: ModelSpec = ModelSpec {
     name: "goldman",
     summary: "Kajiya–Kay with Goldman's forward/backward directional factor",
-    citation: "Goldman 1997; models.md §3.1",
+    citation: "Goldman 1997; docs/theory/radiometry.md",
     params: &PARAMS,
     data: None,
     build: |p: &ParamSet| Ok(Goldman::new(GoldmanParams::from_param_set(p)?)?.into()),

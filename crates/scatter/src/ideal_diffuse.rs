@@ -1,4 +1,5 @@
-//! The ideal diffuse fiber (Marschner, *Scattering from fibers*, course notes; models.md §2.2).
+//! The ideal diffuse fiber (Marschner, *Scattering from fibers*, course notes; theory in
+//! `docs/theory/radiometry.md`, "Ideal diffuse fiber").
 //!
 //! | parameter | unit | default | range |
 //! |---|---|---|---|
@@ -21,7 +22,7 @@ use thiserror::Error;
 pub const SPEC: ModelSpec = ModelSpec {
     name: "diffuse",
     summary: "ideal diffuse fiber, f_s = albedo/π²",
-    citation: "Marschner, Scattering from fibers (course notes), §2.2 of models.md",
+    citation: "Marschner, Scattering from fibers (course notes); docs/theory/radiometry.md",
     params: &[ParamSpec {
         key: "albedo",
         kind: ParamKind::Color(Range::UNIT),

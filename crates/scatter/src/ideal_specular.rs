@@ -1,5 +1,5 @@
 //! The ideal specular fiber: all light leaves on the specular cone θ_r = −θ_i
-//! (models.md §2.4).
+//! (`docs/theory/radiometry.md`, "Ideal specular fiber").
 //!
 //! | parameter | unit | default | range |
 //! |---|---|---|---|
@@ -30,7 +30,7 @@ use thiserror::Error;
 pub const SPEC: ModelSpec = ModelSpec {
     name: "specular",
     summary: "ideal specular fiber: a delta lobe on the cone θ_r = −θ_i",
-    citation: "models.md §2.4",
+    citation: "Marschner, Scattering from fibers (course notes); docs/theory/radiometry.md",
     params: &[
         ParamSpec {
             key: "azimuth",

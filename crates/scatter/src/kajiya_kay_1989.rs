@@ -1,5 +1,5 @@
 //! Kajiya & Kay 1989, *Rendering fur with three dimensional textures*, written as a fiber
-//! scattering function (models.md §3).
+//! scattering function (`docs/theory/radiometry.md`, "Kajiya–Kay as a scattering function").
 //!
 //! | parameter | unit | default | range |
 //! |---|---|---|---|
@@ -69,7 +69,7 @@ pub(crate) const PARAMS: [ParamSpec; 3] = [
 pub const SPEC: ModelSpec = ModelSpec {
     name: "kajiya-kay",
     summary: "Kajiya–Kay diffuse + specular cone, as a scattering function",
-    citation: "Kajiya & Kay 1989; models.md §3",
+    citation: "Kajiya & Kay 1989; docs/theory/radiometry.md",
     params: &PARAMS,
     data: None,
     build: |p: &ParamSet| Ok(KajiyaKay::new(KajiyaKayParams::from_param_set(p)?)?.into()),

@@ -1,5 +1,6 @@
 //! An opaque cylinder with a Lambertian surface, as a fiber scattering function
-//! (models.md §2.3; equal to Tungsten's `LambertianFiberBcsdf`).
+//! (`docs/theory/radiometry.md`, "Lambertian cylinder"; equal to Tungsten's
+//! `LambertianFiberBcsdf`).
 //!
 //! | parameter | unit | default | range |
 //! |---|---|---|---|
@@ -23,7 +24,7 @@ use thiserror::Error;
 pub const SPEC: ModelSpec = ModelSpec {
     name: "lambertian-cylinder",
     summary: "opaque cylinder with a Lambertian surface",
-    citation: "models.md §2.3 (Tungsten LambertianFiberBcsdf)",
+    citation: "docs/theory/radiometry.md (Tungsten LambertianFiberBcsdf)",
     params: &[ParamSpec {
         key: "albedo",
         kind: ParamKind::Color(Range::UNIT),

@@ -1,5 +1,6 @@
 //! The fiber scattering-function interface ([`ScatteringFunction`]), one file per model
-//! (named after its paper), the [`Model`] enum and registry, and curve radiometry.
+//! (named after its paper), the shared hair core ([`hair`]), the [`Model`] enum and registry,
+//! and curve radiometry.
 //!
 //! Pure: no I/O. Conventions (frame, angles, units) are those of [`fiberlab_math`]; every
 //! `f_s` is in sr⁻¹ with `L_r = ∫ f_s L_i cosθ_i dω_i`, θ from the fiber's normal plane.
@@ -7,6 +8,7 @@
 
 mod error;
 mod function;
+pub mod hair;
 mod model;
 pub mod params;
 pub mod radiometry;

@@ -1,12 +1,15 @@
 //! Marschner, Jensen, Cammarano, Worley & Hanrahan 2003, *Light scattering from human hair
-//! fibers* (ACM TOG 22(3)): the far-field R + TT + TRT model with caustic glints and the
-//! first-order eccentricity correction (models.md §4).
+//! fibers* (ACM Transactions on Graphics 22(3), SIGGRAPH 2003): the far-field R + TT + TRT
+//! model with caustic glints and the first-order eccentricity correction. Built from the hair
+//! core ([`crate::hair`]); the shared mathematics is in `docs/theory/hair.md`, the peers'
+//! differences in `docs/theory/peer-discrepancies.md`. Equations are cited by the quantity
+//! they define and by the paper's Table 1 (equation numbers are not quoted: unchecked).
 //!
 //! | parameter | unit | default | range |
 //! |---|---|---|---|
 //! | `eta` η | — | 1.55 | (1, 4] |
 //! | `sigma_a` σ_a | 1/radius | 0.2,0.3,0.5 | [0, ∞) per channel |
-//! | `alpha_r` α_R | degrees | −7.5 | [−20, 20] |
+//! | `alpha_r` α_R | degrees at the edge, radians in [`MarschnerParams`] | −7.5 | [−20, 20] |
 //! | `beta_r` β_R | degrees | 7.5 | [1, 20] |
 //! | `k_g` k_G | — | 2.5 | [0, 10] |
 //! | `w_c` w_c | degrees | 15 | [1, 45] |
@@ -20,68 +23,79 @@
 //! | `lobes` | — | r,tt,trt | subset of r, tt, trt |
 //!
 //! # Formula
-//! `S(ω_i, ω_r) = Σ_{p ∈ {R, TT, TRT}} M_p(θ_h)·N_p(η′(θ_d), φ) / cos²θ_d` (sr⁻¹, Eq. 3 of the
-//! paper), with `θ_h = (θ_i + θ_r)/2`, `θ_d = (θ_r − θ_i)/2`, `φ = φ_r − φ_i` (0 = backscatter).
-//! * Longitudinal (§4.2): `M_p = k_M·g(β_p; θ_h − α_p)`, g a unit-area Gaussian, with
-//!   `α_TT = −α_R/2`, `α_TRT = −3α_R/2`, `β_TT = β_R/2`, `β_TRT = 2β_R` (Table 1).
-//! * Azimuthal (§4.4): `N_p(φ) = Σ_{γ: Φ(p, γ) ≡ φ} A(p, h)·cosγ / (2|dΦ/dγ|)`, h = sinγ,
+//! The paper's scattering function
+//! `S(ω_i, ω_r) = Σ_{p ∈ {R, TT, TRT}} M_p(θ_h)·N_p(η′(θ_d), φ) / cos²θ_d` (sr⁻¹), with
+//! `θ_h = (θ_i + θ_r)/2`, `θ_d = (θ_r − θ_i)/2`, `φ = φ_r − φ_i` (0 = backscatter).
+//! * Longitudinal: `M_p = k_M·g(β_p; θ_h − α_p)`, g a unit-area Gaussian, with
+//!   `α_TT = −α_R/2`, `α_TRT = −3α_R/2`, `β_TT = β_R/2`, `β_TRT = 2β_R` (Table 1;
+//!   [`crate::hair::longitudinal::GaussianLobes`]).
+//! * Azimuthal: `N_p(φ) = Σ_{γ: Φ(p, γ) ≡ φ} A(p, h)·cosγ / (2|dΦ/dγ|)`, h = sinγ,
 //!   which is the paper's `Σ A/|2 dΦ/dh|` written in γ (finite at h = ±1), with
 //!   `Φ(p, γ) = 2p·asin(sinγ/η′) − 2γ + pπ`; Bravais' `η′ = sqrt(η² − sin²θ_d)/cosθ_d`
-//!   enters only through `1/η′ = cosθ_d/sqrt(η² − sin²θ_d)` (finite at grazing θ_d).
+//!   enters only through `1/η′ = cosθ_d/sqrt(η² − sin²θ_d)` (finite at grazing θ_d)
+//!   ([`crate::hair::normal_plane`]).
 //! * Attenuation: `A(0) = F`, `A(p) = (1 − F)²·F^{p−1}·T^p`, F the dielectric Fresnel of η
-//!   at `cos ι = cosθ_d·cosγ` ([`fresnel::dielectric`]; §4.4 shows it equals the Bravais
-//!   form with η′, η″, and the internal reflections have the same value), and
-//!   `T = exp(−σ_a·2cosγ_t/cosθ_t)` (chord length of the internal path, radius 1).
-//! * TRT caustic (§4.5): `N_TRT = N_P·[1 − t·ĝ(φ − φ_c)]·[1 − t·ĝ(φ + φ_c)] +
+//!   at `cos ι = cosθ_d·cosγ` (equal to the paper's form with both Bravais indices η′, η″;
+//!   the internal reflections have the same value), and `T = exp(−σ_a·2cosγ_t/cosθ_t)`
+//!   (chord length of the internal path, radius 1) ([`crate::hair::attenuation`]).
+//! * TRT caustic (the paper's glints): `N_TRT = N_P·[1 − t·ĝ(φ − φ_c)]·[1 − t·ĝ(φ + φ_c)] +
 //!   t·k_G·A(2, h_c)·Δh·[g(w_c; φ − φ_c) + g(w_c; φ + φ_c)]`, ĝ = g/g(0), with
 //!   `h_c = sqrt((4 − η′²)/3)`, `Δh = min(Δh_M, 2·sqrt(2w_c/|d²Φ/dh²(h_c)|))`, t = 1 while
-//!   η′ < 2, else `h_c = 0`, `Δh = Δh_M`, `t = 1 − smoothstep(2, 2 + Δη′, η′)`.
-//! * Eccentricity (§4.6, TRT only): η replaced by
+//!   η′ < 2, else `h_c = 0`, `Δh = Δh_M`, `t = 1 − smoothstep(2, 2 + Δη′, η′)`
+//!   ([`crate::hair::normal_plane::Caustic`]).
+//! * Eccentricity (TRT only): η replaced by
 //!   `η*(φ_h) = ½[(η*₁ + η*₂) + cos(2φ_h)(η*₁ − η*₂)]`, `η*₁ = 2(η − 1)a² − η + 2`,
 //!   `η*₂ = 2(η − 1)a⁻² − η + 2`, φ_h from the major axis `v` (+y).
 //!
-//! # Decisions on the [!] points of models.md
-//! * **Normalization (§4.2)**: `normalization=energy` (default) uses `k_M = ½`: a unit-area
-//!   Gaussian in θ_h has mass 2 in θ_r (dθ_r = 2dθ_h), so `k_M = ½` makes
-//!   `∫ S cosθ_r dω_r ≈ Σ_p ∫N_p dφ = Σ_p ½∫A_p dh ≤ 1` for narrow, unshifted lobes (tested:
-//!   within 1.5% up to θ_i = 0.95 rad); `normalization=paper` uses `k_M = 1` as the formula
-//!   is printed (Cortex does this), with twice the albedo. Default energy, because the
-//!   renderer and furnace tests need a fiber that does not create light; the paper's intent
-//!   cannot be settled (models.md tags it \[R\]). Even with `k_M = ½` the model is **not** energy conserving in
-//!   general, and [`Properties::energy_conserving`] says so: lobes shifted by α_p or widened
-//!   by β_p put light off the cone θ_r = −θ_i, where `cos²θ_r/cos²θ_d ≠ 1` (measured,
-//!   σ_a = 0, no glints: ρ ≈ 1.05 at θ_i ≈ 1 rad for Table 1 values; for narrow lobes
-//!   ρ → ≈ 1.85 as θ_i → 90°, where `cos²θ_r/cos²θ_d → 4cos²θ_h`), and the glints add up to
-//!   ≈ 0.1 more ([`albedo_table`]).
-//! * **Roots (§4.4)**: `roots=exact` (default) solves `Φ(p, γ) = φ` exactly by bracketing
-//!   on the monotone pieces (split at the caustic γ_c) and safeguarded Newton; it stays
-//!   well-posed as η′ → ∞ (θ_d → ±90°), where Φ becomes linear. `roots=cubic` is the
-//!   paper's approximation `γ_t ≈ (3c/π)γ − (4c/π³)γ³`, `c = asin(1/η′)`, solved by the same
-//!   bracketing on the cubic (no closed-form Cardano, so a → 0 is harmless). Exact is the
-//!   default because the cubic moves the caustic by ~2° (20.5° vs 18.6° at θ_d = 0) and the
-//!   exact solve costs little; the cubic is kept for paper fidelity and comparison
-//!   ([`cubic_azimuth_error_table`], [`caustic_table`]). In both modes A uses the exact γ_t;
-//!   the caustic position, width and Φ'' come from the chosen Φ (as the paper does).
-//! * **Fresnel**: the 3D dielectric Fresnel at `cosθ_d·cosγ` for every interface (no Snell
-//!   with η″, which fakes total internal reflection at grazing θ_d).
-//! * **Absorption (§4.4)**: `absorption=chord` (default) uses the internal chord
-//!   `2cosγ_t/cosθ_t`; `absorption=paper` the printed `2σ_a′(1 + cos 2γ_t) =
-//!   4σ_a cos²γ_t/cosθ_t`, which is not the chord length (Zinke & Weber 2007 Eq. 20). σ_a is
-//!   per unit radius; θ_t from Snell along the axis with θ_d (`sinθ_t = sinθ_d/η`).
-//! * **Fade (§4.5)**: `t = 1 − smoothstep(2, 2 + Δη′, η′)`, the only choice continuous with
-//!   t = 1 below η′ = 2. The glint Gaussians are evaluated at the wrapped differences
-//!   `wrap(φ ∓ φ_c)`.
-//! * **Half angle φ_h (§4.6)**: `(φ_i + φ_r)/2` is defined only modulo π (adding 2π to one
-//!   azimuth moves it by π), but η* depends on `cos 2φ_h = cos(φ_i + φ_r)`, which is
-//!   unambiguous and symmetric in i ↔ r; that is what is evaluated. Hence S stays exactly
-//!   symmetric (reciprocal in the circular sense) for every a — note that a truly
+//! # Decisions where the paper and its implementations differ
+//! (`docs/theory/peer-discrepancies.md` records each with the peers' choices.)
+//! * **Normalization k_M** ("Marschner longitudinal normalization"): `normalization=energy`
+//!   (default) uses `k_M = ½`: a unit-area Gaussian in θ_h has mass 2 in θ_r
+//!   (dθ_r = 2dθ_h), so `k_M = ½` makes `∫ S cosθ_r dω_r ≈ Σ_p ∫N_p dφ = Σ_p ½∫A_p dh ≤ 1`
+//!   for narrow, unshifted lobes (tested: within 1.5% up to θ_i = 0.95 rad);
+//!   `normalization=paper` uses `k_M = 1` as the formula is printed (Cortex does this), with
+//!   twice the albedo. Default energy, because the renderer and furnace tests need a fiber
+//!   that does not create light; the paper's intent cannot be settled from the sources. Even
+//!   with `k_M = ½` the model is **not** energy conserving in general, and
+//!   [`Properties::energy_conserving`] says so: lobes shifted by α_p or widened by β_p put
+//!   light off the cone θ_r = −θ_i, where `cos²θ_r/cos²θ_d ≠ 1` (measured, σ_a = 0, no
+//!   glints: ρ ≈ 1.05 at θ_i ≈ 1 rad for Table 1 values; for narrow lobes ρ → ≈ 1.85 as
+//!   θ_i → 90°, where `cos²θ_r/cos²θ_d → 4cos²θ_h`), and the glints add up to ≈ 0.1 more
+//!   ([`albedo_table`]).
+//! * **Roots** ("Cubic root approximation"): `roots=exact` (default) solves `Φ(p, γ) = φ`
+//!   exactly by bracketing on the monotone pieces (split at the caustic γ_c) and safeguarded
+//!   Newton; it stays well-posed as η′ → ∞ (θ_d → ±90°), where Φ becomes linear.
+//!   `roots=cubic` is the paper's approximation `γ_t ≈ (3c/π)γ − (4c/π³)γ³`,
+//!   `c = asin(1/η′)`, solved by the same bracketing on the cubic (no closed-form Cardano, so
+//!   a → 0 is harmless). Exact is the default because the cubic moves the caustic by ~2°
+//!   (20.5° vs 18.6° at θ_d = 0) and the exact solve costs little; the cubic is kept for
+//!   paper fidelity and comparison ([`cubic_azimuth_error_table`], [`caustic_table`]). In
+//!   both modes A uses the exact γ_t; the caustic position, width and Φ'' come from the
+//!   chosen Φ (as the paper does).
+//! * **Fresnel** ("Fresnel with the parallel Bravais index"): the 3D dielectric Fresnel at
+//!   `cosθ_d·cosγ` for every interface (no Snell with η″, which fakes total internal
+//!   reflection at grazing θ_d).
+//! * **Absorption path** ("Printed absorption path"): `absorption=chord` (default) uses the
+//!   internal chord `2cosγ_t/cosθ_t`; `absorption=paper` the printed `2σ_a′(1 + cos 2γ_t) =
+//!   4σ_a cos²γ_t/cosθ_t`, which is not the chord length (Zinke & Weber 2007). σ_a is per
+//!   unit radius; θ_t from Snell along the axis with θ_d (`sinθ_t = sinθ_d/η`).
+//! * **Fade** ("Glint fade"): `t = 1 − smoothstep(2, 2 + Δη′, η′)`, the only choice
+//!   continuous with t = 1 below η′ = 2. The glint Gaussians are evaluated at the wrapped
+//!   differences `wrap(φ ∓ φ_c)`; the sampler's glint density is the wrapped Gaussian
+//!   ([`fiberlab_math::special::wrapped_gaussian`], the same one `deon` uses).
+//! * **Half angle φ_h** ("Elliptical fibers"): `(φ_i + φ_r)/2` is defined only modulo π
+//!   (adding 2π to one azimuth moves it by π), but η* depends on `cos 2φ_h = cos(φ_i + φ_r)`,
+//!   which is unambiguous and symmetric in i ↔ r; that is what is evaluated. Hence S stays
+//!   exactly symmetric (reciprocal in the circular sense) for every a — note that a truly
 //!   elliptical fiber would obey the generalized reciprocity `D(ω_i)f(i,r) = D(ω_r)f(r,i)`
-//!   instead (models.md §2.1); the first-order correction ignores this, as the paper does.
+//!   instead (`docs/theory/radiometry.md`, "Non-circular fibers"); the first-order
+//!   correction ignores this, as the paper does.
+//! * **Tilt sign**: `alpha_r` keeps the paper's sign (α_R < 0: R toward the root; TT, TRT
+//!   toward the tip), unlike `chiang`'s and `deon`'s `alpha` (> 0 toward the root).
 //! * **Defaults**: Table 1's mid-range values as used by Lemein's thesis: η = 1.55,
-//!   α_R = −7.5° (R toward the root; TT, TRT toward the tip), β_R = 7.5°, k_G = 2.5,
-//!   w_c = 15°, Δη′ = 0.3, Δh_M = 0.5, a = 1 (circular, so the defaults are the plain
-//!   model), and σ_a = (0.2, 0.3, 0.5) per radius: Table 1's lower end (0.2) in red, a light
-//!   brown.
+//!   α_R = −7.5°, β_R = 7.5°, k_G = 2.5, w_c = 15°, Δη′ = 0.3, Δh_M = 0.5, a = 1 (circular,
+//!   so the defaults are the plain model), and σ_a = (0.2, 0.3, 0.5) per radius: Table 1's
+//!   lower end (0.2) in red, a light brown.
 //! * **Grazing**: `cos²θ_d` in the denominator is clamped at [`MIN_COS_THETA_D`]² (S would
 //!   be infinite only at θ_r = −θ_i = ±90° exactly); `|dΦ/dγ|` is clamped at
 //!   [`MIN_DPHI`] exactly on a caustic.
@@ -108,22 +122,58 @@
 //! per lobe and root mode (tanh–sinh in φ against direct h-integration); R with F ≡ 1 equals
 //! `cos(φ/2)/4`; A(p, h) against a 3D refracted chord and the printed path; the exact caustic
 //! against a 3D ray-traced TRT histogram (and the h-map density away from it), the worked
-//! values of models.md §4.5 for both modes; the cubic error table; continuity of the glint
-//! fade at η′ = 2; the R lobe's tilt toward the root; albedo for both normalizations;
-//! pdf integrates to 1; sample ≡ pdf/eval; χ² of sample against pdf; no NaN/Inf (proptest,
-//! including θ = ±90°, θ_d → ±90°, a < 1, σ_a = 0). `marschner_report` (ignored) prints the
-//! caustic, error and albedo tables.
+//! caustic values (η = 1.55: exact φ_c = 18.62°, cubic 20.49° at θ_d = 0) for both modes; the
+//! cubic error table; continuity of the glint fade at η′ = 2; the R lobe's tilt toward the
+//! root; albedo for both normalizations; pdf integrates to 1; sample ≡ pdf/eval; no NaN/Inf
+//! (proptest, including θ = ±90°, θ_d → ±90°, a < 1, σ_a = 0). The χ² test of `sample`
+//! against `pdf` is in `crates/scatter/tests/marschner_2003.rs`, through fiberlab-check's
+//! χ². `marschner_report` (ignored) prints the caustic, error and albedo tables.
+//!
+//! # Example: a value pinned by the closed form
+//! R alone at θ_i = θ_r = 0 (θ_h = θ_d = 0, η′ = η) and relative azimuth φ: the single root of
+//! `Φ(0, γ) = −2γ = φ` is γ = −φ/2, `|dΦ/dγ| = 2`, so `N_R = F(cos(φ/2))·cos(φ/2)/4` and
+//! `S = k_M·g(β_R; −α_R)·N_R` with k_M = ½ (`normalization = energy`). The doctest writes
+//! the Gaussian and Fresnel's equations out itself and compares with `eval`.
+//! ```
+//! use fiberlab_math::frame::direction;
+//! use fiberlab_scatter::ScatteringFunction;
+//! use fiberlab_scatter::marschner_2003::{Marschner, MarschnerParams};
+//! use std::f64::consts::PI;
+//!
+//! let params = MarschnerParams { lobes: [true, false, false], ..MarschnerParams::default() };
+//! let (eta, alpha_r, beta_r) = (params.eta, params.alpha_r, params.beta_r);
+//! let fiber = Marschner::new(params)?;
+//! let fresnel = |cos_i: f64| {
+//!     let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (eta * eta)).sqrt();
+//!     let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+//!     let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+//!     0.5 * (rs * rs + rp * rp)
+//! };
+//! let gauss = (-0.5 * (alpha_r / beta_r).powi(2)).exp() / (beta_r * (2.0 * PI).sqrt());
+//! for phi in [0.0, 0.8, 2.5] {
+//!     let got = fiber.eval(direction(0.0, 0.0), direction(0.0, phi), 0.0)[0];
+//!     let c = (0.5 * phi).cos();
+//!     let want = 0.5 * gauss * fresnel(c) * c / 4.0;
+//!     assert!((got - want).abs() < 1e-12 * want, "φ {phi}: {got} vs {want}");
+//! }
+//! # Ok::<(), fiberlab_scatter::marschner_2003::MarschnerError>(())
+//! ```
 
-use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
+use crate::hair::attenuation::{PathLength, plane_attenuation};
+use crate::hair::longitudinal::GaussianLobes;
+use crate::hair::normal_plane::{Caustic, NormalPlane, RootMode, representative};
+use crate::hair::parameters::ETA_RANGE;
+use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
 use crate::radiometry::{Quadrature, albedo};
 use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
-use fiberlab_math::special::{gaussian, normal_mass, safe_sqrt, sample_truncated_normal, smoothstep};
-use fiberlab_math::{DVec3, Rgb, bravais, fresnel};
+use fiberlab_math::special::{gaussian, normal_mass, sample_truncated_normal, wrapped_gaussian};
+use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::Arc;
+use thiserror::Error;
 
-/// Smallest `cosθ_d` used in the `1/cos²θ_d` of Eq. 3 (reached only at θ_r = −θ_i = ±90°).
+/// Smallest `cosθ_d` used in the `1/cos²θ_d` of S (reached only at θ_r = −θ_i = ±90°).
 pub const MIN_COS_THETA_D: f64 = 1e-6;
 /// Smallest `|dΦ/dγ|` in `N_p`: the density is infinite exactly on a caustic.
 pub const MIN_DPHI: f64 = 1e-12;
@@ -144,12 +194,7 @@ const TRT_GLINT_MAX: f64 = 0.8;
 const LOBE_TABLE_INTERVALS: usize = 64;
 /// Midpoint nodes in γ for `½∫A dh` in the lobe-selection table.
 const LOBE_TABLE_NODES: usize = 64;
-/// `|Φ(p, γ) − φ|` (radians) at which the root solve stops: a few ulps of 3π.
-const ROOT_TOLERANCE: f64 = 4e-15;
-/// Iterations of safeguarded Newton (each either a Newton step or a bisection).
-const MAX_ROOT_ITERATIONS: usize = 100;
 
-const ETA_RANGE: Range = Range::open_closed(1.0, 4.0);
 const SIGMA_RANGE: Range = Range { min: 0.0, max: f64::INFINITY, min_inclusive: true, max_inclusive: false };
 const ALPHA_RANGE: Range = Range::closed(-20.0, 20.0);
 const BETA_RANGE: Range = Range::closed(1.0, 20.0);
@@ -259,7 +304,7 @@ const PARAMS: [ParamSpec; 14] = [
 pub const SPEC: ModelSpec = ModelSpec {
     name: "marschner",
     summary: "Marschner et al. 2003 hair: R, TT, TRT with caustic glints and eccentricity",
-    citation: "Marschner et al. 2003; models.md §4",
+    citation: "Marschner et al. 2003",
     params: &PARAMS,
     data: None,
     build: |p: &ParamSet| Ok(Marschner::new(MarschnerParams::from_param_set(p)?)?.into()),
@@ -287,16 +332,7 @@ impl Lobe {
     }
 }
 
-/// How the exit-azimuth equation `Φ(p, γ) = φ` is solved (models.md §4.4).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RootMode {
-    /// Exact Φ, bracketing + safeguarded Newton.
-    Exact,
-    /// The paper's cubic approximation of γ_t.
-    Cubic,
-}
-
-/// The constant k_M of `M_p = k_M·g(β_p; θ_h − α_p)` (models.md §4.2).
+/// The constant k_M of `M_p = k_M·g(β_p; θ_h − α_p)` (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Normalization {
     /// k_M = ½: energy-consistent (albedo ≈ Σ∫N_p dφ for narrow lobes).
@@ -314,15 +350,6 @@ impl Normalization {
             Self::Paper => 1.0,
         }
     }
-}
-
-/// Internal path length used for absorption (models.md §4.4).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Absorption {
-    /// `2cosγ_t/cosθ_t`, the chord of a radius-1 circle.
-    Chord,
-    /// `2(1 + cos2γ_t)/cosθ_t = 4cos²γ_t/cosθ_t`, as printed in the paper.
-    Paper,
 }
 
 /// Parameters of [`Marschner`]; angles in **radians** (the registry takes degrees).
@@ -352,8 +379,8 @@ pub struct MarschnerParams {
     pub glints: bool,
     /// k_M.
     pub normalization: Normalization,
-    /// Absorption path length.
-    pub absorption: Absorption,
+    /// Internal path length used for absorption (the key `absorption`).
+    pub absorption: PathLength,
     /// Enabled lobes, indexed by p.
     pub lobes: [bool; 3],
 }
@@ -374,308 +401,80 @@ impl Default for MarschnerParams {
             roots: RootMode::Exact,
             glints: true,
             normalization: Normalization::Energy,
-            absorption: Absorption::Chord,
+            absorption: PathLength::Chord,
             lobes: [true; 3],
         }
     }
 }
 
 impl MarschnerParams {
+    /// A dark, strongly absorbing fiber (σ_a = 2, 2.5, 3 per radius: TT and TRT nearly
+    /// vanish, the R highlight dominates); everything else the defaults.
+    #[must_use]
+    pub fn dark() -> Self {
+        Self { sigma_a: Rgb::new(2.0, 2.5, 3.0), ..Self::default() }
+    }
+
+    /// The paper as printed: `normalization = paper` (k_M = 1), `absorption = paper` (the
+    /// printed path length), the cubic root approximation; everything else the defaults.
+    #[must_use]
+    pub fn paper_literal() -> Self {
+        Self {
+            roots: RootMode::Cubic,
+            normalization: Normalization::Paper,
+            absorption: PathLength::Paper,
+            ..Self::default()
+        }
+    }
+
     /// Reads the registry parameters (degrees → radians).
     pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
         let lobes = p.subset("lobes")?;
         Ok(Self {
             eta: p.number("eta")?,
             sigma_a: p.color("sigma_a")?,
-            alpha_r: p.number("alpha_r")?.to_radians(),
-            beta_r: p.number("beta_r")?.to_radians(),
+            alpha_r: p.degrees("alpha_r")?,
+            beta_r: p.degrees("beta_r")?,
             k_g: p.number("k_g")?,
-            w_c: p.number("w_c")?.to_radians(),
+            w_c: p.degrees("w_c")?,
             delta_eta: p.number("delta_eta")?,
             delta_h_m: p.number("delta_h_m")?,
             eccentricity: p.number("eccentricity")?,
             roots: if p.choice("roots")? == "cubic" { RootMode::Cubic } else { RootMode::Exact },
-            glints: p.choice("glints")? == "on",
+            glints: p.switch("glints")?,
             normalization: if p.choice("normalization")? == "paper" {
                 Normalization::Paper
             } else {
                 Normalization::Energy
             },
-            absorption: if p.choice("absorption")? == "paper" { Absorption::Paper } else { Absorption::Chord },
+            absorption: if p.choice("absorption")? == "paper" { PathLength::Paper } else { PathLength::Chord },
             lobes: LOBE_NAMES.map(|n| lobes.contains(&n)),
         })
     }
 }
 
-/// The 2D problem in the normal plane for one inclination θ_d and index η: Bravais'
-/// `1/η′`, the internal `cosθ_t`, and Φ with its derivatives (models.md §1.2, §4.4).
-#[derive(Clone, Copy, Debug)]
-pub struct NormalPlane {
-    eta: f64,
-    cos_theta_d: f64,
-    /// `1/η′ = cosθ_d/sqrt(η² − sin²θ_d)` ∈ [0, 1/η].
-    inv_eta_prime: f64,
-    /// `c = asin(1/η′)`, the cubic's parameter.
-    c: f64,
-    cos_theta_t: f64,
-    mode: RootMode,
+/// Why a [`Marschner`] fiber cannot be built.
+#[non_exhaustive]
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum MarschnerError {
+    /// A parameter outside its range (named, with the range; angles in degrees).
+    #[error(transparent)]
+    Parameter(#[from] ParameterError),
+    /// `lobes` enables no lobe.
+    #[error("marschner: `lobes` must name at least one of r, tt, trt")]
+    NoLobes,
 }
 
-/// Roots γ of `Φ(p, γ) = target` in [−π/2, π/2] (at most three).
-#[derive(Clone, Copy, Debug, Default)]
-struct Roots {
-    gamma: [f64; 3],
-    n: usize,
-}
-
-impl Roots {
-    fn push(&mut self, g: f64) {
-        if self.n < 3 {
-            self.gamma[self.n] = g;
-            self.n += 1;
+impl From<MarschnerError> for ModelError {
+    fn from(e: MarschnerError) -> Self {
+        match e {
+            MarschnerError::Parameter(p) => p.into(),
+            MarschnerError::NoLobes => ModelError::Inconsistent(e.to_string()),
         }
-    }
-    fn iter(&self) -> impl Iterator<Item = f64> + '_ {
-        self.gamma[..self.n].iter().copied()
     }
 }
 
-/// The TRT caustic (models.md §4.5) for one [`NormalPlane`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Caustic {
-    /// Offset h_c ≥ 0 of the caustic (0 when η′ ≥ 2).
-    pub h_c: f64,
-    /// Azimuth φ_c = Φ(2, h_c) − 2π, radians.
-    pub phi_c: f64,
-    /// `d²Φ/dh²` at h_c (0 when η′ ≥ 2).
-    pub d2phi_dh2: f64,
-    /// Fade t ∈ [0, 1].
-    pub t: f64,
-}
-
-impl NormalPlane {
-    /// The normal-plane problem for index `eta` at `sinθ_d`, `cosθ_d ≥ 0`.
-    #[must_use]
-    pub fn new(eta: f64, sin_theta_d: f64, cos_theta_d: f64, mode: RootMode) -> Self {
-        // 1/η′ = sinγ_t at h = 1, in the cancellation-free form (finite at cosθ_d = 0).
-        let inv_eta_prime = bravais::sin_gamma_t(1.0, eta, sin_theta_d, cos_theta_d);
-        Self {
-            eta,
-            cos_theta_d,
-            inv_eta_prime,
-            c: inv_eta_prime.asin(),
-            cos_theta_t: bravais::cos_theta_t(eta, sin_theta_d),
-            mode,
-        }
-    }
-
-    /// Bravais' η′ (+∞ at θ_d = ±90°).
-    #[must_use]
-    pub fn eta_prime(&self) -> f64 {
-        1.0 / self.inv_eta_prime
-    }
-
-    /// Internal angle γ_t = asin(sinγ/η′) (exact).
-    #[must_use]
-    pub fn gamma_t(&self, gamma: f64) -> f64 {
-        (gamma.sin() * self.inv_eta_prime).asin()
-    }
-
-    /// `Φ(p, γ)` (not reduced mod 2π) and `dΦ/dγ` with this plane's root mode.
-    #[must_use]
-    pub fn phi_and_derivative(&self, p: usize, gamma: f64) -> (f64, f64) {
-        let pf = p as f64;
-        match self.mode {
-            RootMode::Exact => {
-                let (s, c) = gamma.sin_cos();
-                let st = s * self.inv_eta_prime;
-                let phi = 2.0 * pf * st.asin() - 2.0 * gamma + pf * PI;
-                let d = 2.0 * pf * self.inv_eta_prime * c / safe_sqrt(1.0 - st * st) - 2.0;
-                (phi, d)
-            }
-            RootMode::Cubic => {
-                let (a, b) = self.cubic_coefficients(p);
-                (a * gamma * gamma * gamma + b * gamma + pf * PI, 3.0 * a * gamma * gamma + b)
-            }
-        }
-    }
-
-    /// `(a, b)` of `Φ̂(p, γ) = aγ³ + bγ + pπ`: `a = −8pc/π³`, `b = 6pc/π − 2`.
-    fn cubic_coefficients(&self, p: usize) -> (f64, f64) {
-        let pc = p as f64 * self.c;
-        (-8.0 * pc / (PI * PI * PI), 6.0 * pc / PI - 2.0)
-    }
-
-    /// The stationary point γ_s ∈ (0, π/2) of Φ(p, ·), if any (a caustic).
-    fn stationary(&self, p: usize) -> Option<f64> {
-        match self.mode {
-            RootMode::Exact => {
-                // dΦ/dγ = 0 ⇔ cos²γ = (1 − 1/η′²)/((p² − 1)/η′²)
-                if p < 2 {
-                    return None;
-                }
-                let inv2 = self.inv_eta_prime * self.inv_eta_prime;
-                let pp = (p * p - 1) as f64;
-                let cos2 = (1.0 - inv2) / (pp * inv2);
-                (cos2 < 1.0 && cos2 > 0.0).then(|| cos2.sqrt().acos())
-            }
-            RootMode::Cubic => {
-                let (a, b) = self.cubic_coefficients(p);
-                if p == 0 || b <= 0.0 || a >= 0.0 {
-                    return None;
-                }
-                let g = (-b / (3.0 * a)).sqrt();
-                (g < FRAC_PI_2).then_some(g)
-            }
-        }
-    }
-
-    /// Roots of `Φ(p, γ) = target` on [−π/2, π/2], target already in (pπ − π, pπ + π].
-    fn roots(&self, p: usize, target: f64) -> Roots {
-        let mut roots = Roots::default();
-        if p == 0 {
-            // Φ(0, γ) = −2γ, both modes.
-            let g = -0.5 * target;
-            if g.abs() <= FRAC_PI_2 {
-                roots.push(g);
-            }
-            return roots;
-        }
-        let pi_p = p as f64 * PI;
-        // Φ(p, γ) − pπ is odd in γ, so the end values follow from the positive side; at
-        // γ = π/2 both modes give 2pc − π (the cubic interpolates γ_t there).
-        let end = 2.0 * p as f64 * self.c - PI;
-        match self.stationary(p) {
-            None => {
-                self.solve_monotone(p, target, -FRAC_PI_2, FRAC_PI_2, -end + pi_p, end + pi_p, &mut roots);
-            }
-            Some(gs) => {
-                let mid = self.phi_and_derivative(p, gs).0 - pi_p;
-                self.solve_monotone(p, target, -FRAC_PI_2, -gs, -end + pi_p, -mid + pi_p, &mut roots);
-                self.solve_monotone(p, target, -gs, gs, -mid + pi_p, mid + pi_p, &mut roots);
-                self.solve_monotone(p, target, gs, FRAC_PI_2, mid + pi_p, end + pi_p, &mut roots);
-            }
-        }
-        roots
-    }
-
-    /// Safeguarded Newton for `Φ(p, γ) = target` on a piece `[lo, hi]` where Φ is monotone,
-    /// with `Φ(lo) = phi_lo`, `Φ(hi) = phi_hi`.
-    #[allow(clippy::too_many_arguments)]
-    fn solve_monotone(&self, p: usize, target: f64, lo: f64, hi: f64, phi_lo: f64, phi_hi: f64, out: &mut Roots) {
-        let (f_lo, f_hi) = (phi_lo - target, phi_hi - target);
-        if f_lo == 0.0 {
-            out.push(lo);
-            return;
-        }
-        if f_hi == 0.0 {
-            out.push(hi);
-            return;
-        }
-        if (f_lo > 0.0) == (f_hi > 0.0) {
-            return;
-        }
-        let increasing = f_hi > f_lo;
-        let (mut a, mut b) = (lo, hi);
-        // Regula falsi start, then Newton steps kept inside the bracket.
-        let mut x = lo + (hi - lo) * f_lo / (f_lo - f_hi);
-        for _ in 0..MAX_ROOT_ITERATIONS {
-            let (phi, d) = self.phi_and_derivative(p, x);
-            let f = phi - target;
-            // |Φ − target| at the level of Φ's rounding (|Φ| ≤ 3π): x is the root to
-            // ~1e−15/|Φ′|, which only matters within ~1e−14 rad of a caustic.
-            if f.abs() <= ROOT_TOLERANCE {
-                break;
-            }
-            if (f > 0.0) == increasing {
-                b = x;
-            } else {
-                a = x;
-            }
-            let newton = x - f / d;
-            let next = if newton > a && newton < b { newton } else { 0.5 * (a + b) };
-            let step = (next - x).abs();
-            x = next;
-            if step <= 1e-15 * (1.0 + x.abs()) || b - a <= 1e-15 {
-                break;
-            }
-        }
-        out.push(x);
-    }
-
-    /// The TRT caustic (models.md §4.5); `delta_eta` is the fade range Δη′ above η′ = 2.
-    #[must_use]
-    pub fn caustic(&self, delta_eta: f64) -> Caustic {
-        let eta_prime = self.eta_prime();
-        match self.stationary(2) {
-            Some(gc) => {
-                let h_c = gc.sin();
-                let phi_c = self.phi_and_derivative(2, gc).0 - TAU;
-                let d2phi_dh2 = match self.mode {
-                    RootMode::Exact => {
-                        // d²Φ/dh² = 2p·h/(η′² − h²)^{3/2} − 2h/(1 − h²)^{3/2}, p = 2
-                        let hi = h_c * self.inv_eta_prime;
-                        let inv3 = self.inv_eta_prime.powi(3);
-                        let (a, b) = (1.0 - hi * hi, 1.0 - h_c * h_c);
-                        4.0 * h_c * inv3 / (a * a.sqrt()) - 2.0 * h_c / (b * b.sqrt())
-                    }
-                    RootMode::Cubic => {
-                        // Φ̂''(γ)/cos²γ with Φ̂'' = 6aγ, a = −16c/π³
-                        let (a, _) = self.cubic_coefficients(2);
-                        6.0 * a * gc / gc.cos().powi(2)
-                    }
-                };
-                Caustic { h_c, phi_c, d2phi_dh2, t: 1.0 }
-            }
-            // No stationary point (η′ ≥ 2): the caustics have merged at φ = 0 and fade out.
-            None => {
-                Caustic { h_c: 0.0, phi_c: 0.0, d2phi_dh2: 0.0, t: 1.0 - smoothstep(2.0, 2.0 + delta_eta, eta_prime) }
-            }
-        }
-    }
-
-    /// Attenuation `A(p, h)` at `γ = asin h` (models.md §4.4), per channel.
-    fn attenuation(&self, p: usize, gamma: f64, sigma_a: Rgb, absorption: Absorption, fresnel_on: bool) -> Rgb {
-        let f = if fresnel_on { fresnel::dielectric(self.cos_theta_d * gamma.cos(), self.eta) } else { 1.0 };
-        if p == 0 {
-            return Rgb::splat(f);
-        }
-        let st = gamma.sin() * self.inv_eta_prime;
-        let cos_gamma_t = safe_sqrt(1.0 - st * st);
-        let length = match absorption {
-            Absorption::Chord => 2.0 * cos_gamma_t,
-            Absorption::Paper => 4.0 * cos_gamma_t * cos_gamma_t,
-        } / self.cos_theta_t;
-        let t = (sigma_a * (-length)).exp();
-        let mut a = t * ((1.0 - f) * (1.0 - f));
-        for _ in 1..p {
-            a = a * t * f;
-        }
-        a
-    }
-}
-
-/// The representative of φ modulo 2π in (pπ − π, pπ + π], where Φ(p, ·) takes its values.
-fn representative(p: usize, phi: f64) -> f64 {
-    match p {
-        0 => phi,
-        1 => {
-            if phi > 0.0 {
-                phi
-            } else {
-                phi + TAU
-            }
-        }
-        _ => phi + TAU,
-    }
-}
-
-/// Wrapped Gaussian `Σ_k g(σ; x + 2πk)` (k = −2…2, exact to rounding for σ ≤ 45°).
-fn wrapped_gaussian(sigma: f64, x: f64) -> f64 {
-    (-2..=2).map(|k| gaussian(sigma, x + TAU * k as f64)).sum()
-}
-
-/// Angles of a direction pair used by Eq. 3.
+/// Angles of a direction pair used by S.
 #[derive(Clone, Copy, Debug)]
 struct PairAngles {
     theta_r: f64,
@@ -709,11 +508,8 @@ impl PairAngles {
 #[derive(Clone, Debug)]
 pub struct Marschner {
     params: MarschnerParams,
-    /// α_p, radians.
-    alpha: [f64; 3],
-    /// β_p, radians.
-    beta: [f64; 3],
-    k_m: f64,
+    /// α_p, β_p (radians) and k_M.
+    lobes: GaussianLobes,
     /// η*₁, η*₂ of the eccentricity correction.
     eta_star: (f64, f64),
     /// False only in tests (Fresnel ≡ 1).
@@ -724,8 +520,9 @@ pub struct Marschner {
 }
 
 impl Marschner {
-    /// Validates the parameters and precomputes the lobe constants and sampling table.
-    pub fn new(params: MarschnerParams) -> Result<Self, ModelError> {
+    /// Validates the parameters and precomputes the lobe constants and sampling table; the
+    /// error names the parameter and its range (angles in degrees).
+    pub fn new(params: MarschnerParams) -> Result<Self, MarschnerError> {
         ETA_RANGE.check("eta", params.eta)?;
         SIGMA_RANGE.check_rgb("sigma_a", params.sigma_a)?;
         ALPHA_RANGE.check_degrees("alpha_r", params.alpha_r)?;
@@ -736,15 +533,12 @@ impl Marschner {
         DELTA_H_RANGE.check("delta_h_m", params.delta_h_m)?;
         ECCENTRICITY_RANGE.check("eccentricity", params.eccentricity)?;
         if !params.lobes.iter().any(|&l| l) {
-            return Err(ModelError::Inconsistent("marschner: `lobes` must name at least one of r, tt, trt".into()));
+            return Err(MarschnerError::NoLobes);
         }
-        let (a_r, b_r) = (params.alpha_r, params.beta_r);
         let (eta, a) = (params.eta, params.eccentricity);
         let eta_star = (2.0 * (eta - 1.0) * a * a - eta + 2.0, 2.0 * (eta - 1.0) / (a * a) - eta + 2.0);
         let mut m = Self {
-            alpha: [a_r, -0.5 * a_r, -1.5 * a_r],
-            beta: [b_r, 0.5 * b_r, 2.0 * b_r],
-            k_m: params.normalization.k_m(),
+            lobes: GaussianLobes::new(params.alpha_r, params.beta_r, params.normalization.k_m()),
             eta_star,
             fresnel: true,
             lobe_table: Arc::new([[0.0; 3]; LOBE_TABLE_INTERVALS + 1]),
@@ -774,7 +568,8 @@ impl Marschner {
                 w[lobe.p()] = self.half_attenuation_integral(&plane, lobe, LOBE_TABLE_NODES).luminance();
                 if lobe == Lobe::TRT && self.params.glints {
                     let (cst, dh) = self.glint(&plane);
-                    let a_c = plane.attenuation(2, cst.h_c.asin(), self.params.sigma_a, self.params.absorption, true);
+                    let a_c =
+                        plane_attenuation(&plane, 2, cst.h_c.asin(), self.params.sigma_a, self.params.absorption, true);
                     w[2] += 2.0 * cst.t * self.params.k_g * a_c.luminance() * dh;
                 }
             }
@@ -793,20 +588,20 @@ impl Marschner {
         let mut sum = Rgb::ZERO;
         for j in 0..n {
             let g = -FRAC_PI_2 + (j as f64 + 0.5) * dg;
-            sum += plane.attenuation(lobe.p(), g, self.params.sigma_a, self.params.absorption, self.fresnel)
+            sum += plane_attenuation(plane, lobe.p(), g, self.params.sigma_a, self.params.absorption, self.fresnel)
                 * (g.cos() * dg);
         }
         sum * 0.5
     }
 
-    /// The caustic of `plane` with this fiber's fade and its half-width Δh (models.md §4.5).
+    /// The caustic of `plane` with this fiber's fade and its half-width Δh.
     fn glint(&self, plane: &NormalPlane) -> (Caustic, f64) {
         let c = plane.caustic(self.params.delta_eta);
         let dh_m = self.params.delta_h_m;
         if c.h_c > 0.0 { (c, dh_m.min(2.0 * (2.0 * self.params.w_c / c.d2phi_dh2.abs()).sqrt())) } else { (c, dh_m) }
     }
 
-    /// Index η seen by `lobe` for `cos 2φ_h` (η* for TRT, §4.6).
+    /// Index η seen by `lobe` for `cos 2φ_h` (η* for TRT of an eccentric fiber).
     fn lobe_eta(&self, lobe: Lobe, cos_2phi_h: f64) -> f64 {
         if lobe == Lobe::TRT && self.params.eccentricity < 1.0 {
             let (e1, e2) = self.eta_star;
@@ -816,18 +611,19 @@ impl Marschner {
         }
     }
 
-    /// Longitudinal term `M_p(θ_h) = k_M·g(β_p; θ_h − α_p)` (sr⁰, per radian of θ_h; §4.2).
+    /// Longitudinal term `M_p(θ_h) = k_M·g(β_p; θ_h − α_p)` (sr⁰, per radian of θ_h).
     #[must_use]
     pub fn longitudinal(&self, lobe: Lobe, theta_h: f64) -> f64 {
-        self.k_m * gaussian(self.beta[lobe.p()], theta_h - self.alpha[lobe.p()])
+        self.lobes.eval(lobe.p(), theta_h)
     }
 
-    /// Attenuation `A(p, h)` at inclination θ_d for a circular fiber of index η (§4.4).
+    /// Attenuation `A(p, h)` at inclination θ_d for a circular fiber of index η.
     #[must_use]
     pub fn attenuation(&self, lobe: Lobe, h: f64, theta_d: f64) -> Rgb {
         let (s, c) = theta_d.sin_cos();
         let plane = self.plane(self.params.eta, s, c.abs());
-        plane.attenuation(
+        plane_attenuation(
+            &plane,
             lobe.p(),
             h.clamp(-1.0, 1.0).asin(),
             self.params.sigma_a,
@@ -865,7 +661,8 @@ impl Marschner {
         let (xm, xp) = (wrap_pi(phi - cst.phi_c), wrap_pi(phi + cst.phi_c));
         let relative = |x: f64| (-0.5 * (x / w) * (x / w)).exp();
         let suppress = (1.0 - cst.t * relative(xm)) * (1.0 - cst.t * relative(xp));
-        let a_c = plane.attenuation(2, cst.h_c.asin(), self.params.sigma_a, self.params.absorption, self.fresnel);
+        let a_c =
+            plane_attenuation(&plane, 2, cst.h_c.asin(), self.params.sigma_a, self.params.absorption, self.fresnel);
         n_p * suppress + a_c * (cst.t * self.params.k_g * dh * (gaussian(w, xm) + gaussian(w, xp)))
     }
 
@@ -875,7 +672,7 @@ impl Marschner {
         let mut n = Rgb::ZERO;
         for g in plane.roots(p, representative(p, phi)).iter() {
             let d = plane.phi_and_derivative(p, g).1.abs().max(MIN_DPHI);
-            let a = plane.attenuation(p, g, self.params.sigma_a, self.params.absorption, self.fresnel);
+            let a = plane_attenuation(plane, p, g, self.params.sigma_a, self.params.absorption, self.fresnel);
             n += a * (g.cos() / (2.0 * d));
         }
         n
@@ -913,7 +710,7 @@ impl Marschner {
 
     /// Truncation interval of z = (θ_h − α_p)/β_p keeping θ_i ∈ [−π/2, π/2], and its mass.
     fn theta_h_interval(&self, lobe: Lobe, theta_r: f64) -> (f64, f64, f64) {
-        let (a, b) = (self.alpha[lobe.p()], self.beta[lobe.p()]);
+        let (a, b) = (self.lobes.alpha[lobe.p()], self.lobes.beta[lobe.p()]);
         let zl = (0.5 * (theta_r - FRAC_PI_2) - a) / b;
         let zu = (0.5 * (theta_r + FRAC_PI_2) - a) / b;
         (zl, zu, normal_mass(zl, zu))
@@ -948,7 +745,7 @@ impl Marschner {
             if mass <= 0.0 {
                 continue;
             }
-            let (a, b) = (self.alpha[lobe.p()], self.beta[lobe.p()]);
+            let (a, b) = (self.lobes.alpha[lobe.p()], self.lobes.beta[lobe.p()]);
             let p_theta = 0.5 * gaussian(b, angles.theta_h - a) / mass;
             if p_theta == 0.0 {
                 continue;
@@ -997,14 +794,16 @@ impl ScatteringFunction for Marschner {
         }
     }
 
-    /// Eq. 3: `S = Σ_p M_p(θ_h)·N_p(η′(θ_d), φ)/cos²θ_d` (sr⁻¹); `h` is ignored (far field).
+    /// `S = Σ_p M_p(θ_h)·N_p(η′(θ_d), φ)/cos²θ_d` (sr⁻¹); `h` is ignored (far field).
     fn eval(&self, wi: DVec3, wo: DVec3, _h: f64) -> Rgb {
         let angles = PairAngles::new(wi, wo);
         let mut s = Rgb::ZERO;
         let mut circular: Option<NormalPlane> = None;
         for lobe in Lobe::ALL {
             let p = lobe.p();
-            if !self.params.lobes[p] || (angles.theta_h - self.alpha[p]).abs() > LOBE_CUTOFF_SIGMAS * self.beta[p] {
+            if !self.params.lobes[p]
+                || (angles.theta_h - self.lobes.alpha[p]).abs() > LOBE_CUTOFF_SIGMAS * self.lobes.beta[p]
+            {
                 continue;
             }
             let m = self.longitudinal(lobe, angles.theta_h);
@@ -1052,7 +851,7 @@ impl ScatteringFunction for Marschner {
             return None;
         }
         let z = sample_truncated_normal(u[1], zl, zu);
-        let theta_h = self.alpha[lobe.p()] + self.beta[lobe.p()] * z;
+        let theta_h = self.lobes.alpha[lobe.p()] + self.lobes.beta[lobe.p()] * z;
         let theta_i = (2.0 * theta_h - theta_r).clamp(-FRAC_PI_2, FRAC_PI_2);
         let (sd, cd) = (0.5 * (theta_r - theta_i)).sin_cos();
         let plane = self.plane(self.params.eta, sd, cd);
@@ -1195,6 +994,7 @@ mod tests {
     use crate::build;
     use approx::assert_relative_eq;
     use fiberlab_math::frame::direction;
+    use fiberlab_math::fresnel;
     use proptest::prelude::*;
 
     use crate::test_rng::lcg;
@@ -1278,7 +1078,7 @@ mod tests {
             model(|p| {
                 p.eccentricity = 0.9;
                 p.roots = RootMode::Cubic;
-                p.absorption = Absorption::Paper;
+                p.absorption = PathLength::Paper;
             }),
             model(|p| p.glints = false),
         ];
@@ -1410,7 +1210,7 @@ mod tests {
 
     #[test]
     fn exact_caustic_matches_ray_traced_histogram() {
-        // models.md §4.5 worked values (η = 1.55): exact φ_c 18.62° (θ_d = 0), 10.02° (0.5);
+        // Worked values (η = 1.55, from the closed forms of the caustic): exact φ_c 18.62° (θ_d = 0), 10.02° (0.5);
         // cubic 20.49°, 11.07°.
         let rows = caustic_table(1.55, 0.3, &[0.0, 0.5]);
         assert!((rows[0].exact.phi_c.to_degrees() - 18.62).abs() < 0.006);
@@ -1584,7 +1384,7 @@ mod tests {
     fn albedo_for_both_normalizations() {
         let q = Quadrature { theta: 360, phi: 720, h: 1 };
         // Narrow lobes, no shift, σ_a = 0, no glints: ρ_energy(θ_i) ≈ Σ_p ½∫A_p(h; θ_d = θ_i) dh
-        // (direct h-integration), and ρ_paper ≈ twice that (models.md §4.2).
+        // (direct h-integration), and ρ_paper ≈ twice that (k_M = 1 vs ½).
         let narrow = MarschnerParams {
             sigma_a: Rgb::ZERO,
             glints: false,
@@ -1648,60 +1448,6 @@ mod tests {
                 }
             }
             assert!(produced > 19_900, "{produced}");
-        }
-    }
-
-    /// χ² of 6·10⁵ samples in (θ_i, φ) bins against the binned integral of pdf (cells with
-    /// expected count < 5 pooled); threshold at significance 10⁻³ (Wilson–Hilferty).
-    #[test]
-    fn chi_square_of_sample_against_pdf() {
-        let (nt, np, n) = (16usize, 32usize, 600_000usize);
-        let theta_edges: Vec<f64> = (0..=nt).map(|k| -FRAC_PI_2 + PI * k as f64 / nt as f64).collect();
-        let phi_edges: Vec<f64> = (0..=np).map(|k| -PI + TAU * k as f64 / np as f64).collect();
-        let mut rng = lcg(99);
-        for (mi, m) in sampling_variants().iter().enumerate() {
-            let thetas: &[f64] = if mi == 0 {
-                &[0.4, -1.2]
-            } else if mi == 1 {
-                &[0.4]
-            } else {
-                &[-1.2]
-            };
-            for &t in thetas {
-                let wo = direction(t, 0.7);
-                let mass = binned_pdf_mass(m, wo, &theta_edges, 1, &phi_edges);
-                let mut counts = vec![0usize; nt * np];
-                for _ in 0..n {
-                    let Some(s) = m.sample(wo, 0.0, [rng(), rng(), rng(), rng()]) else { continue };
-                    let ti = sin_theta(s.wi).atan2(cos_theta(s.wi));
-                    let x = wrap_pi(phi(wo) - phi(s.wi));
-                    let i = (((ti + FRAC_PI_2) / PI * nt as f64) as usize).min(nt - 1);
-                    let k = (((x + PI) / TAU * np as f64) as usize).min(np - 1);
-                    counts[i * np + k] += 1;
-                }
-                let (mut chi2, mut dof) = (0.0, 0usize);
-                let (mut pooled_e, mut pooled_o) = (0.0, 0.0);
-                for (c, e) in counts.iter().zip(&mass) {
-                    let e = e * n as f64;
-                    if e < 5.0 {
-                        pooled_e += e;
-                        pooled_o += *c as f64;
-                        continue;
-                    }
-                    chi2 += (*c as f64 - e).powi(2) / e;
-                    dof += 1;
-                }
-                if pooled_e >= 5.0 {
-                    chi2 += (pooled_o - pooled_e).powi(2) / pooled_e;
-                    dof += 1;
-                } else {
-                    assert!(pooled_o < 20.0, "{pooled_o} samples where the pdf has mass {pooled_e}");
-                }
-                let k = (dof - 1) as f64;
-                let threshold = k * (1.0 - 2.0 / (9.0 * k) + 3.09 * (2.0 / (9.0 * k)).sqrt()).powi(3);
-                eprintln!("variant {mi}, θ_r {t}: χ² = {chi2:.1}, dof {k}, threshold {threshold:.1}");
-                assert!(chi2 < threshold, "variant {mi}, θ_r {t}: χ² = {chi2:.1} > {threshold:.1} (dof {k})");
-            }
         }
     }
 
@@ -1813,7 +1559,7 @@ mod tests {
         let gamma_t = (h * theta_d.cos() / (eta * eta - theta_d.sin().powi(2)).sqrt()).asin();
         let cos_theta_t = (1.0 - (theta_d.sin() / eta).powi(2)).sqrt();
         let printed = 2.0 * (1.0 + (2.0 * gamma_t).cos()) / cos_theta_t;
-        for (absorption, length) in [(Absorption::Chord, chord), (Absorption::Paper, printed)] {
+        for (absorption, length) in [(PathLength::Chord, chord), (PathLength::Paper, printed)] {
             let m = model(|p| {
                 p.sigma_a = sigma;
                 p.absorption = absorption;

@@ -28,7 +28,7 @@ use thiserror::Error;
 pub const SPEC: ModelSpec = ModelSpec {
     name: "measured",
     summary: "tabulated f_s from a goniophotometer table (fiberlab measure CSV)",
-    citation: "fiberlab measure; models.md §2.1 normalization",
+    citation: "fiberlab measure; docs/theory/radiometry.md (normalization)",
     params: &[ParamSpec {
         key: "table",
         kind: ParamKind::Text,

@@ -159,6 +159,10 @@ mod tests {
         assert_eq!(s::IdealSpecularParams::from_param_set(&defaults(&s::SPEC)), Ok(s::IdealSpecularParams::default()));
         assert_eq!(k::KajiyaKayParams::from_param_set(&defaults(&k::SPEC)), Ok(k::KajiyaKayParams::default()));
         assert_eq!(g::GoldmanParams::from_param_set(&defaults(&g::SPEC)), Ok(g::GoldmanParams::default()));
+        use crate::{chiang_2016 as c, deon_2011 as e, marschner_2003 as m};
+        assert_eq!(m::MarschnerParams::from_param_set(&defaults(&m::SPEC)), Ok(m::MarschnerParams::default()));
+        assert_eq!(c::ChiangParams::from_param_set(&defaults(&c::SPEC)), Ok(c::ChiangParams::default()));
+        assert_eq!(e::DeonParams::from_param_set(&defaults(&e::SPEC)), Ok(e::DeonParams::default()));
         // Goldman names Kajiya–Kay's entries by index: the indices must point at the keys.
         let kk = &k::SPEC.params;
         assert_eq!([kk[k::K_D].key, kk[k::K_S].key, kk[k::P].key], ["k_d", "k_s", "p"]);

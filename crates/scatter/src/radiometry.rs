@@ -1,4 +1,4 @@
-//! Curve radiometry (models.md §2.1): the scattering integral, albedo, projected width of
+//! Curve radiometry (`docs/theory/radiometry.md`): the scattering integral, albedo, projected width of
 //! circular and elliptical cross-sections, and conversions between curve radiance `L̄`
 //! (W m⁻¹ sr⁻¹, integrated across the fiber's image width) and radiance `L = L̄/D(ω)`.
 //!

@@ -6,7 +6,7 @@ use fiberlab_math::frame::direction_from_sin_cos;
 use std::f64::consts::{PI, TAU};
 
 /// A direction with density `cosθ/π²` per steradian (θ from the normal plane), the
-/// "ideal diffuse fiber" lobe (models.md §2.2): `sinθ` is the x-coordinate of a uniform
+/// "ideal diffuse fiber" lobe (`docs/theory/radiometry.md`, "Ideal diffuse fiber"): `sinθ` is the x-coordinate of a uniform
 /// point in the unit disk (semicircle law), φ uniform.
 #[must_use]
 #[inline]

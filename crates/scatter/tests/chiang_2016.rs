@@ -9,7 +9,9 @@ use fiberlab_check::tolerance::*;
 use fiberlab_math::frame::{cos_theta, direction, direction_from_sin_cos, phi};
 use fiberlab_math::special::{logistic, sample_trimmed_logistic, trimmed_logistic, trimmed_logistic_cdf};
 use fiberlab_math::{DVec3, Rgb, fresnel};
-use fiberlab_scatter::chiang_2016::{Chiang, attenuation, logistic_scale, longitudinal_variance};
+use fiberlab_scatter::chiang_2016::Chiang;
+use fiberlab_scatter::hair::attenuation::hit_attenuation as attenuation;
+use fiberlab_scatter::hair::roughness::{logistic_scale, longitudinal_variance};
 use fiberlab_scatter::radiometry::{Quadrature, albedo};
 use fiberlab_scatter::{Model, ModelError, ScatteringFunction, build};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -375,15 +377,15 @@ fn absorption_keys_are_exclusive_and_color_inverts() {
     // Default: eumelanin 1.3.
     let d = rough(0.3, 0.3, 2.0, &[]);
     let want = Rgb::new(0.419, 0.697, 1.37) * 1.3;
-    assert!((d.params().sigma_a - want).max_component().abs() < ROUNDING_REL);
+    assert!((d.sigma_a() - want).max_component().abs() < ROUNDING_REL);
     // Colour inversion (Chiang Eq. 9) at β_n = 0.3: ln C / poly, squared.
     let c = rough(0.3, 0.3, 2.0, &[("color", "0.6,0.4,0.2")]);
     let b: f64 = 0.3;
     let poly = 5.969 - 0.215 * b + 2.532 * b * b - 10.73 * b.powi(3) + 5.574 * b.powi(4) + 0.245 * b.powi(5);
-    assert!((c.params().sigma_a[2] - (0.2f64.ln() / poly).powi(2)).abs() < ROUNDING_REL);
+    assert!((c.sigma_a()[2] - (0.2f64.ln() / poly).powi(2)).abs() < ROUNDING_REL);
     // White colour means no absorption.
     let w = rough(0.3, 0.3, 2.0, &[("color", "1")]);
-    assert_eq!(w.params().sigma_a, Rgb::ZERO);
+    assert_eq!(w.sigma_a(), Rgb::ZERO);
 }
 
 #[test]

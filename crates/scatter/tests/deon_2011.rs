@@ -7,8 +7,9 @@ use fiberlab_check::chi2::{Chi2Config, chi2_test};
 use fiberlab_check::rng::TestRng;
 use fiberlab_check::tolerance::*;
 use fiberlab_math::frame::{cos_theta, direction};
+use fiberlab_math::special::wrapped_gaussian;
 use fiberlab_math::{Rgb, fresnel};
-use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, wrapped_gaussian};
+use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon};
 use fiberlab_scatter::radiometry::{Quadrature, albedo, furnace};
 use fiberlab_scatter::{Model, ModelError, ScatteringFunction, build};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -88,7 +89,7 @@ fn azimuthal_table_resolves_the_lobes_with_a_bounded_size() {
 #[test]
 fn lobe_masses_equal_half_the_width_integral_of_a_p() {
     let d = deon(0.3, 0.3, 2.0, AzimuthalInclination::Camera, &MELANIN);
-    let sigma_a = d.params().sigma_a;
+    let sigma_a = d.sigma_a();
     // On table rows (cosθ_d = j/63) and between rows.
     for &cos_d in &[1.0, 40.0 / 63.0, 0.87, 0.5, 0.2] {
         let theta_d = f64::acos(cos_d);
@@ -124,7 +125,7 @@ fn tabulated_n_p_matches_direct_integration() {
                 let hs: Vec<(f64, f64)> = (0..n_g)
                     .map(|k| {
                         let g = -FRAC_PI_2 + (k as f64 + 0.5) * dg;
-                        let (a, ph) = attenuation_2d(p, 1.55, d.params().sigma_a, theta_d, g.sin());
+                        let (a, ph) = attenuation_2d(p, 1.55, d.sigma_a(), theta_d, g.sin());
                         (0.5 * a[1] * g.cos() * dg, ph)
                     })
                     .collect();

@@ -1,0 +1,88 @@
+//! Parameter-table entries shared by the hair models (`chiang`, `deon`), named, so that a
+//! model lists them by name and never by position in another model's table.
+//!
+//! | parameter | unit | default | range |
+//! |---|---|---|---|
+//! | `eta` | — | 1.55 | (1, 4] |
+//! | `beta_m` | — | 0.3 | (0, 1] longitudinal roughness |
+//! | `beta_n` | — | 0.3 | (0, 1] azimuthal roughness |
+//! | `alpha` | degrees (radians inside) | 2 | [−20, 20] cuticle scale tilt |
+//! | `sigma_a` | 1/radius | — | [0, ∞) per channel |
+//! | `eumelanin` | — | (1.3 if no absorption key is given) | [0, 100] |
+//! | `pheomelanin` | — | (0) | [0, 100] |
+//! | `color` | — | — | (0, 1] per channel |
+
+use crate::params::{ParamKind, ParamSpec, Range};
+
+/// Valid index of refraction η.
+pub const ETA_RANGE: Range = Range::open_closed(1.0, 4.0);
+/// Valid roughness β_m, β_n.
+pub const BETA_RANGE: Range = Range::open_closed(0.0, 1.0);
+/// Valid cuticle tilt α, in degrees.
+pub const ALPHA_RANGE: Range = Range::closed(-20.0, 20.0);
+/// Valid absorption coefficient σ_a per channel, per unit radius.
+pub const SIGMA_A_RANGE: Range = Range::closed(0.0, f64::INFINITY);
+/// Valid melanin concentrations.
+pub const MELANIN_RANGE: Range = Range::closed(0.0, 100.0);
+/// Valid desired colour per channel.
+pub const COLOR_RANGE: Range = Range::open_closed(0.0, 1.0);
+
+/// `eta`: index of refraction.
+pub const ETA: ParamSpec =
+    ParamSpec { key: "eta", kind: ParamKind::Number(ETA_RANGE), unit: "", default: "1.55", doc: "index of refraction" };
+/// `beta_m`: longitudinal roughness.
+pub const BETA_M: ParamSpec = ParamSpec {
+    key: "beta_m",
+    kind: ParamKind::Number(BETA_RANGE),
+    unit: "",
+    default: "0.3",
+    doc: "longitudinal roughness",
+};
+/// `beta_n`: azimuthal roughness.
+pub const BETA_N: ParamSpec = ParamSpec {
+    key: "beta_n",
+    kind: ParamKind::Number(BETA_RANGE),
+    unit: "",
+    default: "0.3",
+    doc: "azimuthal roughness",
+};
+/// `alpha`: cuticle scale tilt, degrees at the edge.
+pub const ALPHA: ParamSpec = ParamSpec {
+    key: "alpha",
+    kind: ParamKind::Number(ALPHA_RANGE),
+    unit: "degrees",
+    default: "2",
+    doc: "cuticle scale tilt; > 0 moves the R lobe toward the root",
+};
+/// `sigma_a`: absorption coefficient.
+pub const SIGMA_A: ParamSpec = ParamSpec {
+    key: "sigma_a",
+    kind: ParamKind::Color(SIGMA_A_RANGE),
+    unit: "1/radius",
+    default: "",
+    doc: "absorption coefficient (exclusive with melanin and color)",
+};
+/// `eumelanin`: eumelanin concentration.
+pub const EUMELANIN: ParamSpec = ParamSpec {
+    key: "eumelanin",
+    kind: ParamKind::Number(MELANIN_RANGE),
+    unit: "",
+    default: "",
+    doc: "eumelanin concentration (1.3 when no absorption key is given)",
+};
+/// `pheomelanin`: pheomelanin concentration.
+pub const PHEOMELANIN: ParamSpec = ParamSpec {
+    key: "pheomelanin",
+    kind: ParamKind::Number(MELANIN_RANGE),
+    unit: "",
+    default: "",
+    doc: "pheomelanin concentration",
+};
+/// `color`: desired multiple-scattering colour.
+pub const COLOR: ParamSpec = ParamSpec {
+    key: "color",
+    kind: ParamKind::Color(COLOR_RANGE),
+    unit: "",
+    default: "",
+    doc: "desired multiple-scattering colour; σ_a by Chiang's inversion (depends on beta_n)",
+};

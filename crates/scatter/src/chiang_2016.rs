@@ -118,13 +118,12 @@ use crate::hair::normal_plane::exit_azimuth;
 use crate::hair::parameters::{self, ALPHA_RANGE, BETA_RANGE, ETA_RANGE};
 use crate::hair::roughness::{lobe_variances, logistic_scale};
 use crate::hair::tilt::{lobe_tilts, rotate};
-use crate::params::{ParamSet, ParamSpec, ParameterError};
+use crate::params::{ParamSet, ParamSpec, parameter_error};
 use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
 use fiberlab_math::special::{logistic, logistic_cdf, safe_sqrt, sample_trimmed_logistic};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
-use thiserror::Error;
 
 const PARAMS: [ParamSpec; 8] = [
     parameters::ETA,
@@ -198,21 +197,10 @@ impl ChiangParams {
     }
 }
 
-/// Why a [`Chiang`] fiber cannot be built.
-#[non_exhaustive]
-#[derive(Clone, Debug, Error, PartialEq)]
-pub enum ChiangError {
-    /// A parameter outside its range (named, with the range).
-    #[error(transparent)]
-    Parameter(#[from] ParameterError),
-}
-
-impl From<ChiangError> for ModelError {
-    fn from(e: ChiangError) -> Self {
-        match e {
-            ChiangError::Parameter(p) => p.into(),
-        }
-    }
+parameter_error! {
+    /// Why a [`Chiang`] fiber cannot be built: a parameter outside its range (named, with
+    /// the range; angles in degrees).
+    ChiangError
 }
 
 /// Chiang 2016 near-field hair fiber.

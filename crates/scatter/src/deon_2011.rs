@@ -114,14 +114,13 @@ use crate::hair::normal_plane::exit_azimuth;
 use crate::hair::parameters::{self, ALPHA_RANGE, BETA_RANGE, ETA_RANGE};
 use crate::hair::roughness::{azimuthal_sigma, lobe_variance, longitudinal_variance};
 use crate::hair::tilt::{lobe_tilts, rotate};
-use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
+use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
 use fiberlab_math::special::{safe_sqrt, wrapped_gaussian};
 use fiberlab_math::{DVec3, Rgb, bravais};
 use std::f64::consts::{PI, TAU};
 use std::sync::Arc;
-use thiserror::Error;
 
 /// Rows of the azimuthal table, uniform in cosθ_d ∈ [0, 1] (Tungsten also uses 64).
 pub const TABLE_ROWS: usize = 64;
@@ -248,21 +247,10 @@ impl DeonParams {
     }
 }
 
-/// Why a [`Deon`] fiber cannot be built.
-#[non_exhaustive]
-#[derive(Clone, Debug, Error, PartialEq)]
-pub enum DeonError {
-    /// A parameter outside its range (named, with the range).
-    #[error(transparent)]
-    Parameter(#[from] ParameterError),
-}
-
-impl From<DeonError> for ModelError {
-    fn from(e: DeonError) -> Self {
-        match e {
-            DeonError::Parameter(p) => p.into(),
-        }
-    }
+parameter_error! {
+    /// Why a [`Deon`] fiber cannot be built: a parameter outside its range (named, with
+    /// the range; angles in degrees).
+    DeonError
 }
 
 /// Which inclination the azimuthal term `N_p` (η′, Fresnel, absorption) is evaluated at.

@@ -10,13 +10,12 @@
 //! `∫_{S²} cosθ dω = π²`. Reciprocal, far-field, energy conserving.
 //! Sampling is exact: density `cosθ_i/π²` per sr, weight ρ.
 
-use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
+use crate::params::{AlbedoParams, ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::{cos_theta_direction, cos_theta_pdf};
-use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{Field, Lobes, Model, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::cos_theta;
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{PI, TAU};
-use thiserror::Error;
 
 /// Registry entry: `diffuse`.
 pub const SPEC: ModelSpec = ModelSpec {
@@ -34,48 +33,12 @@ pub const SPEC: ModelSpec = ModelSpec {
     build: |p: &ParamSet| Ok(IdealDiffuse::new(IdealDiffuseParams::from_param_set(p)?)?.into()),
 };
 
-/// Parameters of [`IdealDiffuse`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct IdealDiffuseParams {
-    /// Albedo ρ ∈ [0, 1] per channel (`f_s = ρ/π²`).
-    pub albedo: Rgb,
-}
+/// Parameters of [`IdealDiffuse`]: its albedo.
+pub type IdealDiffuseParams = AlbedoParams;
 
-impl Default for IdealDiffuseParams {
-    /// Albedo 0.8.
-    fn default() -> Self {
-        Self { albedo: Rgb::splat(0.8) }
-    }
-}
-
-impl IdealDiffuseParams {
-    /// A white (ρ = 1) fiber: the white-furnace reference.
-    #[must_use]
-    pub fn white() -> Self {
-        Self { albedo: Rgb::ONE }
-    }
-
-    /// Reads the registry parameters.
-    pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
-        Ok(Self { albedo: p.color("albedo")? })
-    }
-}
-
-/// Why an [`IdealDiffuse`] fiber cannot be built.
-#[non_exhaustive]
-#[derive(Clone, Debug, Error, PartialEq)]
-pub enum IdealDiffuseError {
-    /// A parameter outside its range.
-    #[error(transparent)]
-    Parameter(#[from] ParameterError),
-}
-
-impl From<IdealDiffuseError> for ModelError {
-    fn from(e: IdealDiffuseError) -> Self {
-        match e {
-            IdealDiffuseError::Parameter(p) => p.into(),
-        }
-    }
+parameter_error! {
+    /// Why an [`IdealDiffuse`] fiber cannot be built.
+    IdealDiffuseError
 }
 
 /// Ideal diffuse fiber: constant `f_s = ρ/π²`.

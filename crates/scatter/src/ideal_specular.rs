@@ -19,12 +19,11 @@
 //! lies in the plane of incidence). Reciprocal (the lobe is symmetric), far-field, delta.
 //! Sampling is exact: `φ = 2·asin(2ξ − 1)` (mirror) or `φ = π(2ξ − 1)` (uniform).
 
-use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
+use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::{ConeValue, Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta};
 use fiberlab_math::{DVec3, Rgb, fresnel};
 use std::f64::consts::{PI, TAU};
-use thiserror::Error;
 
 /// Registry entry: `specular`.
 pub const SPEC: ModelSpec = ModelSpec {
@@ -90,21 +89,9 @@ impl IdealSpecularParams {
     }
 }
 
-/// Why a [`IdealSpecular`] cannot be built.
-#[non_exhaustive]
-#[derive(Clone, Debug, Error, PartialEq)]
-pub enum IdealSpecularError {
-    /// A parameter outside its range.
-    #[error(transparent)]
-    Parameter(#[from] ParameterError),
-}
-
-impl From<IdealSpecularError> for ModelError {
-    fn from(e: IdealSpecularError) -> Self {
-        match e {
-            IdealSpecularError::Parameter(p) => p.into(),
-        }
-    }
+parameter_error! {
+    /// Why an [`IdealSpecular`] fiber cannot be built.
+    IdealSpecularError
 }
 
 const ETA_RANGE: Range = Range::open_closed(1.0, 4.0);

@@ -21,14 +21,13 @@
 //! specular lobe, whose longitudinal variable `x = θ_i + θ_o` is drawn from a 4096-cell
 //! tabulation of `cos^p x`; φ is uniform. The pdf is exactly the density of the samples.
 
-use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
+use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::Tabulated1D;
 use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::Arc;
-use thiserror::Error;
 
 /// Smallest `cos θ_i` used in the `1/cosθ_i` of the specular term.
 const MIN_COS: f64 = 1e-8;
@@ -106,21 +105,9 @@ impl KajiyaKayParams {
     }
 }
 
-/// Why a [`KajiyaKay`] fiber cannot be built.
-#[non_exhaustive]
-#[derive(Clone, Debug, Error, PartialEq)]
-pub enum KajiyaKayError {
-    /// A parameter outside its range.
-    #[error(transparent)]
-    Parameter(#[from] ParameterError),
-}
-
-impl From<KajiyaKayError> for ModelError {
-    fn from(e: KajiyaKayError) -> Self {
-        match e {
-            KajiyaKayError::Parameter(p) => p.into(),
-        }
-    }
+parameter_error! {
+    /// Why a [`KajiyaKay`] fiber cannot be built.
+    KajiyaKayError
 }
 
 /// Kajiya–Kay fiber.

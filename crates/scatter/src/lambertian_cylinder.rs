@@ -12,13 +12,12 @@
 //! Exact sampling: the offset h uniform over the visible width, the surface normal `n(h)`
 //! in the normal plane, then a cosine-weighted hemisphere about `n`; weight ρ.
 
-use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
+use crate::params::{AlbedoParams, ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::cosine_hemisphere;
-use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{Field, Lobes, Model, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, phi, relative_phi};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::PI;
-use thiserror::Error;
 
 /// Registry entry: `lambertian-cylinder`.
 pub const SPEC: ModelSpec = ModelSpec {
@@ -36,48 +35,12 @@ pub const SPEC: ModelSpec = ModelSpec {
     build: |p: &ParamSet| Ok(LambertianCylinder::new(LambertianCylinderParams::from_param_set(p)?)?.into()),
 };
 
-/// Parameters of [`LambertianCylinder`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LambertianCylinderParams {
-    /// Surface albedo ρ ∈ [0, 1] per channel.
-    pub albedo: Rgb,
-}
+/// Parameters of [`LambertianCylinder`]: its surface albedo.
+pub type LambertianCylinderParams = AlbedoParams;
 
-impl Default for LambertianCylinderParams {
-    /// Albedo 0.8.
-    fn default() -> Self {
-        Self { albedo: Rgb::splat(0.8) }
-    }
-}
-
-impl LambertianCylinderParams {
-    /// A white (ρ = 1) cylinder: the white-furnace reference.
-    #[must_use]
-    pub fn white() -> Self {
-        Self { albedo: Rgb::ONE }
-    }
-
-    /// Reads the registry parameters.
-    pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
-        Ok(Self { albedo: p.color("albedo")? })
-    }
-}
-
-/// Why a [`LambertianCylinder`] cannot be built.
-#[non_exhaustive]
-#[derive(Clone, Debug, Error, PartialEq)]
-pub enum LambertianCylinderError {
-    /// A parameter outside its range.
-    #[error(transparent)]
-    Parameter(#[from] ParameterError),
-}
-
-impl From<LambertianCylinderError> for ModelError {
-    fn from(e: LambertianCylinderError) -> Self {
-        match e {
-            LambertianCylinderError::Parameter(p) => p.into(),
-        }
-    }
+parameter_error! {
+    /// Why a [`LambertianCylinder`] cannot be built.
+    LambertianCylinderError
 }
 
 /// Opaque Lambertian cylinder.

@@ -131,6 +131,59 @@ impl ParameterError {
     }
 }
 
+/// Declares a model's error type for a model whose only way to fail is a parameter out of
+/// its range: `Parameter(ParameterError)`, and its conversion into [`ModelError`]. Models with
+/// more ways to fail write their enum by hand with the same `Parameter` variant.
+macro_rules! parameter_error {
+    ($(#[$doc:meta])* $name:ident) => {
+        $(#[$doc])*
+        #[non_exhaustive]
+        #[derive(Clone, Debug, thiserror::Error, PartialEq)]
+        pub enum $name {
+            /// A parameter outside its range.
+            #[error(transparent)]
+            Parameter(#[from] $crate::params::ParameterError),
+        }
+
+        impl From<$name> for $crate::ModelError {
+            fn from(e: $name) -> Self {
+                match e {
+                    $name::Parameter(p) => p.into(),
+                }
+            }
+        }
+    };
+}
+pub(crate) use parameter_error;
+
+/// Parameters of a fiber described by one albedo per channel (the ideal diffuse fiber, the
+/// Lambertian cylinder).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AlbedoParams {
+    /// Albedo ρ ∈ [0, 1] per channel.
+    pub albedo: Rgb,
+}
+
+impl Default for AlbedoParams {
+    /// Albedo 0.8.
+    fn default() -> Self {
+        Self { albedo: Rgb::splat(0.8) }
+    }
+}
+
+impl AlbedoParams {
+    /// ρ = 1: the white-furnace reference.
+    #[must_use]
+    pub fn white() -> Self {
+        Self { albedo: Rgb::ONE }
+    }
+
+    /// Reads the registry parameter `albedo`.
+    pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Ok(Self { albedo: p.color("albedo")? })
+    }
+}
+
 /// A number as a person reads it: twelve significant digits, plain for ordinary magnitudes,
 /// in exponent form for huge or tiny ones (so 1e308 is not printed with 309 digits).
 struct Shown(f64);

@@ -317,3 +317,46 @@ pub fn representative(p: usize, phi: f64) -> f64 {
         _ => phi + TAU,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every root returned solves `Φ(p, γ) = target`, written out independently as
+    /// `2p·asin(sinγ/η′) − 2γ + pπ`, and the roots found are all there are (counted by sign
+    /// changes on a fine grid).
+    #[test]
+    fn roots_solve_the_exit_azimuth_and_none_is_missed() {
+        for &(eta, theta) in &[(1.55, 0.0), (1.55, 0.7), (1.3, 1.2), (2.5, 0.2)] {
+            let (s, c) = f64::sin_cos(theta);
+            let plane = NormalPlane::new(eta, s, c, RootMode::Exact);
+            let ep = (eta * eta - s * s).sqrt() / c;
+            let phi = |p: usize, g: f64| 2.0 * p as f64 * (g.sin() / ep).asin() - 2.0 * g + p as f64 * PI;
+            for p in 0..3 {
+                for k in 0..40 {
+                    let target = representative(p, -PI + (k as f64 + 0.37) * TAU / 40.0);
+                    let roots: Vec<f64> = plane.roots(p, target).iter().collect();
+                    for &g in &roots {
+                        assert!((phi(p, g) - target).abs() < 1e-12, "p {p} target {target}: γ {g}");
+                    }
+                    let n = 100_003; // not commensurate with the targets: no node falls on a root
+                    let grid = |j: usize| -FRAC_PI_2 + PI * j as f64 / n as f64;
+                    let changes = (0..n).filter(|&j| (phi(p, grid(j)) - target) * (phi(p, grid(j + 1)) - target) < 0.0);
+                    assert_eq!(changes.count(), roots.len(), "η {eta} θ {theta} p {p} target {target}");
+                }
+            }
+        }
+    }
+
+    /// The TRT caustic against its closed form `h_c = √((4 − η′²)/3)` (dΦ/dh = 0) and the
+    /// worked value φ_c = 18.62° at η = 1.55, θ = 0.
+    #[test]
+    fn caustic_matches_its_closed_form() {
+        let plane = NormalPlane::new(1.55, 0.0, 1.0, RootMode::Exact);
+        let c = plane.caustic(0.3);
+        assert!((c.h_c - ((4.0 - 1.55f64 * 1.55) / 3.0).sqrt()).abs() < 1e-12);
+        assert!((c.phi_c.to_degrees() - 18.62).abs() < 0.006 && c.t == 1.0);
+        assert_eq!(exit_azimuth(0, 0.0, 0.0), 0.0);
+        assert_eq!(exit_azimuth(1, 0.0, 0.0), PI);
+    }
+}

@@ -2,8 +2,7 @@
 //!
 //! The sphere is binned uniformly in `(sinθ, φ)` (equal solid angle per cell). Expected
 //! counts integrate `pdf` over each cell in the θ variable (`dω = cosθ dθ dφ`, a smooth
-//! integrand even where the pdf has a `1/cosθ` factor), with `3·sub × 3·sub` midpoint nodes
-//! (and the nested `sub × sub` rule to estimate their error).
+//! integrand even where the pdf has a `1/cosθ` factor), with `sub × sub` midpoint nodes.
 //! Cells expecting fewer than [`CHI2_MIN_EXPECTED`] samples are pooled into one; a sample in
 //! a cell with zero expected mass fails the test outright.
 
@@ -22,8 +21,8 @@ pub struct Chi2Config {
     pub bins_theta: usize,
     /// Cells in φ.
     pub bins_phi: usize,
-    /// Midpoint nodes per cell side of the coarse rule for the expected counts (the fine rule
-    /// has three times as many).
+    /// Midpoint nodes per cell side for the expected counts (and twice as many for the
+    /// estimate of their error).
     pub sub: usize,
     /// Number of `sample()` calls.
     pub samples: usize,
@@ -33,7 +32,7 @@ pub struct Chi2Config {
 
 impl Default for Chi2Config {
     fn default() -> Self {
-        Self { bins_theta: 48, bins_phi: 96, sub: 4, samples: 1_000_000, seed: 1 }
+        Self { bins_theta: 48, bins_phi: 96, sub: 6, samples: 1_000_000, seed: 1 }
     }
 }
 
@@ -74,67 +73,56 @@ fn cell_of(cfg: &Chi2Config, w: DVec3) -> usize {
     u.min(cfg.bins_theta - 1) * cfg.bins_phi + p.min(cfg.bins_phi - 1)
 }
 
-/// Expected probability of every cell, `∫_cell pdf dω` (the finer of the two rules of
-/// [`chi2_test`]).
+/// Expected probability of every cell: `∫_cell pdf dω`.
 pub fn expected_masses(f: &impl ScatteringFunction, wo: DVec3, h: f64, cfg: &Chi2Config) -> Vec<f64> {
-    masses(f, wo, h, cfg).1
+    masses_with(f, wo, h, cfg, cfg.sub)
 }
 
-/// `(coarse, fine)` expected probabilities of every cell by two nested midpoint rules: the
-/// fine one on `3·sub × 3·sub` nodes per cell, the coarse one on the `sub × sub` of those
-/// nodes that are the midpoints of a `sub × sub` subdivision (so it costs nothing extra).
-/// Cells near the poles, wide in θ, get more θ nodes (the θ spacing of the equatorial cells).
-fn masses(f: &impl ScatteringFunction, wo: DVec3, h: f64, cfg: &Chi2Config) -> (Vec<f64>, Vec<f64>) {
-    let cells = cfg.bins_theta * cfg.bins_phi;
-    let (mut coarse, mut fine) = (vec![0.0; cells], vec![0.0; cells]);
-    let sub = cfg.sub.max(1);
+/// [`expected_masses`] with `sub` midpoint nodes per cell side.
+fn masses_with(f: &impl ScatteringFunction, wo: DVec3, h: f64, cfg: &Chi2Config, sub: usize) -> Vec<f64> {
+    let mut mass = vec![0.0; cfg.bins_theta * cfg.bins_phi];
     let dp = TAU / cfg.bins_phi as f64;
-    let fine_phi = 3 * sub;
     for i in 0..cfg.bins_theta {
         let ua = -1.0 + 2.0 * i as f64 / cfg.bins_theta as f64;
         let ub = -1.0 + 2.0 * (i + 1) as f64 / cfg.bins_theta as f64;
         let (ta, tb) = (ua.clamp(-1.0, 1.0).asin(), ub.clamp(-1.0, 1.0).asin());
+        // Cells near the poles are wide in θ: keep the θ spacing of the nodes that of the
+        // equatorial cells.
         let equatorial = 2.0 / cfg.bins_theta as f64;
-        let fine_theta = 3 * ((sub as f64 * (tb - ta) / equatorial).ceil() as usize).max(sub);
-        let dt = (tb - ta) / fine_theta as f64;
-        let cell_weight = dt * dp / fine_phi as f64;
+        let sub_theta = ((sub as f64 * (tb - ta) / equatorial).ceil() as usize).max(sub);
+        let dt = (tb - ta) / sub_theta as f64;
         for j in 0..cfg.bins_phi {
-            let (mut c_sum, mut f_sum) = (0.0, 0.0);
-            for a in 0..fine_theta {
+            let mut m = 0.0;
+            for a in 0..sub_theta {
                 let t = ta + (a as f64 + 0.5) * dt;
                 let (s, c) = t.sin_cos();
-                for b in 0..fine_phi {
-                    let p = -PI + (j as f64 + (b as f64 + 0.5) / fine_phi as f64) * dp;
-                    let v = f.pdf(direction_from_sin_cos(s, c, p), wo, h) * c;
-                    f_sum += v;
-                    if a % 3 == 1 && b % 3 == 1 {
-                        c_sum += v;
-                    }
+                for b in 0..sub {
+                    let p = -PI + (j as f64 + (b as f64 + 0.5) / sub as f64) * dp;
+                    m += f.pdf(direction_from_sin_cos(s, c, p), wo, h) * c;
                 }
             }
-            fine[i * cfg.bins_phi + j] = f_sum * cell_weight;
-            coarse[i * cfg.bins_phi + j] = c_sum * 9.0 * cell_weight;
+            mass[i * cfg.bins_phi + j] = m * dt * dp / sub as f64;
         }
     }
-    (coarse, fine)
+    mass
 }
 
 /// Runs the χ² test of `f.sample(wo, h, ·)` against `f.pdf(·, wo, h)`.
 ///
-/// Expected masses are integrated by two nested midpoint rules (`sub` and `3·sub` nodes per
-/// cell side). The fine rule's error is estimated as `(coarse − fine)/8` (Richardson: the
-/// midpoint rule's error falls as the square of the node spacing); cells where it exceeds
-/// [`CHI2_QUADRATURE_SIGMAS`] Poisson deviations (an unresolved integrable singularity, such
-/// as Marschner's TRT caustic without glints) are not trusted individually: they are pooled
-/// with any sampler failures into one remainder cell whose expected mass is `1 − Σ` trusted
-/// masses, so the total (checked separately by `∫ pdf dω = 1`) is still tested.
+/// Expected masses are integrated twice (`sub` and `2·sub` nodes per side). Cells where the
+/// two disagree by more than [`CHI2_QUADRATURE_SIGMAS`] of the cell's Poisson deviation (an
+/// unresolved integrable singularity, such as Marschner's TRT caustic without glints) are
+/// not trusted individually: they are pooled with any sampler failures into one remainder
+/// cell whose expected mass is `1 − Σ` trusted masses, so the total (checked separately by
+/// `∫ pdf dω = 1`) is still tested.
 pub fn chi2_test(f: &impl ScatteringFunction, wo: DVec3, h: f64, cfg: &Chi2Config) -> Chi2Outcome {
-    let (coarse, fine) = masses(f, wo, h, cfg);
+    let coarse = masses_with(f, wo, h, cfg, cfg.sub);
+    let fine = masses_with(f, wo, h, cfg, 2 * cfg.sub);
     let n = cfg.samples as f64;
     let trusted: Vec<bool> = coarse
         .iter()
         .zip(&fine)
-        .map(|(&a, &b)| (a - b).abs() / 8.0 * n <= CHI2_QUADRATURE_SIGMAS * (b * n).sqrt() + 1e-9)
+        .map(|(&a, &b)| (a - b).abs() * n <= CHI2_QUADRATURE_SIGMAS * (b * n).sqrt() + 1e-9)
         .collect();
     let mut observed = vec![0u64; fine.len()];
     let mut rng = TestRng::new(cfg.seed);

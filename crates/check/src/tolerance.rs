@@ -26,14 +26,13 @@ pub const CHI2_SIGNIFICANCE: f64 = 0.01;
 /// Cells whose expected count is below this are pooled into one cell before χ².
 pub const CHI2_MIN_EXPECTED: f64 = 5.0;
 
-/// A χ² cell's expected mass is trusted when the estimated error of its quadrature is below
-/// this many Poisson deviations σ of the cell's count. An error δ adds δ²/σ² to the cell's
-/// expected contribution to the statistic: at 0.03σ that is 1e−3 per cell (about 10 over 10⁴
-/// cells, against a standard deviation of the statistic of 140), so integration error cannot
-/// reject a correct pdf. The margin is wide because the error estimate (Richardson's, right
-/// for smooth integrands) is optimistic for kinked ones: at 0.1σ the tabulated Kajiya–Kay
-/// of `tests/harness.rs` is rejected at grazing view. Other cells go to the remainder cell.
-pub const CHI2_QUADRATURE_SIGMAS: f64 = 0.03;
+/// A χ² cell's expected mass is trusted when its two quadratures (`sub` and `2·sub` nodes per
+/// side) differ by less than this many Poisson deviations σ of the cell's count. For smooth
+/// integrands the finer rule then errs by about a third of that: an error δ adds δ²/σ² ≈
+/// 1e−3 to the cell's expected contribution to the statistic (about 10 over 10⁴ cells, against
+/// a standard deviation of the statistic of 140), so integration error cannot reject a
+/// correct pdf. Other cells go to the remainder cell.
+pub const CHI2_QUADRATURE_SIGMAS: f64 = 0.1;
 
 /// Monte Carlo estimates must agree with quadrature within this many standard errors.
 pub const MC_SIGMAS: f64 = 5.0;

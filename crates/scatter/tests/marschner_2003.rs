@@ -27,7 +27,7 @@ fn sampling_matches_the_pdf_chi2() {
     for (k, (pairs, thetas)) in VARIANTS.iter().enumerate() {
         let m = build("marschner", pairs).unwrap_or_else(|e| panic!("marschner {pairs:?}: {e}"));
         for &theta_o in *thetas {
-            let cfg = Chi2Config { bins_theta: 64, bins_phi: 128, sub: 1, samples: 600_000, seed: 99 + k as u64 };
+            let cfg = Chi2Config { bins_theta: 64, bins_phi: 128, sub: 2, samples: 600_000, seed: 99 + k as u64 };
             let r = chi2_test(&m, direction(theta_o, 0.7), 0.0, &cfg);
             report += &format!(
                 "{pairs:?} θ_o={theta_o}: χ²={:.0} dof={} p={:.3} unresolved cells {} (mass {:.1e}), failures {}\n",

@@ -46,8 +46,8 @@ fn render_figures(strands: usize) -> anyhow::Result<()> {
         stats.bytes_per_segment(),
         stats.bytes as f64 / (1 << 20) as f64
     );
-    let (cam, inc, hit) = ray_throughput(&set, &scene.camera, 200_000, 1);
-    let brute = brute_force_throughput(&set, &scene.camera, 400);
+    let (cam, inc, hit) = ray_throughput(&set, scene.camera(), 200_000, 1);
+    let brute = brute_force_throughput(&set, scene.camera(), 400);
     println!(
         "rays, 1 thread: camera {cam:.3} Mrays/s ({:.0}% hit), incoherent {inc:.3} Mrays/s; brute force {brute:.5} Mrays/s (BVH camera = {:.0}× brute force)",
         hit * 100.0,

@@ -5,6 +5,7 @@ use crate::model_args::ModelArgs;
 use crate::plot::{Grids, Scale, write_figure};
 use fiberlab_io::table::{LobeSlices, read};
 use fiberlab_math::frame::direction;
+use fiberlab_scatter::params::RawValue;
 use fiberlab_scatter::{Field, Model, ScatteringFunction};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -59,10 +60,7 @@ fn lobe_model(args: &ModelArgs, lobe: &str) -> anyhow::Result<Option<Model>> {
     if !has_lobes {
         return Ok(None);
     }
-    let mut a = args.clone();
-    a.params.retain(|p| !p.starts_with("lobes="));
-    a.params.push(format!("lobes={lobe}"));
-    a.build().map(Some)
+    args.build_with(&[("lobes", RawValue::from(lobe))]).map(Some)
 }
 
 /// Runs the comparison and prints one line per (incidence, lobe).

@@ -3,15 +3,18 @@
 //! reference — a photograph, or a high-sample render with the measured scattering function
 //! from explicit geometry — and assembled into a labelled grid.
 
+use crate::arg_values::{self, KeyValue, NamedRect};
 use crate::compare::{Image, compare, load};
 use anyhow::{Context, bail};
 use fiberlab_io::{LinearImage, ToneMap};
 use fiberlab_math::Rgb;
-use fiberlab_render::integrator::{RenderSettings, render};
-use fiberlab_render::scene::{Material, Scene};
+use fiberlab_render::integrator::{Region, RenderSettings, render};
+use fiberlab_render::model_loader::load_model;
+use fiberlab_render::scene::Scene;
 use fiberlab_render::scene_file::SceneFile;
-use fiberlab_scatter::Model;
-use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
+use fiberlab_scatter::kajiya_kay_1989::{self, KajiyaKay, KajiyaKayParams};
+use fiberlab_scatter::params::{ParamSet, RawValue};
+use fiberlab_scatter::{ExternalData, Model, measured};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
@@ -22,13 +25,15 @@ pub struct Args {
     /// model Kajiya–Kay is fitted to.
     #[arg(long)]
     scene: Option<PathBuf>,
-    /// Comma-separated models to render: any registered name, `measured` (needs --table).
+    /// Comma-separated models to render: any registered name (one built from a table, as
+    /// `measured`, takes --table).
     #[arg(long, default_value = "kajiya-kay,marschner,chiang")]
     models: String,
     /// Parameter of one model as MODEL:KEY=VALUE (repeatable).
-    #[arg(long = "param", value_name = "MODEL:KEY=VALUE")]
-    params: Vec<String>,
-    /// Measured table (from `fiberlab measure`) for `measured` and the default reference.
+    #[arg(long = "param", value_name = "MODEL:KEY=VALUE", value_parser = arg_values::model_key_value)]
+    params: Vec<KeyValue>,
+    /// Measured table (from `fiberlab measure`) for models built from a table and for the
+    /// default reference (the `measured` model).
     #[arg(long)]
     table: Option<PathBuf>,
     /// A reference image (e.g. a photograph) instead of the measured reference render.
@@ -46,84 +51,61 @@ pub struct Args {
     /// A named region to crop from every image, NAME=X0,Y0,X1,Y1 in pixels (repeatable), e.g.
     /// the second highlight, glints, back-lit transmission: writes crop_NAME.png (all models,
     /// magnified).
-    #[arg(long = "crop", value_name = "NAME=X0,Y0,X1,Y1")]
-    crops: Vec<String>,
-}
-
-/// A parsed `--crop`.
-#[derive(Debug)]
-struct Crop {
-    name: String,
-    x0: usize,
-    y0: usize,
-    x1: usize,
-    y1: usize,
-}
-
-fn parse_crop(text: &str, width: u32, height: u32) -> anyhow::Result<Crop> {
-    let (name, rect) = text.split_once('=').with_context(|| format!("--crop {text}: expected NAME=X0,Y0,X1,Y1"))?;
-    if name.is_empty() {
-        bail!("--crop {text}: expected a non-empty name before '='");
-    }
-    let r = crate::render::parse_crop(rect, width, height).with_context(|| format!("--crop {text}"))?;
-    let [x0, y0, x1, y1] = [r.x0, r.y0, r.x1, r.y1].map(|v| v as usize);
-    Ok(Crop { name: name.to_string(), x0, y0, x1, y1 })
+    #[arg(long = "crop", value_name = "NAME=X0,Y0,X1,Y1", value_parser = arg_values::named_rect)]
+    crops: Vec<NamedRect>,
 }
 
 /// Replaces every hair material of `scene` by `model`.
 fn set_hair_model(scene: &mut Scene, model: &Model) {
-    let indices: Vec<usize> = scene.fibers.iter().map(|f| f.material).collect();
-    for i in indices {
-        scene.materials[i] = Material::Fiber(Box::new(model.clone()));
-    }
+    scene.fiber_models_mut().for_each(|m| *m = model.clone());
 }
 
-/// The scene's own hair model (first fiber material).
+/// The scene's own hair model (the first fibers' material).
 fn scene_hair_model(scene: &Scene) -> Option<Model> {
-    scene.fibers.first().and_then(|f| match &scene.materials[f.material] {
-        Material::Fiber(m) => Some((**m).clone()),
-        _ => None,
-    })
+    scene.fibers().first().map(|f| scene.fiber_model(f.material()).clone())
 }
 
+/// Model `name` with its `--param MODEL:KEY=VALUE` values, through the one model loader; a
+/// model built from a table gets `--table` unless its parameters name one. Kajiya–Kay without
+/// parameters is fitted to the scene's model (`target`).
 fn build_model(name: &str, args: &Args, target: &Model) -> anyhow::Result<Model> {
-    let mut pairs = Vec::new();
-    for p in &args.params {
-        let (m, kv) = p.split_once(':').with_context(|| format!("--param {p}: expected MODEL:KEY=VALUE"))?;
-        if m == name {
-            pairs.push(fiberlab_scatter::params::split_key_value(kv)?);
-        }
+    let mut pairs: Vec<(String, RawValue)> = args
+        .params
+        .iter()
+        .filter(|p| p.model.as_deref() == Some(name))
+        .map(|p| (p.key.clone(), RawValue::Text(p.value.clone())))
+        .collect();
+    let spec = fiberlab_scatter::find(name)?;
+    if let Some(ExternalData::Table { key }) = spec.data
+        && !pairs.iter().any(|(k, _)| k == key)
+    {
+        let table = args.table.as_ref().with_context(|| format!("model `{name}` needs --table"))?;
+        pairs.push((key.to_string(), RawValue::Text(table.to_string_lossy().into_owned())));
     }
-    match name {
-        "measured" => {
-            let t = args.table.as_ref().context("model `measured` needs --table")?;
-            Ok(fiberlab_render::measured_table::load_measured(t).map_err(anyhow::Error::msg)?.into())
-        }
-        "kajiya-kay" if pairs.is_empty() => {
-            // Fitted to the scene's physically based model (models.md §3).
-            let data = crate::fit::from_model(target);
-            let free = [("k_d".to_string(), 0.02), ("k_s".to_string(), 0.1), ("p".to_string(), 10.0)];
-            let spec = &fiberlab_scatter::kajiya_kay_1989::SPEC;
-            let base = fiberlab_scatter::params::ParamSet::parse::<&str, &str>(spec.name, spec.params, &[])?;
-            let r = fiberlab_fit::fit(&base, &free, &data, 400)?;
-            let value = |key: &str| r.params.iter().find(|(k, _)| k == key).map_or(0.0, |(_, v)| *v);
-            // The fit is in luminance; colour k_d and k_s by the target's mean colour.
-            let tint = mean_colour(target);
-            let fitted = KajiyaKayParams {
-                k_d: Rgb::new(tint[0], tint[1], tint[2]) * value("k_d"),
-                k_s: Rgb::new(tint[0], tint[1], tint[2]) * value("k_s"),
-                p: value("p"),
-            };
-            let fitted = KajiyaKayParams {
-                k_d: fitted.k_d.map(|c| c.min(10.0)),
-                k_s: fitted.k_s.map(|c| c.min(10.0)),
-                ..fitted
-            };
-            eprintln!("kajiya-kay fitted to the scene's hair model: {fitted:?}");
-            Ok(KajiyaKay::new(fitted)?.into())
-        }
-        _ => Ok(fiberlab_scatter::build(name, &pairs)?),
+    if spec.name == kajiya_kay_1989::SPEC.name && pairs.is_empty() {
+        return fitted_kajiya_kay(target);
     }
+    load_model(spec.name, &pairs, Path::new("")).with_context(|| format!("model `{name}`"))
+}
+
+/// Kajiya–Kay fitted to `target` (in luminance, then coloured by the target's mean colour).
+fn fitted_kajiya_kay(target: &Model) -> anyhow::Result<Model> {
+    let data = crate::fit::from_model(target);
+    let free = [("k_d".to_string(), 0.02), ("k_s".to_string(), 0.1), ("p".to_string(), 10.0)];
+    let spec = &kajiya_kay_1989::SPEC;
+    let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[])?;
+    let r = fiberlab_fit::fit(&base, &free, &data, 400)?;
+    let value = |key: &str| r.params.iter().find(|(k, _)| k == key).map_or(0.0, |(_, v)| *v);
+    let tint = mean_colour(target);
+    let fitted = KajiyaKayParams {
+        k_d: Rgb::new(tint[0], tint[1], tint[2]) * value("k_d"),
+        k_s: Rgb::new(tint[0], tint[1], tint[2]) * value("k_s"),
+        p: value("p"),
+    };
+    let fitted =
+        KajiyaKayParams { k_d: fitted.k_d.map(|c| c.min(10.0)), k_s: fitted.k_s.map(|c| c.min(10.0)), ..fitted };
+    eprintln!("kajiya-kay fitted to the scene's hair model: {fitted:?}");
+    Ok(KajiyaKay::new(fitted)?.into())
 }
 
 /// Mean colour of `f_s` over directions, divided by its luminance (a tint with luminance 1).
@@ -161,19 +143,22 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Some(p) => SceneFile::read(p)?,
         None => SceneFile::default_scene(),
     };
+    // Crops are checked against the camera as written, before the scene is built.
+    let (width, height) = file.image_size();
+    let crops: Vec<(&str, Region)> = args
+        .crops
+        .iter()
+        .map(|c| c.rect.within(width, height).map(|r| (c.name.as_str(), r)))
+        .collect::<Result<_, String>>()
+        .map_err(|e| anyhow::anyhow!("--crop {e}"))?;
     let (mut scene, settings) = file.build()?;
     let target = scene_hair_model(&scene).context("the scene has no hair with a fiber model")?;
     let spp = args.spp.unwrap_or(settings.spp);
-    let crops: Vec<Crop> = args
-        .crops
-        .iter()
-        .map(|c| parse_crop(c, scene.camera.width, scene.camera.height))
-        .collect::<anyhow::Result<_>>()?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let reference = match (&args.reference, &args.table) {
         (Some(p), _) => load(p)?,
         (None, Some(_)) => {
-            set_hair_model(&mut scene, &build_model("measured", args, &target)?);
+            set_hair_model(&mut scene, &build_model(measured::SPEC.name, args, &target)?);
             let img = render_with(&scene, &settings, args.reference_spp);
             write(&img, &args.out, "reference")?;
             to_image(&img)
@@ -197,17 +182,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     crate::files::write_atomically(&args.out.join("metrics.json"), serde_json::to_string_pretty(&rows)?.as_bytes())?;
     grid(&tiles, &args.out.join("grid.png"), 1)?;
-    for c in &crops {
+    for (name, r) in &crops {
+        let [x0, y0, x1, y1] = [r.x0, r.y0, r.x1, r.y1].map(|v| v as usize);
         let cropped: Vec<(String, Image)> = tiles
             .iter()
-            .map(|(name, img)| {
-                let (w, h) = (c.x1 - c.x0, c.y1 - c.y0);
-                let pixels = (0..w * h).map(|k| img.pixels[(c.y0 + k / w) * img.width + c.x0 + k % w]).collect();
-                (name.clone(), Image { width: w, height: h, pixels })
+            .map(|(model, img)| {
+                let (w, h) = (x1 - x0, y1 - y0);
+                let pixels = (0..w * h).map(|k| img.pixels[(y0 + k / w) * img.width + x0 + k % w]).collect();
+                (model.clone(), Image { width: w, height: h, pixels })
             })
             .collect();
-        let scale = (256 / (c.x1 - c.x0).max(c.y1 - c.y0)).max(1) as u32;
-        grid(&cropped, &args.out.join(format!("crop_{}.png", c.name)), scale)?;
+        let scale = (256 / (x1 - x0).max(y1 - y0)).max(1) as u32;
+        grid(&cropped, &args.out.join(format!("crop_{name}.png")), scale)?;
     }
     println!("wrote {}", args.out.display());
     Ok(())
@@ -251,26 +237,4 @@ fn grid(tiles: &[(String, Image)], path: &Path, scale: u32) -> anyhow::Result<()
         root.present().map_err(err)?;
     }
     crate::plot::write_png(path, &buf, size)
-}
-
-#[cfg(test)]
-mod crop_tests {
-    use super::parse_crop;
-
-    #[test]
-    fn crops_parse_and_bad_ones_say_what_was_expected() {
-        let c = parse_crop("glint=2,3,10,12", 16, 16).unwrap();
-        assert_eq!((c.name.as_str(), c.x0, c.y0, c.x1, c.y1), ("glint", 2, 3, 10, 12));
-        for (bad, expected) in [
-            ("2,3,10,12", "NAME=X0,Y0,X1,Y1"),
-            ("=2,3,10,12", "non-empty name"),
-            ("a=2,3,10", "four integers"),
-            ("a=2,x,10,12", "four integers"),
-            ("a=10,3,2,12", "x0 < x1 ≤ 16"),
-            ("a=2,3,10,17", "y1 ≤ 16"),
-        ] {
-            let err = format!("{:#}", parse_crop(bad, 16, 16).unwrap_err());
-            assert!(err.contains(expected), "{bad}: {err}");
-        }
-    }
 }

@@ -1,5 +1,6 @@
 //! Output files are written to a temporary file beside the target and renamed into place,
-//! so a failed or interrupted command never leaves a partial file.
+//! so a failed or interrupted command never leaves a partial file; TOML input files are read
+//! with errors naming the file, line and column.
 
 use anyhow::Context;
 use std::io::Write;
@@ -25,16 +26,6 @@ pub fn write_output(path: Option<&Path>, bytes: &[u8]) -> anyhow::Result<()> {
     }
 }
 
-/// Parses `x,y,z` into a vector, naming `what` in errors.
-pub fn parse_vec3(text: &str, what: &str) -> anyhow::Result<fiberlab_math::DVec3> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    let [x, y, z] = parts.as_slice() else {
-        anyhow::bail!("{what}: expected three numbers x,y,z, got `{text}`");
-    };
-    let n = |s: &str| s.parse::<f64>().with_context(|| format!("{what}: cannot read `{s}` as a number"));
-    Ok(fiberlab_math::DVec3::new(n(x)?, n(y)?, n(z)?))
-}
-
 /// Checks that `w` is a finite unit vector (|w| within 1e−3 of 1).
 pub fn require_unit(w: fiberlab_math::DVec3, what: &str) -> anyhow::Result<fiberlab_math::DVec3> {
     let len = w.length();
@@ -46,4 +37,21 @@ pub fn require_unit(w: fiberlab_math::DVec3, what: &str) -> anyhow::Result<fiber
         w.z
     );
     Ok(w / len)
+}
+
+/// Reads and parses a TOML file; a syntax error names the file, line and column.
+pub fn read_toml(path: &Path) -> anyhow::Result<toml::Table> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    text.parse().map_err(|e: toml::de::Error| {
+        let (line, col) = e.span().map_or((0, 0), |s| line_col(&text, s.start));
+        anyhow::anyhow!("{}: line {line}, column {col}: {}", path.display(), e.message())
+    })
+}
+
+/// 1-based line and column of byte offset `at` in `text`.
+fn line_col(text: &str, at: usize) -> (usize, usize) {
+    let before = &text[..at.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, col)
 }

@@ -2,6 +2,7 @@
 //! parses its flags into an `Args` struct and runs it (`run(&Args) -> anyhow::Result<()>`).
 #![forbid(unsafe_code)]
 
+mod arg_values;
 mod bench;
 mod check;
 mod compare;

@@ -2,41 +2,44 @@
 //! and writes `PREFIX.csv` (one row per bin and lobe) and `PREFIX.png` (the `all` lobe over
 //! (φ, θ_r), like the figures of Marschner et al. 2003).
 
-use crate::files::write_atomically;
+use crate::arg_values::{self, Angle, Bins, KeyValue};
+use crate::files::{read_toml, write_atomically};
 use crate::plot::{Grids, Scale, write_figure};
 use anyhow::Context;
-use fiberlab_gonio::{FIBER_KEYS, Fiber, Measurement, Setup, measure};
-use fiberlab_scatter::params::split_key_value;
+use fiberlab_gonio::{Fiber, Measurement, Setup, measure};
+use fiberlab_render::toml_params::raw_pairs;
+use fiberlab_scatter::params::RawValue;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-/// Flags of `fiberlab measure`.
+/// Flags of `fiberlab measure`, each read and validated by its value parser.
 #[derive(clap::Args)]
 pub struct Args {
     /// Fiber parameter as KEY=VALUE (repeatable): eta, sigma_a, aspect, orientation (degrees
     /// or `average`), scale_angle (degrees), scale_length, medulla_radius, medulla_sigma_s,
-    /// medulla_sigma_a, medulla_g.
-    #[arg(long = "param", value_name = "KEY=VALUE")]
-    params: Vec<String>,
+    /// medulla_sigma_a, medulla_g, surface, albedo.
+    #[arg(long = "param", value_name = "KEY=VALUE", value_parser = arg_values::key_value)]
+    params: Vec<KeyValue>,
     /// A TOML file with the same keys (command-line --param values override it).
     #[arg(long)]
     fiber: Option<PathBuf>,
-    /// Light inclination θ_i from the normal plane, degrees; a comma-separated list measures
-    /// several incidences into one table (what `--model measured` needs).
-    #[arg(long, allow_hyphen_values = true)]
-    theta_i: String,
+    /// Light inclination θ_i from the normal plane, degrees in (−89.9, 89.9); a
+    /// comma-separated list measures several incidences into one table (what `--model
+    /// measured` needs).
+    #[arg(long, required = true, allow_hyphen_values = true, value_delimiter = ',', value_parser = arg_values::incidence)]
+    theta_i: Vec<Angle>,
     /// Light azimuth φ_i, degrees (relative to the major axis of an elliptical fiber).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    phi_i: f64,
-    /// Number of rays.
-    #[arg(long)]
+    #[arg(long, default_value = "0", allow_hyphen_values = true, value_parser = arg_values::degrees)]
+    phi_i: Angle,
+    /// Number of rays (≥ 1).
+    #[arg(long, value_parser = arg_values::positive_count)]
     rays: usize,
     /// Bins as NT,NP over θ_r ∈ [−90°, 90°] and φ ∈ [−180°, 180°].
-    #[arg(long, default_value = "180,360")]
-    bins: String,
+    #[arg(long, default_value = "180,360", value_parser = arg_values::bins)]
+    bins: Bins,
     /// Seed.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -45,70 +48,29 @@ pub struct Args {
     out: PathBuf,
 }
 
-/// Reads `--fiber FILE.toml` into key/value pairs, errors naming the file, line and column.
-fn toml_pairs(path: &Path) -> anyhow::Result<Vec<(String, String)>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
-        let (line, col) = e.span().map_or((0, 0), |s| line_col(&text, s.start));
-        anyhow::anyhow!("{}: line {line}, column {col}: {}", path.display(), e.message())
-    })?;
-    table
-        .into_iter()
-        .map(|(k, v)| {
-            let value = match &v {
-                toml::Value::Float(x) => x.to_string(),
-                toml::Value::Integer(x) => x.to_string(),
-                toml::Value::String(s) => s.clone(),
-                toml::Value::Array(a) => a.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(","),
-                _ => anyhow::bail!("{}: key `{k}`: expected a number, a string or an array", path.display()),
-            };
-            anyhow::ensure!(
-                FIBER_KEYS.contains(&k.as_str()),
-                "{}: unknown key `{k}`; valid keys: {}",
-                path.display(),
-                FIBER_KEYS.join(", ")
-            );
-            Ok((k, value))
-        })
-        .collect()
-}
-
-/// 1-based line and column of byte offset `at` in `text`.
-pub(crate) fn line_col(text: &str, at: usize) -> (usize, usize) {
-    let before = &text[..at.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    (line, col)
+/// The fiber: `--fiber FILE.toml` (through the shared TOML conversion), then `--param`
+/// (which wins), converted and checked against [`fiberlab_gonio::FIBER_PARAMS`].
+fn fiber(args: &Args) -> anyhow::Result<Fiber> {
+    let mut pairs = match &args.fiber {
+        Some(path) => raw_pairs(&read_toml(path)?).with_context(|| format!("{}", path.display()))?,
+        None => Vec::new(),
+    };
+    for p in &args.params {
+        pairs.retain(|(key, _)| *key != p.key);
+        pairs.push((p.key.clone(), RawValue::Text(p.value.clone())));
+    }
+    let fiber = Fiber::from_raw(&pairs);
+    match &args.fiber {
+        Some(path) => fiber.with_context(|| format!("fiber of {} and --param", path.display())),
+        None => Ok(fiber?),
+    }
 }
 
 /// Runs the measurement and writes the outputs.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let mut pairs = match &args.fiber {
-        Some(p) => toml_pairs(p)?,
-        None => Vec::new(),
-    };
-    for p in &args.params {
-        let (k, v) = split_key_value(p)?;
-        pairs.retain(|(key, _)| *key != k);
-        pairs.push((k, v));
-    }
-    let fiber = Fiber::from_pairs(&pairs)?;
-    let (nt, np) = args
-        .bins
-        .split_once(',')
-        .and_then(|(a, b)| Some((a.trim().parse::<usize>().ok()?, b.trim().parse::<usize>().ok()?)))
-        .filter(|&(a, b)| a > 0 && b > 0)
-        .with_context(|| format!("--bins: expected two positive integers NT,NP, got `{}`", args.bins))?;
-    anyhow::ensure!(args.rays > 0, "--rays must be positive");
-    let thetas: Vec<f64> =
-        args.theta_i
-            .split(',')
-            .map(|t| {
-                t.trim().parse::<f64>().ok().filter(|v| v.abs() < 89.9).with_context(|| {
-                    format!("--theta-i: expected degrees in (-89.9, 89.9), comma-separated; got `{t}`")
-                })
-            })
-            .collect::<anyhow::Result<_>>()?;
+    let fiber = fiber(args)?;
+    let Bins { theta: nt, phi: np } = args.bins;
+    let thetas = &args.theta_i;
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = stop.clone();
@@ -120,13 +82,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     );
     let start = Instant::now();
     let mut measurements = Vec::new();
-    for &t in &thetas {
+    for t in thetas {
         if stop.load(Ordering::Relaxed) {
             break;
         }
         let setup = Setup {
-            theta_i: t.to_radians(),
-            phi_i: args.phi_i.to_radians(),
+            theta_i: t.radians,
+            phi_i: args.phi_i.radians,
             rays: args.rays,
             bins_theta: nt,
             bins_phi: np,
@@ -141,7 +103,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     write_csv(&measurements, &args.out.with_extension("csv"))?;
     let first = &measurements[0];
-    let title = format!("measured fiber {}   θ_i = {}°", args.params.join(" "), thetas[0]);
+    let params: Vec<String> = args.params.iter().map(ToString::to_string).collect();
+    let title = format!("measured fiber {}   θ_i = {}°", params.join(" "), thetas[0].degrees);
     write_figure(&args.out.with_extension("png"), &figure(first), &title, Scale::Log, 4.0)?;
     write_exr(first, &args.out.with_extension("exr"))?;
     let traced: usize = measurements.iter().map(|m| m.traced).sum();

@@ -1,7 +1,14 @@
-//! `--model NAME --param key=value …`, shared by every verb that builds a model.
+//! `--model NAME --param key=value … --params-file FILE`, shared by every verb that builds a
+//! model: the values become [`RawValue`]s (`--param` text as text, the file's TOML through
+//! the renderer's shared conversion) and the model is built by the one model loader, which
+//! also reads the data a model is built from (`measured`'s `table=PATH`).
 
 use anyhow::Context;
-use fiberlab_scatter::{Model, params::split_key_value};
+use fiberlab_render::model_loader::load_model;
+use fiberlab_render::toml_params::raw_pairs;
+use fiberlab_scatter::Model;
+use fiberlab_scatter::params::{RawValue, split_key_value};
+use std::path::Path;
 
 /// Selects a registered model and its parameters.
 #[derive(clap::Args, Clone, Debug)]
@@ -9,7 +16,7 @@ pub struct ModelArgs {
     /// Model name (`fiberlab models` lists them).
     #[arg(long)]
     pub model: String,
-    /// Parameter as KEY=VALUE (repeatable); colours as one number or r,g,b.
+    /// Parameter as KEY=VALUE (repeatable); colours as one number or r,g,b, lists as a,b.
     #[arg(long = "param", value_name = "KEY=VALUE")]
     pub params: Vec<String>,
     /// A TOML file with a `[params]` table (e.g. written by `fiberlab fit`); --param overrides it.
@@ -18,8 +25,8 @@ pub struct ModelArgs {
 }
 
 impl ModelArgs {
-    /// The `key=value` pairs: the params file's, then `--param` (which wins).
-    pub fn pairs(&self) -> anyhow::Result<Vec<(String, String)>> {
+    /// The `(key, value)` pairs: the params file's, then `--param` (which wins).
+    pub fn pairs(&self) -> anyhow::Result<Vec<(String, RawValue)>> {
         let mut pairs = match &self.params_file {
             Some(path) => read_params_file(path, &self.model)?,
             None => Vec::new(),
@@ -27,19 +34,25 @@ impl ModelArgs {
         for p in &self.params {
             let (k, v) = split_key_value(p)?;
             pairs.retain(|(key, _)| *key != k);
-            pairs.push((k, v));
+            pairs.push((k, RawValue::Text(v)));
         }
         Ok(pairs)
     }
 
-    /// Builds the model, with an error naming the model on failure. `measured` loads its
-    /// table (`table=PATH`, rows with lobe `all`).
+    /// Builds the model, with an error naming the model on failure.
     pub fn build(&self) -> anyhow::Result<Model> {
-        let pairs = self.pairs()?;
-        if self.model == "measured" {
-            return build_measured(&pairs);
+        self.build_with(&[])
+    }
+
+    /// Builds the model with `overrides` replacing (or adding to) the given parameters.
+    pub fn build_with(&self, overrides: &[(&str, RawValue)]) -> anyhow::Result<Model> {
+        let mut pairs = self.pairs()?;
+        for (k, v) in overrides {
+            pairs.retain(|(key, _)| key != k);
+            pairs.push(((*k).to_string(), v.clone()));
         }
-        fiberlab_scatter::build(&self.model, &pairs).with_context(|| format!("model `{}`", self.model))
+        // Relative table paths are relative to the working directory.
+        load_model(&self.model, &pairs, Path::new("")).with_context(|| format!("model `{}`", self.model))
     }
 
     /// `name key=value …` for titles.
@@ -48,27 +61,9 @@ impl ModelArgs {
     }
 }
 
-/// `measured` from its `table=PATH` parameter.
-fn build_measured(pairs: &[(String, String)]) -> anyhow::Result<Model> {
-    let mut path = None;
-    for (k, v) in pairs {
-        match k.as_str() {
-            "table" => path = Some(std::path::PathBuf::from(v)),
-            _ => anyhow::bail!("model `measured` has no parameter `{k}`; its parameters are: table"),
-        }
-    }
-    let path = path.context("model `measured`: give the table as --param table=PATH")?;
-    let model = fiberlab_render::measured_table::load_measured(&path).map_err(anyhow::Error::msg)?;
-    Ok(model.into())
-}
-
-/// `[params]` of a TOML file as strings; a `model` key, if present, must match `model`.
-fn read_params_file(path: &std::path::Path, model: &str) -> anyhow::Result<Vec<(String, String)>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
-        let (line, col) = e.span().map_or((0, 0), |s| crate::measure::line_col(&text, s.start));
-        anyhow::anyhow!("{}: line {line}, column {col}: {}", path.display(), e.message())
-    })?;
+/// `[params]` of a TOML file; a `model` key, if present, must match `model`.
+fn read_params_file(path: &Path, model: &str) -> anyhow::Result<Vec<(String, RawValue)>> {
+    let table = crate::files::read_toml(path)?;
     if let Some(m) = table.get("model").and_then(|v| v.as_str())
         && m != model
     {
@@ -77,17 +72,48 @@ fn read_params_file(path: &std::path::Path, model: &str) -> anyhow::Result<Vec<(
     let Some(params) = table.get("params").and_then(|v| v.as_table()) else {
         anyhow::bail!("{}: expected a [params] table", path.display());
     };
-    params
-        .iter()
-        .map(|(k, v)| {
-            let value = match v {
-                toml::Value::String(s) => s.clone(),
-                toml::Value::Float(x) => x.to_string(),
-                toml::Value::Integer(x) => x.to_string(),
-                toml::Value::Array(a) => a.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(","),
-                _ => anyhow::bail!("{}: [params] `{k}`: expected a string, number or array", path.display()),
-            };
-            Ok((k.clone(), value))
-        })
-        .collect()
+    raw_pairs(params).with_context(|| format!("{}: [params]", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(params: &[&str], file: Option<&Path>) -> ModelArgs {
+        ModelArgs {
+            model: "marschner".into(),
+            params: params.iter().map(ToString::to_string).collect(),
+            params_file: file.map(Path::to_path_buf),
+        }
+    }
+
+    /// `lobes = ["r", "tt"]` and `glints = false` in a `--params-file` build the model that
+    /// `--param lobes=r,tt --param glints=off` builds; `--param` overrides the file.
+    #[test]
+    fn params_file_arrays_and_booleans_mean_what_param_text_means() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("p.toml");
+        std::fs::write(&file, "model = \"marschner\"\n[params]\nlobes = [\"r\", \"tt\"]\nglints = false\nbeta_r = 6\n")
+            .unwrap();
+        let text = args(&["lobes=r,tt", "glints=off", "beta_r=6"], None).build().unwrap();
+        let from_file = args(&[], Some(&file)).build().unwrap();
+        assert_eq!(format!("{from_file:?}"), format!("{text:?}"));
+        let all_lobes = fiberlab_scatter::build("marschner", &[("glints", "off"), ("beta_r", "6")]).unwrap();
+        assert_ne!(format!("{from_file:?}"), format!("{all_lobes:?}"), "the lobes were read");
+        let overridden = args(&["lobes=r,tt,trt"], Some(&file)).build().unwrap();
+        assert_eq!(format!("{overridden:?}"), format!("{all_lobes:?}"));
+        std::fs::write(&file, "[params]\nlobes = [\"r\", \"x\"]\n").unwrap();
+        let e = format!("{:#}", args(&[], Some(&file)).build().unwrap_err());
+        assert!(e.contains("lobes") && e.contains("marschner"), "{e}");
+        std::fs::write(&file, "model = \"chiang\"\n[params]\n").unwrap();
+        let e = format!("{:#}", args(&[], Some(&file)).build().unwrap_err());
+        assert!(e.contains("not `marschner`"), "{e}");
+    }
+
+    #[test]
+    fn a_model_built_from_a_table_needs_its_path() {
+        let m = ModelArgs { model: "measured".into(), params: vec![], params_file: None };
+        let e = format!("{:#}", m.build().unwrap_err());
+        assert!(e.contains("table=PATH"), "{e}");
+    }
 }

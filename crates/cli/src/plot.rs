@@ -1,6 +1,7 @@
 //! `fiberlab plot`: a scattering function as an image over (φ, θ_r) at fixed θ_i, like the
 //! figures of Marschner et al. 2003, beside polar plots of its azimuthal distribution.
 
+use crate::arg_values::{self, Angle};
 use crate::files::write_atomically;
 use crate::model_args::ModelArgs;
 use anyhow::Context;
@@ -16,17 +17,18 @@ use std::path::{Path, PathBuf};
 pub struct Args {
     #[command(flatten)]
     model: ModelArgs,
-    /// Inclination θ_i of the light from the normal plane, degrees (positive toward the tip).
-    #[arg(long, allow_hyphen_values = true)]
-    theta_i: f64,
+    /// Inclination θ_i of the light from the normal plane, degrees in (−90, 90) (positive
+    /// toward the tip).
+    #[arg(long, allow_hyphen_values = true, value_parser = arg_values::inclination)]
+    theta_i: Angle,
     /// Output file; the extension (.png or .svg) selects the format.
     #[arg(long)]
     out: PathBuf,
     /// Colour scale of the image.
     #[arg(long, value_enum, default_value_t = Scale::Log)]
     scale: Scale,
-    /// Decades shown by the log scale.
-    #[arg(long, default_value_t = 4.0)]
+    /// Decades shown by the log scale (> 0).
+    #[arg(long, default_value = "4", value_parser = arg_values::positive)]
     decades: f64,
 }
 
@@ -94,11 +96,9 @@ fn compute(model: &Model, theta_i: f64) -> Grids {
 
 /// Draws the figure.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    anyhow::ensure!(args.theta_i.abs() < 90.0 && args.theta_i.is_finite(), "--theta-i must lie in (-90, 90) degrees");
-    anyhow::ensure!(args.decades > 0.0, "--decades must be positive");
     let model = args.model.build()?;
-    let grids = compute(&model, args.theta_i.to_radians());
-    let title = format!("{}   θ_i = {}°", args.model.label(), args.theta_i);
+    let grids = compute(&model, args.theta_i.radians);
+    let title = format!("{}   θ_i = {}°", args.model.label(), args.theta_i.degrees);
     write_figure(&args.out, &grids, &title, args.scale, args.decades)
 }
 

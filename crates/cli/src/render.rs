@@ -2,9 +2,9 @@
 //! tone-mapped PNG, with a progress bar, a time limit, Ctrl-C (finishes the tiles in flight
 //! and writes what is done) and `--tile I/N` / `--crop` parts for `fiberlab merge`.
 
-use anyhow::{Context, bail};
+use crate::arg_values::{self, PixelRect, Tile};
 use fiberlab_io::ToneMap;
-use fiberlab_render::integrator::{Region, render};
+use fiberlab_render::integrator::{Region, RenderSettings, render};
 use fiberlab_render::scene_file::SceneFile;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -12,7 +12,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-/// Flags of `fiberlab render`.
+/// Flags of `fiberlab render`, each read and validated by its value parser.
 #[derive(clap::Args)]
 pub struct Args {
     /// Scene file (TOML); the built-in default scene when omitted.
@@ -20,11 +20,11 @@ pub struct Args {
     /// Use this .hair file for the scene's hair.
     #[arg(long)]
     hair: Option<PathBuf>,
-    /// Samples per pixel (default: the scene's).
-    #[arg(long)]
+    /// Samples per pixel, ≥ 1 (default: the scene's).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     spp: Option<u32>,
     /// Stop starting new tiles after this many seconds; writes what is done.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", value_parser = arg_values::seconds)]
     time_limit: Option<f64>,
     /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0)]
@@ -36,82 +36,90 @@ pub struct Args {
     #[arg(long)]
     max_depth: Option<u32>,
     /// Render only part I of N (0-based bands of rows), for `fiberlab merge`.
-    #[arg(long, value_name = "I/N")]
-    tile: Option<String>,
+    #[arg(long, value_name = "I/N", value_parser = arg_values::tile)]
+    tile: Option<Tile>,
     /// Render only the pixels x0,y0,x1,y1 (half-open), for `fiberlab merge`.
-    #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "tile")]
-    crop: Option<String>,
+    #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "tile", value_parser = arg_values::pixel_rect)]
+    crop: Option<PixelRect>,
     /// Output prefix: writes PREFIX.exr and PREFIX.png.
     #[arg(long, default_value = "render")]
     out: String,
     /// Exposure for the PNG in stops (default: the scene's).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     exposure: Option<f64>,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
 }
 
-fn parse_tile(text: &str, w: u32, h: u32) -> anyhow::Result<Region> {
-    let (i, n) = text.split_once('/').with_context(|| format!("--tile {text}: expected I/N, e.g. 0/4"))?;
-    let (i, n): (u32, u32) = (
-        i.trim().parse().with_context(|| format!("--tile {text}: I is not a number"))?,
-        n.trim().parse().with_context(|| format!("--tile {text}: N is not a number"))?,
-    );
-    if n == 0 || i >= n {
-        bail!("--tile {text}: need 0 ≤ I < N");
-    }
-    Ok(Region::part(i, n, w, h))
+/// Which pixels to render.
+#[derive(Clone, Copy, Debug)]
+enum Pixels {
+    All,
+    Tile(Tile),
+    Crop(PixelRect),
 }
 
-/// A pixel rectangle `x0,y0,x1,y1` (half-open) inside a `w`×`h` image, for `--crop`.
-pub(crate) fn parse_crop(text: &str, w: u32, h: u32) -> anyhow::Result<Region> {
-    let v: Vec<u32> = text
-        .split(',')
-        .map(|s| s.trim().parse::<u32>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--crop {text}: expected four integers x0,y0,x1,y1"))?;
-    let [x0, y0, x1, y1] = v[..] else { bail!("--crop {text}: expected four integers x0,y0,x1,y1") };
-    if x0 >= x1 || y0 >= y1 || x1 > w || y1 > h {
-        bail!("--crop {text}: need x0 < x1 ≤ {w} and y0 < y1 ≤ {h}");
+impl Pixels {
+    /// The region of a `width × height` image (`None`: all of it).
+    fn region(self, width: u32, height: u32) -> anyhow::Result<Option<Region>> {
+        Ok(match self {
+            Pixels::All => None,
+            Pixels::Tile(t) => Some(t.region(width, height)),
+            Pixels::Crop(c) => Some(c.within(width, height).map_err(|e| anyhow::anyhow!("--crop {e}"))?),
+        })
     }
-    Ok(Region { x0, y0, x1, y1 })
+}
+
+/// `fiberlab render`'s validated configuration: what the flags mean, before any file is read.
+struct Config<'a> {
+    args: &'a Args,
+    pixels: Pixels,
+    time_limit: Option<Duration>,
+}
+
+impl<'a> Config<'a> {
+    fn new(args: &'a Args) -> Self {
+        let pixels = match (args.tile, args.crop) {
+            (Some(t), _) => Pixels::Tile(t),
+            (_, Some(c)) => Pixels::Crop(c),
+            _ => Pixels::All,
+        };
+        Self { args, pixels, time_limit: args.time_limit.map(Duration::from_secs_f64) }
+    }
+
+    /// The render settings: the scene's, overridden by the flags; the time limit starts now.
+    fn settings(&self, scene: RenderSettings, region: Option<Region>) -> RenderSettings {
+        let a = self.args;
+        RenderSettings {
+            spp: a.spp.unwrap_or(scene.spp),
+            seed: a.seed.unwrap_or(scene.seed),
+            max_depth: a.max_depth.unwrap_or(scene.max_depth),
+            threads: a.threads,
+            region,
+            deadline: self.time_limit.map(|limit| Instant::now() + limit),
+            ..scene
+        }
+    }
 }
 
 /// Runs `fiberlab render`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let config = Config::new(args);
     let t0 = Instant::now();
     let mut file = match &args.scene {
         Some(p) => SceneFile::read(p)?,
         None => SceneFile::default_scene(),
     };
+    // Pixels are checked against the camera as written, before hair and BVHs are built.
+    let (w, h) = file.image_size();
+    let region = config.pixels.region(w, h)?;
     if let Some(h) = &args.hair {
         file.override_hair(h.clone());
     }
-    let (scene, mut settings) = file.build()?;
+    let (scene, scene_settings) = file.build()?;
     let build_seconds = t0.elapsed().as_secs_f64();
-    let (w, h) = (scene.camera.width, scene.camera.height);
-    if let Some(spp) = args.spp {
-        settings.spp = spp.max(1);
-    }
-    if let Some(seed) = args.seed {
-        settings.seed = seed;
-    }
-    if let Some(d) = args.max_depth {
-        settings.max_depth = d;
-    }
-    settings.threads = args.threads;
-    settings.region = match (&args.tile, &args.crop) {
-        (Some(t), _) => Some(parse_tile(t, w, h)?),
-        (_, Some(c)) => Some(parse_crop(c, w, h)?),
-        _ => None,
-    };
-    if let Some(limit) = args.time_limit {
-        if !(limit.is_finite() && limit >= 0.0) {
-            bail!("--time-limit {limit}: expected seconds ≥ 0");
-        }
-        settings.deadline = Some(Instant::now() + Duration::from_secs_f64(limit));
-    }
+    let settings = config.settings(scene_settings, region);
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = Arc::clone(&stop);

@@ -2,8 +2,10 @@
 //! `wi_x,wi_y,wi_z,weight_r,weight_g,weight_b,pdf` (weight = f_s cosθ_i/pdf; pdf 0 for
 //! delta lobes, whose weight is the lobe's throughput).
 
-use crate::files::{parse_vec3, require_unit, write_output};
+use crate::arg_values;
+use crate::files::write_output;
 use crate::model_args::ModelArgs;
+use fiberlab_math::DVec3;
 use fiberlab_scatter::ScatteringFunction;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -15,10 +17,10 @@ pub struct Args {
     #[command(flatten)]
     model: ModelArgs,
     /// Viewer direction ω_o as x,y,z (unit vector, fiber frame).
-    #[arg(long, allow_hyphen_values = true)]
-    wo: String,
+    #[arg(long, allow_hyphen_values = true, value_parser = arg_values::unit_vector)]
+    wo: DVec3,
     /// Offset across the fiber, in [-1, 1] (near-field models).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(long, default_value = "0", allow_hyphen_values = true, value_parser = arg_values::offset)]
     h: f64,
     /// Number of samples.
     #[arg(long)]
@@ -34,8 +36,7 @@ pub struct Args {
 /// Draws the samples.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let model = args.model.build()?;
-    let wo = require_unit(parse_vec3(&args.wo, "--wo")?, "--wo")?;
-    anyhow::ensure!((-1.0..=1.0).contains(&args.h), "--h: expected a value in [-1, 1], got {}", args.h);
+    let wo = args.wo;
     let mut rng = Pcg64::seed_from_u64(args.seed);
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record(["wi_x", "wi_y", "wi_z", "weight_r", "weight_g", "weight_b", "pdf"])?;

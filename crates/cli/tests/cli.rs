@@ -176,7 +176,68 @@ fn measure_writes_the_documented_csv_and_a_figure() {
         .args(["measure", "--theta-i", "0", "--rays", "10", "--fiber", fiber.to_str().unwrap(), "--out", "x"])
         .output()
         .unwrap();
-    assert!(String::from_utf8_lossy(&res.stderr).contains("unknown key `radius`"));
+    let err = String::from_utf8_lossy(&res.stderr);
+    assert!(err.contains("unknown fiber parameter `radius`") && err.contains("f.toml"), "{err}");
+    // Arrays, numbers and booleans in a fiber file mean what the same --param text means.
+    std::fs::write(&fiber, "sigma_a = [0.1, 0.2, 0.3]\norientation = 30\naspect = 0.8\n").unwrap();
+    let toml = fiberlab()
+        .args(["measure", "--theta-i", "10", "--rays", "2000", "--bins", "4,8", "--fiber", fiber.to_str().unwrap()])
+        .args(["--out", dir.path().join("a").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(toml.status.success(), "{}", String::from_utf8_lossy(&toml.stderr));
+    let text = fiberlab()
+        .args(["measure", "--theta-i", "10", "--rays", "2000", "--bins", "4,8"])
+        .args(["--param", "sigma_a=0.1,0.2,0.3", "--param", "orientation=30", "--param", "aspect=0.8"])
+        .args(["--out", dir.path().join("b").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(text.status.success(), "{}", String::from_utf8_lossy(&text.stderr));
+    let (a, b) = (dir.path().join("a.csv"), dir.path().join("b.csv"));
+    assert_eq!(std::fs::read_to_string(a).unwrap(), std::fs::read_to_string(b).unwrap());
+}
+
+/// Flag values are validated while the command line is parsed, before any file is read: a
+/// bad `--bins`, `--theta-i`, `--tile` or `--crop` is reported even when the scene or fiber
+/// file does not exist.
+#[test]
+fn bad_flag_values_are_reported_before_any_file_is_read() {
+    for (args, expected) in [
+        (
+            &["measure", "--theta-i", "0", "--rays", "10", "--bins", "0,4", "--fiber", "missing.toml", "--out", "x"][..],
+            "NT,NP",
+        ),
+        (&["measure", "--theta-i", "95", "--rays", "10", "--fiber", "missing.toml", "--out", "x"], "(-89.9, 89.9)"),
+        (&["measure", "--theta-i", "0", "--rays", "0", "--fiber", "missing.toml", "--out", "x"], "positive integer"),
+        (&["render", "missing.toml", "--tile", "3/3"], "0 ≤ I < N"),
+        (&["render", "missing.toml", "--crop", "4,0,2,2"], "x0 < x1"),
+        (&["render", "missing.toml", "--time-limit=-1"], "seconds ≥ 0"),
+        (
+            &["plot", "--model", "diffuse", "--theta-i", "90", "--out", "x.png", "--params-file", "missing.toml"],
+            "(-90, 90)",
+        ),
+    ] {
+        let res = fiberlab().args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&res.stderr);
+        assert!(!res.status.success() && err.contains(expected) && !err.contains("missing.toml"), "{args:?}: {err}");
+    }
+}
+
+/// `--param lobes=r,tt --param glints=off` and a `--params-file` with `lobes = ["r", "tt"]`
+/// and `glints = false` give the same model: `eval` prints the same values.
+#[test]
+fn params_file_arrays_and_booleans_match_param_text() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("p.toml");
+    std::fs::write(&file, "[params]\nlobes = [\"r\", \"tt\"]\nglints = false\n").unwrap();
+    let input =
+        "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,h\n0,0.6,0.8,-0.6,0.8,0,0.2\n0,1,0,0,-1,0,0\n0.6,0.8,0,0,-0.6,0.8,-0.4\n";
+    let eval =
+        |extra: &[&str]| stdout_of(fiberlab().args(["eval", "--model", "marschner"]).args(extra).write_stdin(input));
+    let text = eval(&["--param", "lobes=r,tt", "--param", "glints=off"]);
+    let from_file = eval(&["--params-file", file.to_str().unwrap()]);
+    assert_eq!(text, from_file);
+    assert_ne!(text, eval(&["--param", "glints=off"]), "the lobes matter for these directions");
 }
 
 #[test]

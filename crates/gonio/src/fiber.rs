@@ -5,6 +5,8 @@
 //! the analytic models.
 
 use fiberlab_math::Rgb;
+use fiberlab_scatter::ModelError;
+use fiberlab_scatter::params::{ParamKind, ParamSet, ParamSpec, Range, RawValue};
 use thiserror::Error;
 
 /// Invalid fiber description; the message names the key and its valid range.
@@ -135,99 +137,181 @@ impl Fiber {
     }
 }
 
-/// Keys accepted by [`Fiber::from_pairs`], in documentation order.
-pub const FIBER_KEYS: [&str; 12] = [
-    "eta",
-    "sigma_a",
-    "aspect",
-    "orientation",
-    "scale_angle",
-    "scale_length",
-    "medulla_radius",
-    "medulla_sigma_s",
-    "medulla_sigma_a",
-    "medulla_g",
-    "surface",
-    "albedo",
+/// The fiber's parameters as `fiberlab measure` takes them (`--param key=value`, a
+/// `--fiber` TOML file), converted and checked by the same [`ParamSet`] as every model's
+/// parameters: angles in degrees, colours as one number or `r,g,b` (or a TOML array).
+pub const FIBER_PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        key: "eta",
+        kind: ParamKind::Number(Range::open_closed(1.0, 4.0)),
+        unit: "",
+        default: "1.55",
+        doc: "refractive index of the cortex (and medulla)",
+    },
+    ParamSpec {
+        key: "sigma_a",
+        kind: ParamKind::Color(NON_NEGATIVE),
+        unit: "1/radius",
+        default: "0",
+        doc: "cortex absorption coefficient",
+    },
+    ParamSpec {
+        key: "aspect",
+        kind: ParamKind::Number(Range::open_closed(0.0, 1.0)),
+        unit: "",
+        default: "1",
+        doc: "axis ratio minor/major of the elliptical cross-section",
+    },
+    ParamSpec {
+        key: "orientation",
+        kind: ParamKind::Text,
+        unit: "degrees or `average`",
+        default: "0",
+        doc: "major axis from the frame's y axis toward z; `average`: uniformly random per ray",
+    },
+    ParamSpec {
+        key: "scale_angle",
+        kind: ParamKind::Number(Range::open(-20.0, 20.0)),
+        unit: "degrees",
+        default: "0",
+        doc: "cuticle scale tilt toward the root",
+    },
+    ParamSpec {
+        key: "scale_length",
+        kind: ParamKind::Number(Range::open(0.0, f64::INFINITY)),
+        unit: "radii",
+        default: "0.5",
+        doc: "length of one cuticle scale along the axis",
+    },
+    ParamSpec {
+        key: "medulla_radius",
+        kind: ParamKind::Number(Range::open(0.0, 1.0)),
+        unit: "radii",
+        default: "",
+        doc: "radius of a concentric scattering medulla (giving it adds the medulla)",
+    },
+    ParamSpec {
+        key: "medulla_sigma_s",
+        kind: ParamKind::Number(NON_NEGATIVE),
+        unit: "1/radius",
+        default: "0",
+        doc: "medulla scattering coefficient",
+    },
+    ParamSpec {
+        key: "medulla_sigma_a",
+        kind: ParamKind::Color(NON_NEGATIVE),
+        unit: "1/radius",
+        default: "0",
+        doc: "medulla absorption coefficient",
+    },
+    ParamSpec {
+        key: "medulla_g",
+        kind: ParamKind::Number(Range::open(-1.0, 1.0)),
+        unit: "",
+        default: "0",
+        doc: "Henyey–Greenstein asymmetry of the medulla",
+    },
+    ParamSpec {
+        key: "surface",
+        kind: ParamKind::Choice(&["dielectric", "lambertian"]),
+        unit: "",
+        default: "dielectric",
+        doc: "smooth dielectric interface, or an opaque Lambertian surface",
+    },
+    ParamSpec {
+        key: "albedo",
+        kind: ParamKind::Color(Range::UNIT),
+        unit: "",
+        default: "0.8",
+        doc: "albedo of a lambertian surface",
+    },
 ];
 
-/// A `key=value` text that could not be used.
+/// `[0, ∞)`.
+const NON_NEGATIVE: Range = Range::closed_open(0.0, f64::INFINITY);
+
+/// Fiber parameters that could not be used.
+#[non_exhaustive]
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum FiberKeyError {
     /// Not a fiber key.
-    #[error("unknown fiber parameter `{0}`; valid keys: {keys}", keys = FIBER_KEYS.join(", "))]
-    UnknownKey(String),
-    /// The value could not be read.
-    #[error("fiber parameter `{key}`: cannot read `{value}` as {expected}")]
-    BadValue {
-        /// Key.
+    #[error("unknown fiber parameter `{key}`; valid keys: {known}")]
+    UnknownKey {
+        /// The key given.
         key: String,
-        /// Text given.
-        value: String,
-        /// What was expected.
-        expected: &'static str,
+        /// Comma-separated valid keys.
+        known: String,
     },
-    /// Read but invalid.
+    /// Unreadable or out-of-range value, or a key given twice (the message names the key).
+    #[error("fiber: {0}")]
+    Parameter(#[from] ModelError),
+    /// `orientation` neither degrees nor `average`.
+    #[error("fiber parameter `orientation`: cannot read `{0}` as degrees or `average`")]
+    Orientation(String),
+    /// Values individually valid but not together.
     #[error(transparent)]
     Invalid(#[from] FiberError),
 }
 
 impl Fiber {
-    /// Builds a fiber from `key=value` pairs (angles in degrees; `orientation` may be
-    /// `average`; `sigma_a`, `medulla_sigma_a` take one number or `r,g,b`), starting from
-    /// [`Fiber::default`]. Setting `medulla_radius` enables the medulla.
-    pub fn from_pairs<K: AsRef<str>, V: AsRef<str>>(pairs: &[(K, V)]) -> Result<Self, FiberKeyError> {
-        let mut f = Fiber::default();
-        let mut medulla = Medulla { radius: 0.0, sigma_s: 0.0, sigma_a: Rgb::ZERO, g: 0.0 };
-        let mut has_medulla = false;
-        let mut lambertian = false;
-        let mut albedo = Rgb::splat(0.8);
-        for (k, v) in pairs {
-            let (key, text) = (k.as_ref().trim(), v.as_ref().trim());
-            let bad = |expected| FiberKeyError::BadValue { key: key.into(), value: text.into(), expected };
-            let number = || text.parse::<f64>().map_err(|_| bad("a number"));
-            let color = || -> Result<Rgb, FiberKeyError> {
-                let parts: Vec<f64> = text
-                    .split(',')
-                    .map(|t| t.trim().parse::<f64>())
-                    .collect::<Result<_, _>>()
-                    .map_err(|_| bad("one number or r,g,b"))?;
-                match parts.as_slice() {
-                    [x] => Ok(Rgb::splat(*x)),
-                    [r, g, b] => Ok(Rgb::new(*r, *g, *b)),
-                    _ => Err(bad("one number or r,g,b")),
-                }
-            };
-            match key {
-                "eta" => f.eta = number()?,
-                "sigma_a" => f.sigma_a = color()?,
-                "aspect" => f.aspect = number()?,
-                "orientation" if text.eq_ignore_ascii_case("average") => f.orientation = Orientation::Average,
-                "orientation" => f.orientation = Orientation::Fixed(number()?.to_radians()),
-                "scale_angle" => f.scale_angle = number()?.to_radians(),
-                "scale_length" => f.scale_length = number()?,
-                "medulla_radius" => {
-                    medulla.radius = number()?;
-                    has_medulla = true;
-                }
-                "medulla_sigma_s" => medulla.sigma_s = number()?,
-                "medulla_sigma_a" => medulla.sigma_a = color()?,
-                "medulla_g" => medulla.g = number()?,
-                "surface" if text.eq_ignore_ascii_case("lambertian") => lambertian = true,
-                "surface" if text.eq_ignore_ascii_case("dielectric") => lambertian = false,
-                "surface" => return Err(bad("dielectric or lambertian")),
-                "albedo" => albedo = color()?,
-                _ => return Err(FiberKeyError::UnknownKey(key.into())),
-            }
-        }
-        if has_medulla {
-            f.medulla = Some(medulla);
-        }
-        if lambertian {
-            f.surface = SurfaceKind::Lambertian(albedo);
-        }
+    /// Builds a fiber from `(key, value)` pairs of any edge (see [`RawValue`]), starting from
+    /// the defaults of [`FIBER_PARAMS`] (those of [`Fiber::default`]). Giving
+    /// `medulla_radius` adds the medulla. A number given for a text key (`orientation = 30`
+    /// in TOML) is read as its text.
+    pub fn from_raw<K: AsRef<str>>(pairs: &[(K, RawValue)]) -> Result<Self, FiberKeyError> {
+        let is_text = |k: &str| FIBER_PARAMS.iter().any(|s| s.key == k.trim() && matches!(s.kind, ParamKind::Text));
+        let pairs: Vec<(&str, RawValue)> = pairs
+            .iter()
+            .map(|(k, v)| match v {
+                RawValue::Number(x) if is_text(k.as_ref()) => (k.as_ref(), RawValue::Text(x.to_string())),
+                _ => (k.as_ref(), v.clone()),
+            })
+            .collect();
+        let p = ParamSet::from_raw("fiber", FIBER_PARAMS, &pairs).map_err(|e| match e {
+            ModelError::UnknownParameter { key, known, .. } => FiberKeyError::UnknownKey { key, known },
+            e => FiberKeyError::Parameter(e),
+        })?;
+        let orientation = match p.text("orientation").unwrap_or("0") {
+            t if t.eq_ignore_ascii_case("average") => Orientation::Average,
+            t => Orientation::Fixed(
+                t.parse::<f64>()
+                    .ok()
+                    .filter(|d| d.is_finite())
+                    .ok_or_else(|| FiberKeyError::Orientation(t.into()))?
+                    .to_radians(),
+            ),
+        };
+        let medulla = match p.number_opt("medulla_radius") {
+            Some(radius) => Some(Medulla {
+                radius,
+                sigma_s: p.number("medulla_sigma_s")?,
+                sigma_a: p.color("medulla_sigma_a")?,
+                g: p.number("medulla_g")?,
+            }),
+            None => None,
+        };
+        let surface = match p.choice("surface")? {
+            "lambertian" => SurfaceKind::Lambertian(p.color("albedo")?),
+            _ => SurfaceKind::Dielectric,
+        };
+        let f = Fiber {
+            eta: p.number("eta")?,
+            sigma_a: p.color("sigma_a")?,
+            aspect: p.number("aspect")?,
+            orientation,
+            scale_angle: p.degrees("scale_angle")?,
+            scale_length: p.number("scale_length")?,
+            medulla,
+            surface,
+        };
         f.validate()?;
         Ok(f)
+    }
+
+    /// [`Fiber::from_raw`] for textual `key=value` pairs.
+    pub fn from_pairs<K: AsRef<str>, V: AsRef<str>>(pairs: &[(K, V)]) -> Result<Self, FiberKeyError> {
+        let raw: Vec<(&str, RawValue)> = pairs.iter().map(|(k, v)| (k.as_ref(), RawValue::from(v.as_ref()))).collect();
+        Self::from_raw(&raw)
     }
 }
 
@@ -244,8 +328,37 @@ mod tests {
         assert!(e.contains("`aspect`") && e.contains("(0, 1]"), "{e}");
         let e = Fiber::from_pairs(&[("eta", "NaN")]).unwrap_err().to_string();
         assert!(e.contains("`eta`"), "{e}");
-        assert!(matches!(Fiber::from_pairs(&[("colour", "1")]), Err(FiberKeyError::UnknownKey(_))));
+        let e = Fiber::from_pairs(&[("colour", "1")]).unwrap_err();
+        assert!(matches!(e, FiberKeyError::UnknownKey { .. }), "{e}");
+        assert!(e.to_string().contains("eta, sigma_a, aspect"), "{e}");
+        assert!(matches!(Fiber::from_pairs(&[("orientation", "sideways")]), Err(FiberKeyError::Orientation(_))));
+        assert_eq!(Fiber::from_pairs::<&str, &str>(&[]).unwrap(), Fiber::default());
         let m = Fiber::from_pairs(&[("medulla_radius", "0.3"), ("medulla_sigma_s", "5")]).unwrap();
         assert_eq!(m.medulla.unwrap().sigma_s, 5.0);
+    }
+
+    /// TOML arrays, numbers and booleans mean what the same values written as text mean.
+    #[test]
+    fn raw_values_convert_like_text() {
+        let list = RawValue::List(vec![RawValue::Number(0.1), RawValue::Number(0.2), RawValue::Number(0.3)]);
+        let raw = Fiber::from_raw(&[
+            ("sigma_a", list),
+            ("orientation", RawValue::Number(30.0)),
+            ("surface", RawValue::from("lambertian")),
+            ("albedo", RawValue::Number(0.5)),
+        ])
+        .unwrap();
+        let text = Fiber::from_pairs(&[
+            ("sigma_a", "0.1,0.2,0.3"),
+            ("orientation", "30"),
+            ("surface", "lambertian"),
+            ("albedo", "0.5"),
+        ])
+        .unwrap();
+        assert_eq!(raw, text);
+        assert_eq!(raw.sigma_a, Rgb::new(0.1, 0.2, 0.3));
+        assert_eq!(raw.orientation, Orientation::Fixed(30f64.to_radians()));
+        assert_eq!(raw.surface, SurfaceKind::Lambertian(Rgb::splat(0.5)));
+        assert!(Fiber::from_raw(&[("eta", RawValue::Bool(true))]).is_err());
     }
 }

@@ -13,7 +13,7 @@ pub mod fiber;
 pub mod surface;
 pub mod trace;
 
-pub use fiber::{FIBER_KEYS, Fiber, FiberError, FiberKeyError, Medulla, Orientation, SurfaceKind};
+pub use fiber::{FIBER_PARAMS, Fiber, FiberError, FiberKeyError, Medulla, Orientation, SurfaceKind};
 pub use trace::{Lobe, Outcome};
 
 use fiberlab_math::frame::{direction, phi, theta, wrap_pi};

@@ -14,7 +14,7 @@ fn benches(c: &mut Criterion) {
     let (set, stats) = bvh_build(&hair);
     eprintln!("{} segments, {} pieces, {:.1} bytes/segment", stats.segments, stats.pieces, stats.bytes_per_segment());
     let (scene, settings) = SceneFile::default_scene().build().unwrap();
-    g.bench_function("rays_10k", |b| b.iter(|| ray_throughput(&set, &scene.camera, 10_000, 1)));
+    g.bench_function("rays_10k", |b| b.iter(|| ray_throughput(&set, scene.camera(), 10_000, 1)));
     g.bench_function("samples_32x32x1", |b| b.iter(|| samples_per_second(&scene, &settings, 32, 1, 1)));
     g.finish();
 }

@@ -22,7 +22,7 @@ fn main() {
         stats.seconds,
         stats.bytes_per_segment()
     );
-    let (cam, inc, hit) = ray_throughput(&set, &scene.camera, 200_000, 1);
+    let (cam, inc, hit) = ray_throughput(&set, scene.camera(), 200_000, 1);
     println!("rays (1 thread): camera {cam:.2} Mrays/s ({:.0}% hit), incoherent {inc:.2} Mrays/s", hit * 100.0);
     println!("samples/s (1 thread, 64×64 centre, 2 spp): {:.0}", samples_per_second(&scene, &settings, 64, 2, 1));
     if let Some(spp) = args.get(1).and_then(|s| s.parse().ok()) {

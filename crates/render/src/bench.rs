@@ -99,7 +99,7 @@ pub fn brute_force_throughput(set: &CurveSet, camera: &Camera, rays: usize) -> f
 /// pixels with `spp` samples, on `threads` threads (0: all).
 #[must_use]
 pub fn samples_per_second(scene: &Scene, settings: &RenderSettings, side: u32, spp: u32, threads: usize) -> f64 {
-    let (w, h) = (scene.camera.width, scene.camera.height);
+    let (w, h) = (scene.camera().width, scene.camera().height);
     let (x0, y0) = ((w.saturating_sub(side)) / 2, (h.saturating_sub(side)) / 2);
     let region = Region { x0, y0, x1: (x0 + side).min(w), y1: (y0 + side).min(h) };
     let s = RenderSettings { spp, threads, region: Some(region), ..settings.clone() };

@@ -1,13 +1,13 @@
 //! Unidirectional path tracing with next-event estimation and multiple importance sampling
 //! (power heuristic, Veach 1997 §9.2), Russian roulette, tiles in parallel, parts and merging.
 //!
-//! # Fiber hits (models.md §1.4)
+//! # Fiber hits (`docs/theory/conventions.md`, "Fiber scattering function versus renderer BSDF")
 //! At a fiber hit the frame `(u, v, w)` and `h` come from [`crate::curves`]; directions are
 //! converted to that frame and the model's `f_s(ω_i, ω_o; h)` is evaluated. The throughput of
 //! a light sample is `f_s·cosθ_i·L_i/pdf` with `cosθ_i = sqrt(1 − (ω_i·u)²)` measured from the
 //! fiber's normal plane; a scattering sample multiplies the throughput by the model's
 //! `weight = f_s·cosθ_i/pdf`. Because the tube is hit at a uniformly distributed `h` across
-//! the pixel footprint, near-field models are averaged over the width exactly as §1.4 states;
+//! the pixel footprint, near-field models are averaged over the width as that section states;
 //! far-field models ignore `h`. Delta models (`Lobes::Delta`) get no light sampling and no MIS.
 //!
 //! # Determinism
@@ -18,9 +18,8 @@
 
 use crate::bvh::Ray;
 use crate::curves::CurveHit;
-use crate::light::Light;
 use crate::sampler::PixelSampler;
-use crate::scene::{Hit, Material, Scene};
+use crate::scene::{Hit, Scene, SurfaceMaterial};
 use fiberlab_io::LinearImage;
 use fiberlab_math::frame::cos_theta;
 use fiberlab_math::{DVec3, FiberFrame, Rgb};
@@ -129,24 +128,9 @@ pub fn power_heuristic(a: f64, b: f64) -> f64 {
 
 /// The scattering function at a hit, in world directions.
 enum Local<'a> {
-    Fiber {
-        model: &'a Model,
-        frame: FiberFrame,
-        wo: DVec3,
-        h: f64,
-        delta: bool,
-    },
-    Lambert {
-        albedo: Rgb,
-        n: DVec3,
-    },
-    Mirror {
-        reflectance: Rgb,
-        n: DVec3,
-        wo: DVec3,
-    },
-    /// Fiber material on a surface or surface material on a fiber: absorbs.
-    Black,
+    Fiber { model: &'a Model, frame: FiberFrame, wo: DVec3, h: f64, delta: bool },
+    Lambert { albedo: Rgb, n: DVec3 },
+    Mirror { reflectance: Rgb, n: DVec3, wo: DVec3 },
 }
 
 struct Scatter {
@@ -166,7 +150,7 @@ impl<'a> Local<'a> {
     fn is_delta(&self) -> bool {
         match self {
             Local::Fiber { delta, .. } => *delta,
-            Local::Mirror { .. } | Local::Black => true,
+            Local::Mirror { .. } => true,
             Local::Lambert { .. } => false,
         }
     }
@@ -183,7 +167,7 @@ impl<'a> Local<'a> {
                 let cos = n.dot(wi).max(0.0);
                 (*albedo * (cos / PI), cos / PI)
             }
-            _ => (Rgb::ZERO, 0.0),
+            Local::Mirror { .. } => (Rgb::ZERO, 0.0),
         }
     }
 
@@ -205,7 +189,6 @@ impl<'a> Local<'a> {
                 pdf: 0.0,
                 delta: true,
             }),
-            Local::Black => None,
         }
     }
 }
@@ -213,39 +196,6 @@ impl<'a> Local<'a> {
 /// Smallest ray distance for rays spawned at `p` (relative to the coordinates' magnitude).
 fn spawn_epsilon(p: DVec3) -> f64 {
     1e-9 * (1.0 + p.abs().max_element())
-}
-
-/// Chooses the light for next-event estimation with probability proportional to
-/// [`Light::selection_weight`] (uniformly when every weight is zero).
-struct LightPicker {
-    total: f64,
-    uniform: f64,
-}
-
-impl LightPicker {
-    fn new(lights: &[Light]) -> Self {
-        let total = lights.iter().map(Light::selection_weight).sum();
-        Self { total, uniform: if lights.is_empty() { 0.0 } else { 1.0 / lights.len() as f64 } }
-    }
-
-    /// Probability that `pick` returns `light`.
-    fn probability(&self, light: &Light) -> f64 {
-        if self.total > 0.0 { light.selection_weight() / self.total } else { self.uniform }
-    }
-
-    /// A light and its selection probability, from one uniform.
-    fn pick<'a>(&self, lights: &'a [Light], u: f64) -> Option<(&'a Light, f64)> {
-        let mut acc = 0.0;
-        for light in lights {
-            let p = self.probability(light);
-            acc += p;
-            if u < acc && p > 0.0 {
-                return Some((light, p));
-            }
-        }
-        // Rounding left u above the last sum: the last light with a chance.
-        lights.iter().rev().map(|l| (l, self.probability(l))).find(|&(_, p)| p > 0.0)
-    }
 }
 
 /// Radiance arriving at the camera along `ray` (one path); adds the rays traced (path and
@@ -258,12 +208,12 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
     let mut prev_delta = true;
     let mut prev_pdf = 0.0;
     let mut prev_p = ray.o;
-    let picker = LightPicker::new(&scene.lights);
+    let picker = scene.light_picker();
     let mut depth = 0u32;
     loop {
         *rays += 1;
         let Some(hit) = scene.intersect(&ray) else {
-            for light in scene.lights.iter().filter(|l| l.is_infinite()) {
+            for (i, light) in scene.lights().iter().enumerate() {
                 let le = light.escaped(ray.d);
                 if le.is_black() {
                     continue;
@@ -271,41 +221,30 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
                 let w = if prev_delta {
                     1.0
                 } else {
-                    power_heuristic(prev_pdf, picker.probability(light) * light.pdf(prev_p, ray.d))
+                    power_heuristic(prev_pdf, picker.light_probability(i) * light.pdf(ray.d))
                 };
                 l += beta * le * w;
             }
             break;
         };
         let (p, local) = match hit {
-            Hit::Fiber { hit, material } => {
-                let local = match &scene.materials[material] {
-                    Material::Fiber(m) => Local::fiber(m.as_ref(), &hit, ray.d),
-                    _ => Local::Black,
-                };
-                (hit.p, local)
-            }
-            Hit::Surface { p, n, material, light, .. } => {
-                if let Some(li) = light
+            Hit::Fiber { hit, material } => (hit.p, Local::fiber(scene.fiber_model(material), &hit, ray.d)),
+            Hit::Surface { p, n, material, emitter, .. } => {
+                if let Some(i) = emitter
+                    && let Some(light) = scene.spheres()[i].light()
                     && n.dot(ray.d) < 0.0
                 {
-                    let le = match scene.lights[li] {
-                        crate::light::Light::Sphere { radiance, .. } => radiance,
-                        _ => Rgb::ZERO,
-                    };
                     let w = if prev_delta {
                         1.0
                     } else {
-                        let light = &scene.lights[li];
-                        power_heuristic(prev_pdf, picker.probability(light) * light.pdf(prev_p, ray.d))
+                        power_heuristic(prev_pdf, picker.sphere_probability(i) * light.pdf(prev_p, ray.d))
                     };
-                    l += beta * le * w;
+                    l += beta * light.radiance * w;
                 }
                 let facing = if n.dot(ray.d) < 0.0 { n } else { -n };
-                let local = match &scene.materials[material] {
-                    Material::Lambert(albedo) => Local::Lambert { albedo: *albedo, n: facing },
-                    Material::Mirror(r) => Local::Mirror { reflectance: *r, n: facing, wo: -ray.d },
-                    Material::Fiber(_) => Local::Black,
+                let local = match scene.surface_material(material) {
+                    SurfaceMaterial::Lambert(albedo) => Local::Lambert { albedo: *albedo, n: facing },
+                    SurfaceMaterial::Mirror(r) => Local::Mirror { reflectance: *r, n: facing, wo: -ray.d },
                 };
                 (p, local)
             }
@@ -318,8 +257,8 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
         let [u_pick, _] = sampler.next_2d();
         let u_light = sampler.next_2d();
         if !local.is_delta()
-            && let Some((light, select)) = picker.pick(&scene.lights, u_pick)
-            && let Some(ls) = light.sample(p, u_light)
+            && let Some((emitter, select)) = picker.pick(u_pick)
+            && let Some(ls) = scene.sample_emitter(emitter, p, u_light)
         {
             let (f, bsdf_pdf) = local.eval_cos_and_pdf(ls.wi);
             if !f.is_black() && !ls.radiance.is_black() {
@@ -376,7 +315,7 @@ fn render_tile(scene: &Scene, settings: &RenderSettings, t: Region) -> TileResul
             for i in 0..settings.spp {
                 sampler.start(u64::from(i));
                 let [jx, jy] = sampler.next_2d();
-                let ray = scene.camera.ray(f64::from(x) + jx, f64::from(y) + jy);
+                let ray = scene.camera().ray(f64::from(x) + jx, f64::from(y) + jy);
                 let l = radiance(scene, ray, &mut sampler, settings, &mut rays);
                 if l.is_finite() {
                     sum += l;
@@ -418,7 +357,7 @@ pub fn render(
     stop: &AtomicBool,
 ) -> RenderOutput {
     let start = Instant::now();
-    let (w, h) = (scene.camera.width, scene.camera.height);
+    let (w, h) = (scene.camera().width, scene.camera().height);
     let full = Region::full(w, h);
     let region =
         settings.region.map_or(full, |r| Region { x0: r.x0.min(w), y0: r.y0.min(h), x1: r.x1.min(w), y1: r.y1.min(h) });
@@ -511,7 +450,8 @@ mod tests {
     use crate::curves::CurveSet;
     use crate::generator::{HairParams, Style};
     use crate::light::Light;
-    use crate::scene::{Fibers, Sphere};
+    use crate::scene::SceneBuilder;
+    use crate::shapes::TriangleMesh;
 
     /// Lossless models of every kind: Chiang 2016 with σ_a = 0 (near-field; its sample weight is
     /// exactly 1 on the camera side) and the ideal specular fiber (a delta lobe: no light
@@ -519,9 +459,9 @@ mod tests {
     #[test]
     fn white_furnace_with_lossless_chiang_and_specular_hair() {
         for (name, params) in [("chiang", vec![("sigma_a", "0")]), ("specular", vec![("azimuth", "mirror")])] {
-            let mut scene = furnace_scene(1.0, false);
+            let mut scene = furnace_scene(1.0, false).build();
             let model = fiberlab_scatter::build(name, &params).unwrap();
-            scene.materials[0] = Material::Fiber(Box::new(model));
+            scene.fiber_models_mut().for_each(|m| *m = model.clone());
             let out = render(&scene, &settings(32), &|_, _| {}, &AtomicBool::new(false));
             assert_eq!(out.stats.nonfinite_samples, 0);
             let (mean, n) = fiber_pixel_mean(&scene, &out.image);
@@ -536,7 +476,7 @@ mod tests {
         let (mut sum, mut n) = (0.0, 0);
         for y in 0..image.height() {
             for x in 0..image.width() {
-                let ray = scene.camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+                let ray = scene.camera().ray(x as f64 + 0.5, y as f64 + 0.5);
                 if let Some(Hit::Fiber { .. }) = scene.intersect(&ray) {
                     sum += f64::from(image.get(x, y)[1]);
                     n += 1;
@@ -546,7 +486,7 @@ mod tests {
         (sum / n.max(1) as f64, n)
     }
 
-    fn furnace_scene(albedo: f64, head: bool) -> Scene {
+    fn furnace_scene(albedo: f64, head: bool) -> SceneBuilder {
         let hair = HairParams {
             strands: 400,
             segments: 12,
@@ -558,19 +498,24 @@ mod tests {
         .generate()
         .unwrap();
         let fiber = fiberlab_scatter::build("diffuse", &[("albedo", albedo.to_string())]).unwrap();
-        Scene {
-            camera: Camera::look_at(DVec3::new(0.0, 0.3, 5.0), DVec3::new(0.0, 0.0, 0.0), DVec3::Y, 40.0, 24, 24)
-                .unwrap(),
-            materials: vec![Material::Fiber(Box::new(fiber)), Material::Lambert(Rgb::splat(albedo))],
-            fibers: vec![Fibers { curves: CurveSet::from_hair(&hair), material: 0 }],
-            spheres: if head {
-                vec![Sphere { center: DVec3::ZERO, radius: 1.0, material: 1, light: None }]
-            } else {
-                vec![]
-            },
-            meshes: vec![],
-            lights: vec![Light::Constant { radiance: Rgb::ONE }],
+        let camera =
+            Camera::look_at(DVec3::new(0.0, 0.3, 5.0), DVec3::new(0.0, 0.0, 0.0), DVec3::Y, 40.0, 24, 24).unwrap();
+        let mut b = SceneBuilder::new(camera);
+        let (fiber, skin) = (b.fiber_material(fiber), b.surface_material(SurfaceMaterial::Lambert(Rgb::splat(albedo))));
+        b.fibers(CurveSet::from_hair(&hair), fiber).light(Light::Constant { radiance: Rgb::ONE });
+        if head {
+            b.sphere(DVec3::ZERO, 1.0, skin, None);
         }
+        b
+    }
+
+    /// A Lambertian floor of albedo `rho` seen from straight above through a narrow view.
+    fn floor_scene(rho: f64, eye_height: f64, fov: f64, side: u32) -> (SceneBuilder, crate::scene::SurfaceMaterialId) {
+        let camera = Camera::look_at(DVec3::new(0.0, eye_height, 0.0), DVec3::ZERO, DVec3::Z, fov, side, side).unwrap();
+        let mut b = SceneBuilder::new(camera);
+        let floor = b.surface_material(SurfaceMaterial::Lambert(Rgb::splat(rho)));
+        b.mesh(TriangleMesh::floor(0.0, 100.0), floor);
+        (b, floor)
     }
 
     /// A Lambertian floor under a constant sky `L` and a sun of irradiance `E` at elevation
@@ -579,14 +524,9 @@ mod tests {
     #[test]
     fn lambert_floor_under_sky_and_sun_matches_closed_form() {
         let sun_dir = DVec3::new(1.0, 2.0, 0.5).normalize();
-        let scene = Scene {
-            camera: Camera::look_at(DVec3::new(0.0, 3.0, 0.0), DVec3::ZERO, DVec3::Z, 30.0, 8, 8).unwrap(),
-            materials: vec![Material::Lambert(Rgb::splat(0.5))],
-            fibers: vec![],
-            spheres: vec![],
-            meshes: vec![crate::scene::Mesh { mesh: crate::shapes::TriangleMesh::floor(0.0, 100.0), material: 0 }],
-            lights: vec![Light::Constant { radiance: Rgb::splat(0.3) }, Light::sun(sun_dir, 0.1, Rgb::splat(2.0))],
-        };
+        let (mut b, _) = floor_scene(0.5, 3.0, 30.0, 8);
+        b.light(Light::Constant { radiance: Rgb::splat(0.3) }).light(Light::sun(sun_dir, 0.1, Rgb::splat(2.0)));
+        let scene = b.build();
         let out = render(&scene, &settings(256), &|_, _| {}, &AtomicBool::new(false));
         let px = out.image.pixels();
         let mean: f64 = px.iter().map(|p| f64::from(p[0])).sum::<f64>() / px.len() as f64;
@@ -600,14 +540,9 @@ mod tests {
     #[test]
     fn lambert_floor_under_a_sphere_light_matches_closed_form() {
         let (r, d, l) = (0.5, 2.0, 8.0);
-        let scene = Scene {
-            camera: Camera::look_at(DVec3::new(0.0, 1.0, 0.0), DVec3::ZERO, DVec3::Z, 0.5, 4, 4).unwrap(),
-            materials: vec![Material::Lambert(Rgb::splat(0.5))],
-            fibers: vec![],
-            spheres: vec![Sphere { center: DVec3::new(0.0, d, 0.0), radius: r, material: 0, light: Some(0) }],
-            meshes: vec![crate::scene::Mesh { mesh: crate::shapes::TriangleMesh::floor(0.0, 100.0), material: 0 }],
-            lights: vec![Light::Sphere { center: DVec3::new(0.0, d, 0.0), radius: r, radiance: Rgb::splat(l) }],
-        };
+        let (mut b, floor) = floor_scene(0.5, 1.0, 0.5, 4);
+        b.sphere(DVec3::new(0.0, d, 0.0), r, floor, Some(Rgb::splat(l)));
+        let scene = b.build();
         // Depth 1: direct light only (the lit sphere's diffuse bounce would add more).
         let s = RenderSettings { max_depth: 1, ..settings(256) };
         let out = render(&scene, &s, &|_, _| {}, &AtomicBool::new(false));
@@ -624,14 +559,9 @@ mod tests {
     fn lambert_floor_under_a_distant_light_matches_closed_form() {
         let (rho, e, theta) = (0.5, 3.0, 0.6_f64);
         let direction = DVec3::new(theta.sin(), theta.cos(), 0.0);
-        let scene = Scene {
-            camera: Camera::look_at(DVec3::new(0.0, 1.0, 0.0), DVec3::ZERO, DVec3::Z, 0.5, 4, 4).unwrap(),
-            materials: vec![Material::Lambert(Rgb::splat(rho))],
-            fibers: vec![],
-            spheres: vec![],
-            meshes: vec![crate::scene::Mesh { mesh: crate::shapes::TriangleMesh::floor(0.0, 100.0), material: 0 }],
-            lights: vec![Light::Distant { direction, irradiance: Rgb::splat(e) }],
-        };
+        let (mut b, _) = floor_scene(rho, 1.0, 0.5, 4);
+        b.light(Light::Distant { direction, irradiance: Rgb::splat(e) });
+        let scene = b.build();
         let s = RenderSettings { max_depth: 1, ..settings(2) };
         let out = render(&scene, &s, &|_, _| {}, &AtomicBool::new(false));
         let expected = rho * e * theta.cos() / PI;
@@ -641,38 +571,13 @@ mod tests {
         assert_eq!(out.stats.rays, 16 * 2 * 3, "camera, shadow and escaping continuation ray per sample");
     }
 
-    /// Light selection follows the irradiance weights: a distant light of E = 3 against a sky
-    /// of L = 0.5 (π L ≈ 1.57) is picked with probability 3/4.57, and `pick` agrees with
-    /// `probability`; black lights only are picked uniformly.
-    #[test]
-    fn lights_are_picked_in_proportion_to_their_irradiance() {
-        let lights = vec![
-            Light::Constant { radiance: Rgb::splat(0.5) },
-            Light::Distant { direction: DVec3::Y, irradiance: Rgb::splat(3.0) },
-        ];
-        let picker = LightPicker::new(&lights);
-        let expected = 3.0 / (3.0 + 0.5 * PI);
-        assert!((picker.probability(&lights[1]) - expected).abs() < 1e-12);
-        let n = 100_000;
-        let picked = (0..n)
-            .filter(|i| {
-                let (l, p) = picker.pick(&lights, (f64::from(*i) + 0.5) / f64::from(n)).unwrap();
-                assert_eq!(p, picker.probability(l));
-                matches!(l, Light::Distant { .. })
-            })
-            .count();
-        assert!((picked as f64 / f64::from(n) - expected).abs() < 1e-4);
-        let dark = vec![Light::Constant { radiance: Rgb::ZERO }; 4];
-        assert_eq!(LightPicker::new(&dark).probability(&dark[0]), 0.25);
-    }
-
     fn settings(spp: u32) -> RenderSettings {
         RenderSettings { spp, max_depth: u32::MAX, seed: 7, ..RenderSettings::default() }
     }
 
     #[test]
     fn white_furnace_lossless_fibers_and_head_render_one() {
-        let scene = furnace_scene(1.0, true);
+        let scene = furnace_scene(1.0, true).build();
         let out = render(&scene, &settings(64), &|_, _| {}, &AtomicBool::new(false));
         assert_eq!(out.stats.nonfinite_samples, 0);
         let px = out.image.pixels();
@@ -682,14 +587,14 @@ mod tests {
             assert!((f64::from(p[1]) - 1.0).abs() < 0.25, "pixel {p:?}");
         }
         // Pixels that see hair (not the head): hair-only scene.
-        let hair_scene = furnace_scene(1.0, false);
+        let hair_scene = furnace_scene(1.0, false).build();
         let hair_only = render(&hair_scene, &settings(64), &|_, _| {}, &AtomicBool::new(false));
         let (m, n) = fiber_pixel_mean(&hair_scene, &hair_only.image);
         eprintln!("diffuse furnace: {n} fiber pixels, mean {m}");
         assert!(n > 100, "only {n} fiber pixels");
         assert!((m - 1.0).abs() < 0.01, "hair-only mean over {n} fiber pixels {m}");
         // A lossy assembly is darker: the test can fail.
-        let lossy_scene = furnace_scene(0.5, false);
+        let lossy_scene = furnace_scene(0.5, false).build();
         let lossy = render(&lossy_scene, &settings(16), &|_, _| {}, &AtomicBool::new(false));
         let (m, _) = fiber_pixel_mean(&lossy_scene, &lossy.image);
         assert!(m < 0.9, "lossy mean {m}");
@@ -697,8 +602,9 @@ mod tests {
 
     #[test]
     fn same_seed_same_image_for_any_threads_and_parts_merge_bit_for_bit() {
-        let mut scene = furnace_scene(0.7, true);
-        scene.lights.push(Light::sun(DVec3::new(1.0, 1.0, 1.0), 0.05, Rgb::splat(2.0)));
+        let mut b = furnace_scene(0.7, true);
+        b.light(Light::sun(DVec3::new(1.0, 1.0, 1.0), 0.05, Rgb::splat(2.0)));
+        let scene = b.build();
         let s1 = RenderSettings { threads: 1, max_depth: 16, ..settings(4) };
         let s2 = RenderSettings { threads: 2, tile_size: 7, ..s1.clone() };
         let a = render(&scene, &s1, &|_, _| {}, &AtomicBool::new(false)).image;
@@ -716,7 +622,7 @@ mod tests {
 
     #[test]
     fn interrupt_returns_what_is_done() {
-        let scene = furnace_scene(0.7, true);
+        let scene = furnace_scene(0.7, true).build();
         let out = render(&scene, &settings(1), &|_, _| {}, &AtomicBool::new(true));
         assert!(out.stats.interrupted && out.stats.tiles_done == 0);
         let stop = AtomicBool::new(false);

@@ -1,7 +1,8 @@
 //! fiberlab's renderer for fiber assemblies: strands as round tubes ([`curves`]) in a BVH
 //! ([`bvh`]), a procedural hair generator ([`generator`]), spheres and triangle meshes
 //! ([`shapes`]), camera, lights, a unidirectional path tracer with next-event estimation and
-//! MIS ([`integrator`]), tiles and part merging, and the TOML scene format ([`scene_file`]).
+//! MIS ([`integrator`]), tiles and part merging, the TOML scene format ([`scene_file`]), and the
+//! one model loader for user input ([`model_loader`], with [`toml_params`]).
 //!
 //! Fiber scattering comes from [`fiberlab_scatter`] (any registered model); file formats from
 //! [`fiberlab_io`]. This crate owns no scattering physics: at a fiber hit it builds the fiber
@@ -16,7 +17,9 @@ pub mod generator;
 pub mod integrator;
 pub mod light;
 pub mod measured_table;
+pub mod model_loader;
 pub mod sampler;
 pub mod scene;
 pub mod scene_file;
 pub mod shapes;
+pub mod toml_params;

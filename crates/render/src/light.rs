@@ -1,5 +1,7 @@
 //! Lights: a constant environment, a lat-long environment map with importance sampling, a
-//! distant sun with an angular radius, a delta distant light, and spherical area lights.
+//! distant sun with an angular radius, a delta distant light, spherical area lights
+//! ([`SphereLight`], the emission of a scene's sphere) and the light picker of next-event
+//! estimation ([`LightPicker`]).
 //!
 //! Every light can be sampled from a point (`sample`, density per steradian) and report the
 //! density of a given direction (`pdf`), which the integrator needs for MIS.
@@ -144,7 +146,8 @@ impl EnvironmentMap {
     }
 }
 
-/// A light source.
+/// A light at infinity (environments, suns, distant lights); an emitting sphere is a
+/// [`crate::scene::Sphere`] with emission, whose light is a [`SphereLight`].
 #[derive(Clone, Debug)]
 pub enum Light {
     /// Uniform radiance from every direction.
@@ -171,15 +174,123 @@ pub enum Light {
         /// Irradiance on a surface facing the light.
         irradiance: Rgb,
     },
-    /// A sphere of uniform radiance (also present in the scene's geometry).
-    Sphere {
-        /// Centre.
-        center: DVec3,
-        /// Radius.
-        radius: f64,
-        /// Radiance.
-        radiance: Rgb,
-    },
+}
+
+/// The emission of an emitting sphere of the scene: uniform radiance over its surface. Not
+/// stored: made on demand from the sphere (its one description, see
+/// [`crate::scene::Sphere::light`]), so geometry and light cannot disagree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereLight {
+    /// Centre.
+    pub center: DVec3,
+    /// Radius.
+    pub radius: f64,
+    /// Radiance.
+    pub radiance: Rgb,
+}
+
+impl SphereLight {
+    /// Weight in next-event light selection: π × L, the irradiance at the sphere's surface.
+    #[must_use]
+    pub fn selection_weight(&self) -> f64 {
+        (PI * self.radiance.average()).max(0.0)
+    }
+
+    /// Samples a direction toward the sphere from `p`: uniform in the cone it subtends.
+    #[must_use]
+    pub fn sample(&self, p: DVec3, u: [f64; 2]) -> Option<LightSample> {
+        let (center, radius) = (self.center, self.radius);
+        let to = center - p;
+        let d2 = to.length_squared();
+        if d2 <= radius * radius {
+            return None;
+        }
+        let cos_max = (1.0 - radius * radius / d2).max(0.0).sqrt();
+        let axis = to / d2.sqrt();
+        let wi = sample_cone(axis, cos_max, u);
+        let distance = crate::shapes::sphere_entry(p, wi, center, radius)?;
+        Some(LightSample { wi, distance, radiance: self.radiance, pdf: cone_pdf(cos_max), delta: false })
+    }
+
+    /// Density per steradian with which [`SphereLight::sample`] from `p` returns `wi`.
+    #[must_use]
+    pub fn pdf(&self, p: DVec3, wi: DVec3) -> f64 {
+        let (center, radius) = (self.center, self.radius);
+        let to = center - p;
+        let d2 = to.length_squared();
+        if d2 <= radius * radius {
+            return 0.0;
+        }
+        let cos_max = (1.0 - radius * radius / d2).max(0.0).sqrt();
+        if wi.dot(to / d2.sqrt()) >= cos_max { cone_pdf(cos_max) } else { 0.0 }
+    }
+}
+
+/// One source of next-event estimation: a light at infinity (index into the scene's lights)
+/// or an emitting sphere (index into its spheres).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Emitter {
+    /// `Scene::lights()[i]`.
+    Light(usize),
+    /// `Scene::spheres()[i]`, which emits.
+    Sphere(usize),
+}
+
+/// Chooses the emitter for next-event estimation with probability proportional to its
+/// selection weight (uniformly when every weight is zero). Built once per scene.
+#[derive(Clone, Debug)]
+pub struct LightPicker {
+    /// Every emitter with its selection probability, in picking order.
+    emitters: Vec<(Emitter, f64)>,
+    /// Selection probability per light / per sphere (0 for spheres that do not emit).
+    light_probability: Vec<f64>,
+    sphere_probability: Vec<f64>,
+}
+
+impl LightPicker {
+    /// The picker for emitters with their selection weights, in picking order; `lights` and
+    /// `spheres` are the lengths of the scene's lists the emitters index.
+    #[must_use]
+    pub fn new(weighted: &[(Emitter, f64)], lights: usize, spheres: usize) -> Self {
+        let total: f64 = weighted.iter().map(|(_, w)| *w).sum();
+        let uniform = if weighted.is_empty() { 0.0 } else { 1.0 / weighted.len() as f64 };
+        let emitters: Vec<(Emitter, f64)> =
+            weighted.iter().map(|&(e, w)| (e, if total > 0.0 { w / total } else { uniform })).collect();
+        let (mut light_probability, mut sphere_probability) = (vec![0.0; lights], vec![0.0; spheres]);
+        for &(e, p) in &emitters {
+            match e {
+                Emitter::Light(i) => light_probability[i] = p,
+                Emitter::Sphere(i) => sphere_probability[i] = p,
+            }
+        }
+        Self { emitters, light_probability, sphere_probability }
+    }
+
+    /// Probability that `pick` returns light `i`.
+    #[must_use]
+    pub fn light_probability(&self, i: usize) -> f64 {
+        self.light_probability[i]
+    }
+
+    /// Probability that `pick` returns sphere `i` (0 when it does not emit).
+    #[must_use]
+    pub fn sphere_probability(&self, i: usize) -> f64 {
+        self.sphere_probability[i]
+    }
+
+    /// An emitter and its selection probability, from one uniform.
+    #[must_use]
+    pub fn pick(&self, u: f64) -> Option<(Emitter, f64)> {
+        let mut acc = 0.0;
+        for &(e, p) in &self.emitters {
+            acc += p;
+            if u < acc && p > 0.0 {
+                return Some((e, p));
+            }
+        }
+        // Rounding left u above the last sum: the last emitter with a chance.
+        self.emitters.iter().rev().copied().find(|&(_, p)| p > 0.0)
+    }
 }
 
 fn cone_pdf(cos_max: f64) -> f64 {
@@ -205,8 +316,8 @@ impl Light {
     }
 
     /// Weight in next-event light selection: the irradiance the light delivers on a surface
-    /// facing it (π × mean radiance for environments, `E` for a sun or distant light, π × L at
-    /// a sphere light's surface), averaged over colour channels.
+    /// facing it (π × mean radiance for environments, `E` for a sun or distant light),
+    /// averaged over colour channels (see also [`SphereLight::selection_weight`]).
     #[must_use]
     pub fn selection_weight(&self) -> f64 {
         match self {
@@ -214,15 +325,8 @@ impl Light {
             Light::Map(m) => PI * m.mean_radiance(),
             Light::Sun { cos_max, radiance, .. } => PI * (1.0 - cos_max * cos_max) * radiance.average(),
             Light::Distant { irradiance, .. } => irradiance.average(),
-            Light::Sphere { radiance, .. } => PI * radiance.average(),
         }
         .max(0.0)
-    }
-
-    /// True for lights at infinity (hit by escaping rays).
-    #[must_use]
-    pub fn is_infinite(&self) -> bool {
-        !matches!(self, Light::Sphere { .. })
     }
 
     /// Radiance from an infinite light along escaping direction `d`.
@@ -238,13 +342,13 @@ impl Light {
                     Rgb::ZERO
                 }
             }
-            Light::Distant { .. } | Light::Sphere { .. } => Rgb::ZERO,
+            Light::Distant { .. } => Rgb::ZERO,
         }
     }
 
-    /// Samples a direction toward the light from `p`.
+    /// Samples a direction toward the light (the same from every point: it is at infinity).
     #[must_use]
-    pub fn sample(&self, p: DVec3, u: [f64; 2]) -> Option<LightSample> {
+    pub fn sample(&self, u: [f64; 2]) -> Option<LightSample> {
         match self {
             Light::Constant { radiance } => {
                 let z = 1.0 - 2.0 * u[0];
@@ -274,24 +378,12 @@ impl Light {
                 pdf: 1.0,
                 delta: true,
             }),
-            Light::Sphere { center, radius, radiance } => {
-                let to = *center - p;
-                let d2 = to.length_squared();
-                if d2 <= radius * radius {
-                    return None;
-                }
-                let cos_max = (1.0 - radius * radius / d2).max(0.0).sqrt();
-                let axis = to / d2.sqrt();
-                let wi = sample_cone(axis, cos_max, u);
-                let distance = crate::shapes::sphere_entry(p, wi, *center, *radius)?;
-                Some(LightSample { wi, distance, radiance: *radiance, pdf: cone_pdf(cos_max), delta: false })
-            }
         }
     }
 
-    /// Density per steradian with which [`Light::sample`] from `p` returns `wi`.
+    /// Density per steradian with which [`Light::sample`] returns `wi`.
     #[must_use]
-    pub fn pdf(&self, p: DVec3, wi: DVec3) -> f64 {
+    pub fn pdf(&self, wi: DVec3) -> f64 {
         match self {
             Light::Constant { .. } => 1.0 / (4.0 * PI),
             Light::Map(m) => m.pdf(wi),
@@ -303,15 +395,6 @@ impl Light {
                 }
             }
             Light::Distant { .. } => 0.0,
-            Light::Sphere { center, radius, .. } => {
-                let to = *center - p;
-                let d2 = to.length_squared();
-                if d2 <= radius * radius {
-                    return 0.0;
-                }
-                let cos_max = (1.0 - radius * radius / d2).max(0.0).sqrt();
-                if wi.dot(to / d2.sqrt()) >= cos_max { cone_pdf(cos_max) } else { 0.0 }
-            }
         }
     }
 }
@@ -360,9 +443,43 @@ mod tests {
         let n = 20000;
         let mut e = 0.0;
         for _ in 0..n {
-            let s = sun.sample(DVec3::ZERO, [g.next_f64(), g.next_f64()]).unwrap();
+            let s = sun.sample([g.next_f64(), g.next_f64()]).unwrap();
             e += s.radiance[0] * s.wi.y / s.pdf;
         }
         assert!((e / n as f64 - 3.0).abs() < 1e-3, "{}", e / n as f64);
+    }
+
+    /// Light selection follows the irradiance weights: a distant light of E = 3 against a sky
+    /// of L = 0.5 (π L ≈ 1.57) is picked with probability 3/4.57, and `pick` agrees with the
+    /// probabilities; black lights only are picked uniformly; a sphere of radiance L has
+    /// weight π L.
+    #[test]
+    fn lights_are_picked_in_proportion_to_their_irradiance() {
+        let lights = [
+            Light::Constant { radiance: Rgb::splat(0.5) },
+            Light::Distant { direction: DVec3::Y, irradiance: Rgb::splat(3.0) },
+        ];
+        let weighted: Vec<(Emitter, f64)> =
+            lights.iter().enumerate().map(|(i, l)| (Emitter::Light(i), l.selection_weight())).collect();
+        let picker = LightPicker::new(&weighted, 2, 0);
+        let expected = 3.0 / (3.0 + 0.5 * PI);
+        assert!((picker.light_probability(1) - expected).abs() < 1e-12);
+        let n = 100_000;
+        let picked = (0..n)
+            .filter(|i| {
+                let (e, p) = picker.pick((f64::from(*i) + 0.5) / f64::from(n)).unwrap();
+                let Emitter::Light(k) = e else { panic!("{e:?}") };
+                assert_eq!(p, picker.light_probability(k));
+                k == 1
+            })
+            .count();
+        assert!((picked as f64 / f64::from(n) - expected).abs() < 1e-4);
+        let dark =
+            [(Emitter::Light(0), 0.0), (Emitter::Sphere(0), 0.0), (Emitter::Sphere(2), 0.0), (Emitter::Light(1), 0.0)];
+        let picker = LightPicker::new(&dark, 2, 3);
+        assert_eq!((picker.light_probability(1), picker.sphere_probability(2)), (0.25, 0.25));
+        assert_eq!(picker.sphere_probability(1), 0.0, "a sphere that does not emit");
+        let sphere = SphereLight { center: DVec3::ZERO, radius: 1.0, radiance: Rgb::splat(2.0) };
+        assert!((sphere.selection_weight() - 2.0 * PI).abs() < 1e-12);
     }
 }

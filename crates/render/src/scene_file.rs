@@ -20,10 +20,13 @@ use crate::curves::CurveSet;
 use crate::generator::HairParams;
 use crate::integrator::RenderSettings;
 use crate::light::{EnvironmentMap, Light};
-use crate::scene::{Fibers, Material, Mesh, Scene, Sphere};
+use crate::model_loader::{LoadError, load_model};
+use crate::scene::{FiberMaterialId, Scene, SceneBuilder, SurfaceMaterial, SurfaceMaterialId};
 use crate::shapes::TriangleMesh;
+use crate::toml_params::raw_pairs;
 use fiberlab_io::{HairFile, LinearImage};
 use fiberlab_math::{DVec3, Rgb};
+use fiberlab_scatter::{Model, ModelError};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -217,17 +220,15 @@ fn dvec(c: [f64; 3]) -> DVec3 {
     DVec3::from(c)
 }
 
-/// A scatter-model parameter value as the `key=value` text the registry parses.
-fn param_text(v: &toml::Value) -> Option<String> {
-    match v {
-        toml::Value::String(s) => Some(s.clone()),
-        toml::Value::Integer(i) => Some(i.to_string()),
-        toml::Value::Float(f) => Some(f.to_string()),
-        toml::Value::Boolean(b) => Some(if *b { "on".into() } else { "off".into() }),
-        toml::Value::Array(a) => a.iter().map(param_text).collect::<Option<Vec<_>>>().map(|v| v.join(",")),
-        _ => None,
-    }
+/// A material of the file by its name: fiber or surface, so that a reference can be checked.
+#[derive(Clone, Copy, Debug)]
+enum MaterialRef {
+    Fiber(FiberMaterialId),
+    Surface(SurfaceMaterialId),
 }
+
+/// The `[materials]` names.
+type MaterialNames = BTreeMap<String, MaterialRef>;
 
 impl SceneFile {
     /// Parses scene text; `path` names it in errors and anchors relative paths.
@@ -288,22 +289,50 @@ impl SceneFile {
         if p.is_absolute() { p.into() } else { self.base.join(p) }
     }
 
-    /// Builds the scene: loads files, generates hair, builds BVHs and models.
+    /// Builds the scene: loads files, generates hair, builds BVHs and models. Sections are
+    /// built in file order of their checks: camera, materials, hair, lights, spheres, meshes.
     pub fn build(&self) -> Result<(Scene, RenderSettings), SceneError> {
-        let d = &self.desc;
-        let c = d.camera.get_ref();
-        let camera =
-            Camera::look_at(dvec(c.eye), dvec(c.target), dvec(c.up), c.fov, c.width, c.height).ok_or_else(|| {
-                self.error(
-                    d.camera.span(),
-                    "camera: eye and target must differ, up must not be parallel to the view, \
-                     0 < fov < 180, width and height > 0"
-                        .into(),
-                )
-            })?;
-        let mut names = BTreeMap::new();
-        let mut materials = Vec::new();
-        for (name, m) in &d.materials {
+        let mut scene = SceneBuilder::new(self.camera()?);
+        let names = self.materials(&mut scene)?;
+        self.hair(&mut scene, &names)?;
+        self.lights(&mut scene)?;
+        self.spheres(&mut scene, &names)?;
+        self.meshes(&mut scene, &names)?;
+        Ok((scene.build(), self.settings()))
+    }
+
+    /// The camera's size (`width`, `height`) as written, before anything is built: what
+    /// command-line pixel rectangles are checked against.
+    #[must_use]
+    pub fn image_size(&self) -> (u32, u32) {
+        let c = self.desc.camera.get_ref();
+        (c.width, c.height)
+    }
+
+    /// `[camera]`.
+    fn camera(&self) -> Result<Camera, SceneError> {
+        let d = &self.desc.camera;
+        let c = d.get_ref();
+        Camera::look_at(dvec(c.eye), dvec(c.target), dvec(c.up), c.fov, c.width, c.height).ok_or_else(|| {
+            self.error(
+                d.span(),
+                "camera: eye and target must differ, up must not be parallel to the view, \
+                 0 < fov < 180, width and height > 0"
+                    .into(),
+            )
+        })
+    }
+
+    /// `[render]`: the sampling settings.
+    fn settings(&self) -> RenderSettings {
+        let r = &self.desc.render;
+        RenderSettings { spp: r.spp.max(1), max_depth: r.max_depth, seed: r.seed, ..RenderSettings::default() }
+    }
+
+    /// `[materials.NAME]`: each a fiber model or a surface, added to the scene by name.
+    fn materials(&self, scene: &mut SceneBuilder) -> Result<MaterialNames, SceneError> {
+        let mut names = MaterialNames::new();
+        for (name, m) in &self.desc.materials {
             let md = m.get_ref();
             let kinds =
                 usize::from(md.model.is_some()) + usize::from(md.lambert.is_some()) + usize::from(md.mirror.is_some());
@@ -312,72 +341,85 @@ impl SceneFile {
                     self.error(m.span(), format!("material `{name}`: give exactly one of model, lambert, mirror"))
                 );
             }
-            let mat = if let Some(model) = &md.model {
-                let mut pairs = Vec::new();
-                if let Some(params) = &md.params {
-                    for (k, v) in params.get_ref() {
-                        let text = param_text(v).ok_or_else(|| {
-                            self.error(
-                                params.span(),
-                                format!("material `{name}`: parameter `{k}` = {v} is not a number, string or list"),
-                            )
-                        })?;
-                        pairs.push((k.clone(), text));
-                    }
-                }
-                let built = if model.get_ref() == "measured" {
-                    // The tabulated model reads its table (relative to the scene file).
-                    let table =
-                        pairs.iter().find(|(k, _)| k == "table").map(|(_, v)| self.resolve(v)).ok_or_else(|| {
-                            self.error(model.span(), format!("material `{name}`: model `measured` needs params.table"))
-                        })?;
-                    let m = crate::measured_table::load_measured(&table)
-                        .map_err(|e| self.error(model.span(), format!("material `{name}`: {e}")))?;
-                    Ok(m.into())
-                } else {
-                    fiberlab_scatter::build(model.get_ref(), &pairs)
-                };
-                let model = built.map_err(|e| {
-                    let span = if matches!(e, fiberlab_scatter::ModelError::UnknownModel { .. }) {
-                        model.span()
-                    } else {
-                        md.params.as_ref().map_or(model.span(), Spanned::span)
-                    };
-                    self.error(span, format!("material `{name}`: {e}"))
-                })?;
-                Material::Fiber(Box::new(model))
-            } else if let Some(a) = md.lambert {
-                if !a.iter().all(|x| (0.0..=1.0).contains(x)) {
-                    return Err(self.error(m.span(), format!("material `{name}`: lambert = {a:?} must be in [0, 1]")));
-                }
-                Material::Lambert(rgb(a))
+            let material = if let Some(model) = &md.model {
+                MaterialRef::Fiber(scene.fiber_material(self.fiber_model(name, model, md.params.as_ref())?))
             } else {
-                let r = md.mirror.unwrap_or([1.0; 3]);
-                if !r.iter().all(|x| (0.0..=1.0).contains(x)) {
-                    return Err(self.error(m.span(), format!("material `{name}`: mirror = {r:?} must be in [0, 1]")));
+                let (key, value, surface): (_, _, fn(Rgb) -> SurfaceMaterial) = match (md.lambert, md.mirror) {
+                    (Some(a), _) => ("lambert", a, SurfaceMaterial::Lambert),
+                    (None, r) => ("mirror", r.unwrap_or([1.0; 3]), SurfaceMaterial::Mirror),
+                };
+                if !value.iter().all(|x| (0.0..=1.0).contains(x)) {
+                    return Err(self.error(m.span(), format!("material `{name}`: {key} = {value:?} must be in [0, 1]")));
                 }
-                Material::Mirror(rgb(r))
+                MaterialRef::Surface(scene.surface_material(surface(rgb(value))))
             };
-            names.insert(name.clone(), materials.len());
-            materials.push(mat);
+            names.insert(name.clone(), material);
         }
-        let lookup = |m: &Spanned<String>, want_fiber: bool| -> Result<usize, SceneError> {
-            let i = *names.get(m.get_ref()).ok_or_else(|| {
-                let known: Vec<&str> = names.keys().map(String::as_str).collect();
-                self.error(m.span(), format!("unknown material `{}`; defined: {}", m.get_ref(), known.join(", ")))
-            })?;
-            let is_fiber = matches!(materials[i], Material::Fiber(_));
-            if is_fiber != want_fiber {
-                let what = if want_fiber { "a fiber model (model = …)" } else { "a surface (lambert or mirror)" };
-                return Err(self.error(m.span(), format!("material `{}` must be {what} here", m.get_ref())));
-            }
-            Ok(i)
-        };
+        Ok(names)
+    }
 
-        let mut fibers = Vec::new();
-        for h in &d.hair {
+    /// The model of material `name`: any registered model from its `params`, through the
+    /// one model loader (a table path relative to the scene file).
+    fn fiber_model(
+        &self,
+        name: &str,
+        model: &Spanned<String>,
+        params: Option<&Spanned<toml::Table>>,
+    ) -> Result<Model, SceneError> {
+        let pairs = match params {
+            Some(p) => raw_pairs(p.get_ref()).map_err(|e| self.error(p.span(), format!("material `{name}`: {e}")))?,
+            None => Vec::new(),
+        };
+        load_model(model.get_ref(), &pairs, &self.base).map_err(|e| {
+            let span = match &e {
+                LoadError::Model(ModelError::UnknownModel { .. } | ModelError::NeedsData { .. })
+                | LoadError::Table(_) => model.span(),
+                _ => params.map_or(model.span(), Spanned::span),
+            };
+            self.error(span, format!("material `{name}`: {e}"))
+        })
+    }
+
+    fn material(&self, names: &MaterialNames, m: &Spanned<String>) -> Result<MaterialRef, SceneError> {
+        names.get(m.get_ref()).copied().ok_or_else(|| {
+            let known: Vec<&str> = names.keys().map(String::as_str).collect();
+            self.error(m.span(), format!("unknown material `{}`; defined: {}", m.get_ref(), known.join(", ")))
+        })
+    }
+
+    /// The fiber material called `m` (an error for a surface material).
+    fn fiber_material(&self, names: &MaterialNames, m: &Spanned<String>) -> Result<FiberMaterialId, SceneError> {
+        match self.material(names, m)? {
+            MaterialRef::Fiber(id) => Ok(id),
+            MaterialRef::Surface(_) => Err(self.error(
+                m.span(),
+                format!(
+                    "material `{}` is a surface (lambert or mirror); hair needs a fiber model (model = …)",
+                    m.get_ref()
+                ),
+            )),
+        }
+    }
+
+    /// The surface material called `m` (an error for a fiber model).
+    fn surface_material(&self, names: &MaterialNames, m: &Spanned<String>) -> Result<SurfaceMaterialId, SceneError> {
+        match self.material(names, m)? {
+            MaterialRef::Surface(id) => Ok(id),
+            MaterialRef::Fiber(_) => Err(self.error(
+                m.span(),
+                format!(
+                    "material `{}` is a fiber model; spheres and meshes need a surface (lambert or mirror)",
+                    m.get_ref()
+                ),
+            )),
+        }
+    }
+
+    /// `[[hair]]`: strands read from a file or generated, as tubes in a BVH.
+    fn hair(&self, scene: &mut SceneBuilder, names: &MaterialNames) -> Result<(), SceneError> {
+        for h in &self.desc.hair {
             let hd = h.get_ref();
-            let material = lookup(&hd.material, true)?;
+            let material = self.fiber_material(names, &hd.material)?;
             let hair = if let Some(p) = &self.hair_override {
                 HairFile::read(p).map_err(|e| self.error(h.span(), e.to_string()))?
             } else {
@@ -389,11 +431,14 @@ impl SceneFile {
                     _ => return Err(self.error(h.span(), "hair: give exactly one of file, generator".into())),
                 }
             };
-            fibers.push(Fibers { curves: CurveSet::from_hair(&hair), material });
+            scene.fibers(CurveSet::from_hair(&hair), material);
         }
+        Ok(())
+    }
 
-        let mut lights = Vec::new();
-        for l in &d.light {
+    /// `[[light]]`: the lights at infinity.
+    fn lights(&self, scene: &mut SceneBuilder) -> Result<(), SceneError> {
+        for l in &self.desc.light {
             let light = match l.get_ref() {
                 LightDesc::Environment { radiance } => Light::Constant { radiance: rgb(*radiance) },
                 LightDesc::Envmap { file, scale } => {
@@ -417,38 +462,38 @@ impl SceneFile {
                     Light::Distant { direction, irradiance: rgb(*irradiance) }
                 }
             };
-            lights.push(light);
+            scene.light(light);
         }
+        Ok(())
+    }
 
-        let mut spheres = Vec::new();
-        for s in &d.sphere {
+    /// `[[sphere]]`: spheres, emitting ones also lights.
+    fn spheres(&self, scene: &mut SceneBuilder, names: &MaterialNames) -> Result<(), SceneError> {
+        for s in &self.desc.sphere {
             let sd = s.get_ref();
             if !(sd.radius > 0.0 && sd.radius.is_finite()) {
                 return Err(self.error(s.span(), format!("sphere: radius = {} must be > 0", sd.radius)));
             }
-            let material = lookup(&sd.material, false)?;
-            let light = sd.emission.map(|e| {
-                lights.push(Light::Sphere { center: dvec(sd.center), radius: sd.radius, radiance: rgb(e) });
-                lights.len() - 1
-            });
-            spheres.push(Sphere { center: dvec(sd.center), radius: sd.radius, material, light });
+            let material = self.surface_material(names, &sd.material)?;
+            scene.sphere(dvec(sd.center), sd.radius, material, sd.emission.map(rgb));
         }
-        let mut meshes = Vec::new();
-        for m in &d.mesh {
+        Ok(())
+    }
+
+    /// `[[mesh]]`: OBJ files or an infinite-looking floor.
+    fn meshes(&self, scene: &mut SceneBuilder, names: &MaterialNames) -> Result<(), SceneError> {
+        for m in &self.desc.mesh {
             let md = m.get_ref();
-            let material = lookup(&md.material, false)?;
+            let material = self.surface_material(names, &md.material)?;
             let mesh = match (&md.file, md.floor) {
                 (Some(f), None) => TriangleMesh::load_obj(&self.resolve(f.get_ref()), md.scale, dvec(md.translate))
                     .map_err(|e| self.error(f.span(), e.to_string()))?,
                 (None, Some(y)) => TriangleMesh::floor(y, 100.0),
                 _ => return Err(self.error(m.span(), "mesh: give exactly one of file, floor".into())),
             };
-            meshes.push(Mesh { mesh, material });
+            scene.mesh(mesh, material);
         }
-        let r = &d.render;
-        let settings =
-            RenderSettings { spp: r.spp.max(1), max_depth: r.max_depth, seed: r.seed, ..RenderSettings::default() };
-        Ok((Scene { camera, materials, fibers, spheres, meshes, lights }, settings))
+        Ok(())
     }
 }
 
@@ -490,9 +535,9 @@ mod tests {
             g.get_mut().strands = 200;
         }
         let (scene, settings) = f.build().unwrap();
-        assert_eq!(scene.fibers.len(), 1);
-        assert_eq!(scene.fibers[0].curves.strand_count(), 200);
-        assert_eq!(scene.lights.len(), 2);
+        assert_eq!(scene.fibers().len(), 1);
+        assert_eq!(scene.fibers()[0].curves().strand_count(), 200);
+        assert_eq!(scene.lights().len(), 2);
         assert_eq!(settings.max_depth, 64);
     }
 
@@ -551,10 +596,16 @@ mod tests {
         let path = dir.path().join("s.toml");
         std::fs::write(&path, text).unwrap();
         let (scene, _) = SceneFile::read(&path).unwrap().build().unwrap();
-        assert_eq!(scene.fibers[0].curves.strand_count(), 20);
-        assert_eq!(scene.meshes[0].mesh.len(), 1);
-        assert_eq!(scene.lights.len(), 2, "envmap + emitting sphere");
-        assert!(matches!(scene.lights[0], Light::Map(_)));
+        assert_eq!(scene.fibers()[0].curves().strand_count(), 20);
+        assert_eq!(scene.meshes()[0].mesh().len(), 1);
+        assert_eq!(scene.lights().len(), 1, "the envmap; the emitting sphere is a sphere");
+        assert!(matches!(scene.lights()[0], Light::Map(_)));
+        let light = scene.spheres()[0].light().expect("the sphere emits");
+        assert_eq!((light.center, light.radius, light.radiance), (DVec3::new(0.0, 5.0, 0.0), 0.5, Rgb::splat(10.0)));
+        let p = scene.light_picker();
+        assert!(
+            p.sphere_probability(0) > 0.0 && (p.sphere_probability(0) + p.light_probability(0) - 1.0).abs() < 1e-12
+        );
     }
 
     #[test]
@@ -573,5 +624,38 @@ mod tests {
         assert!(e.to_string().contains("distant: direction") && e.line == 7, "{e}");
         let e = err(&format!("{CAMERA}[[light]]\ntype = \"distant\"\ndirection = [0, 1, 0]\n"));
         assert!(e.to_string().contains("irradiance"), "{e}");
+    }
+
+    /// A fiber model on a sphere or mesh, or a surface on hair, is an error at the reference,
+    /// naming the file, line and both kinds (a scene cannot hold such a pairing).
+    #[test]
+    fn materials_of_the_wrong_kind_are_errors_at_their_reference() {
+        let mats = "[materials.h]\nmodel = \"kajiya-kay\"\n[materials.s]\nlambert = [0.5, 0.5, 0.5]\n";
+        let e = err(&format!("{CAMERA}{mats}[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"h\"\n"));
+        assert!(e.to_string().starts_with("s.toml:14:12:"), "{e}");
+        assert!(e.to_string().contains("`h` is a fiber model") && e.to_string().contains("lambert or mirror"), "{e}");
+        let e = err(&format!("{CAMERA}{mats}[[mesh]]\nfloor = 0\nmaterial = \"h\"\n"));
+        assert!(e.line == 13 && e.to_string().contains("`h` is a fiber model"), "{e}");
+        let e = err(&format!("{CAMERA}{mats}[[hair]]\nmaterial = \"s\"\ngenerator = {{ strands = 2 }}\n"));
+        assert!(e.line == 12 && e.to_string().contains("`s` is a surface"), "{e}");
+    }
+
+    /// Arrays and booleans in `params` mean what the same values mean on the command line:
+    /// `lobes = ["r", "tt"]` ≡ `lobes=r,tt`, `glints = false` ≡ `glints=off`.
+    #[test]
+    fn model_params_arrays_and_booleans_convert_like_the_command_line() {
+        let text = format!(
+            "{CAMERA}[materials.h]\nmodel = \"marschner\"\nparams = {{ lobes = [\"r\", \"tt\"], glints = false, beta_r = 7 }}\n\
+             [[hair]]\nmaterial = \"h\"\ngenerator = {{ strands = 2 }}\n"
+        );
+        let (scene, _) = SceneFile::parse(&text, Path::new("s.toml")).unwrap().build().unwrap();
+        let from_text =
+            fiberlab_scatter::build("marschner", &[("lobes", "r,tt"), ("glints", "off"), ("beta_r", "7")]).unwrap();
+        let id = scene.fibers()[0].material();
+        assert_eq!(format!("{:?}", scene.fiber_model(id)), format!("{from_text:?}"));
+        let e = err(&format!("{CAMERA}[materials.h]\nmodel = \"marschner\"\nparams = {{ lobes = [\"r\", \"x\"] }}\n"));
+        assert!(e.line == 9 && e.to_string().contains("lobes"), "{e}");
+        let e = err(&format!("{CAMERA}[materials.h]\nmodel = \"marschner\"\nparams = {{ lobes = {{ r = 1 }} }}\n"));
+        assert!(e.line == 9 && e.to_string().contains("`lobes`"), "{e}");
     }
 }

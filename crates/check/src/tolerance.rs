@@ -96,7 +96,8 @@ pub const FURNACE_FINE_REL: f64 = 1e-3;
 
 /// Stratified Monte Carlo white furnace (one jittered sample per (sinθ, φ) stratum, 160 × 320
 /// strata, 400 × 480 when a β is 0.1): pbrt-v3's `WhiteFurnace` bound is 0.05 with plain
-/// uniform sampling; stratification keeps the estimates well inside 0.02.
+/// uniform sampling; stratification keeps the estimates well inside 0.02 (the Chiang test's
+/// worst is 0.0034).
 pub const STRATIFIED_FURNACE_ABS: f64 = 0.02;
 
 /// Sample weights of a lossless hair whose sampler inverts every lobe exactly: each is

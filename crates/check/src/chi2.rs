@@ -6,12 +6,11 @@
 //! Cells expecting fewer than [`CHI2_MIN_EXPECTED`] samples are pooled into one; a sample in
 //! a cell with zero expected mass fails the test outright.
 
-use crate::tolerance::CHI2_MIN_EXPECTED;
+use crate::rng::TestRng;
+use crate::tolerance::{CHI2_MIN_EXPECTED, CHI2_QUADRATURE_SIGMAS, ROUNDING_REL};
 use fiberlab_math::DVec3;
 use fiberlab_math::frame::{direction_from_sin_cos, phi, sin_theta};
 use fiberlab_scatter::ScatteringFunction;
-use rand::{Rng, SeedableRng};
-use rand_pcg::Pcg64;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::f64::consts::{PI, TAU};
 
@@ -22,7 +21,8 @@ pub struct Chi2Config {
     pub bins_theta: usize,
     /// Cells in φ.
     pub bins_phi: usize,
-    /// Midpoint nodes per cell side for the expected counts.
+    /// Midpoint nodes per cell side for the expected counts (and twice as many for the
+    /// estimate of their error).
     pub sub: usize,
     /// Number of `sample()` calls.
     pub samples: usize,
@@ -51,6 +51,12 @@ pub struct Chi2Outcome {
     pub failures: usize,
     /// Cells whose expected mass could not be resolved and went to the remainder cell.
     pub untrusted: usize,
+    /// Expected mass of those cells (the fraction of the distribution the χ² cannot see
+    /// cell by cell).
+    pub untrusted_mass: f64,
+    /// `∫ pdf dω` over the sphere by the cell quadrature (the finer of the two rules); the
+    /// remainder cell tests `1 − Σ` trusted masses, so this should be 1.
+    pub pdf_integral: f64,
 }
 
 impl Chi2Outcome {
@@ -104,35 +110,37 @@ fn masses_with(f: &impl ScatteringFunction, wo: DVec3, h: f64, cfg: &Chi2Config,
 /// Runs the χ² test of `f.sample(wo, h, ·)` against `f.pdf(·, wo, h)`.
 ///
 /// Expected masses are integrated twice (`sub` and `2·sub` nodes per side). Cells where the
-/// two disagree by more than a tenth of the cell's Poisson deviation (an unresolved
-/// integrable singularity, such as Marschner's TRT caustic without glints) are not trusted
-/// individually: they are pooled with any
-/// sampler failures into one remainder cell whose expected mass is `1 − Σ` trusted masses,
-/// so the total (checked separately by `∫ pdf dω = 1`) is still tested.
+/// two disagree by more than [`CHI2_QUADRATURE_SIGMAS`] of the cell's Poisson deviation (an
+/// unresolved integrable singularity, such as Marschner's TRT caustic without glints) are
+/// not trusted individually: they are pooled with any sampler failures into one remainder
+/// cell whose expected mass is `1 − Σ` trusted masses, so the total (checked separately by
+/// `∫ pdf dω = 1`) is still tested.
 pub fn chi2_test(f: &impl ScatteringFunction, wo: DVec3, h: f64, cfg: &Chi2Config) -> Chi2Outcome {
     let coarse = masses_with(f, wo, h, cfg, cfg.sub);
     let fine = masses_with(f, wo, h, cfg, 2 * cfg.sub);
-    // Trusted: the integration error is below a tenth of the cell's Poisson deviation.
     let n = cfg.samples as f64;
-    let trusted: Vec<bool> =
-        coarse.iter().zip(&fine).map(|(&a, &b)| (a - b).abs() * n <= 0.1 * (b * n).sqrt() + 1e-9).collect();
+    let trusted: Vec<bool> = coarse
+        .iter()
+        .zip(&fine)
+        .map(|(&a, &b)| (a - b).abs() * n <= CHI2_QUADRATURE_SIGMAS * (b * n).sqrt() + 1e-9)
+        .collect();
     let mut observed = vec![0u64; fine.len()];
-    let mut rng = Pcg64::seed_from_u64(cfg.seed);
+    let mut rng = TestRng::new(cfg.seed);
     let mut failures = 0;
     for _ in 0..cfg.samples {
-        let u = [rng.random(), rng.random(), rng.random(), rng.random()];
-        match f.sample(wo, h, u) {
+        match f.sample(wo, h, rng.u4()) {
             Some(s) => observed[cell_of(cfg, s.wi)] += 1,
             None => failures += 1,
         }
     }
     let (mut stat, mut cells, mut impossible, mut untrusted) = (0.0, 0usize, 0usize, 0usize);
     let (mut pooled_obs, mut pooled_exp) = (0.0, 0.0);
-    let (mut rest_obs, mut trusted_mass) = (failures as f64, 0.0);
+    let (mut rest_obs, mut trusted_mass, mut untrusted_mass) = (failures as f64, 0.0, 0.0);
     for ((&m, &o), &ok) in fine.iter().zip(&observed).zip(&trusted) {
         if !ok {
             rest_obs += o as f64;
             untrusted += 1;
+            untrusted_mass += m;
             continue;
         }
         trusted_mass += m;
@@ -160,7 +168,16 @@ pub fn chi2_test(f: &impl ScatteringFunction, wo: DVec3, h: f64, cfg: &Chi2Confi
     }
     let dof = cells.saturating_sub(1).max(1);
     let p_value = ChiSquared::new(dof as f64).map(|d| 1.0 - d.cdf(stat)).unwrap_or(0.0);
-    Chi2Outcome { statistic: stat, dof, p_value, impossible, failures, untrusted }
+    Chi2Outcome {
+        statistic: stat,
+        dof,
+        p_value,
+        impossible,
+        failures,
+        untrusted,
+        untrusted_mass,
+        pdf_integral: fine.iter().sum(),
+    }
 }
 
 /// 1D χ² of a delta model's sampled relative azimuth against its cone density
@@ -177,13 +194,12 @@ pub fn chi2_cone(f: &impl ScatteringFunction, wo: DVec3, bins: usize, samples: u
         })
         .collect();
     let mut observed = vec![0u64; bins];
-    let mut rng = Pcg64::seed_from_u64(seed);
+    let mut rng = TestRng::new(seed);
     let (mut failures, mut off_cone) = (0, 0);
     for _ in 0..samples {
-        let u = [rng.random(), rng.random(), rng.random(), rng.random()];
-        match f.sample(wo, 0.0, u) {
+        match f.sample(wo, 0.0, rng.u4()) {
             Some(s) => {
-                if (s.wi.x + wo.x).abs() > 1e-9 {
+                if (s.wi.x + wo.x).abs() > ROUNDING_REL {
                     off_cone += 1;
                 }
                 let rel = fiberlab_math::relative_phi(s.wi, wo);
@@ -205,5 +221,14 @@ pub fn chi2_cone(f: &impl ScatteringFunction, wo: DVec3, bins: usize, samples: u
     }
     let dof = cells.saturating_sub(1).max(1);
     let p_value = ChiSquared::new(dof as f64).map(|d| 1.0 - d.cdf(stat)).unwrap_or(0.0);
-    Chi2Outcome { statistic: stat, dof, p_value, impossible, failures, untrusted: 0 }
+    Chi2Outcome {
+        statistic: stat,
+        dof,
+        p_value,
+        impossible,
+        failures,
+        untrusted: 0,
+        untrusted_mass: 0.0,
+        pdf_integral: mass.iter().sum(),
+    }
 }

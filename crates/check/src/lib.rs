@@ -14,6 +14,7 @@
 pub mod chi2;
 pub mod expected;
 pub mod reports;
+pub mod rng;
 pub mod tolerance;
 
 use chi2::{Chi2Config, chi2_cone, chi2_test};
@@ -21,9 +22,8 @@ use fiberlab_math::frame::{cos_theta, direction, theta};
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::radiometry::{self, Quadrature};
 use fiberlab_scatter::{Field, Lobes, Model, ModelError, ScatteringFunction, build};
-use rand::{Rng, SeedableRng};
-use rand_pcg::Pcg64;
 use rayon::prelude::*;
+use rng::TestRng;
 use serde::Serialize;
 use tolerance::*;
 
@@ -150,7 +150,7 @@ fn max_rel(a: Rgb, b: Rgb) -> f64 {
 pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
     let props = f.properties();
     let mut t = Table { label, rows: Vec::new() };
-    let mut rng = Pcg64::seed_from_u64(0x5eed);
+    let mut rng = TestRng::new(0x5eed);
     let wos: Vec<DVec3> = WO_THETAS.iter().enumerate().map(|(k, &t)| direction(t, 0.4 + 1.3 * k as f64)).collect();
 
     // 1. finiteness and non-negativity, random and extreme arguments
@@ -204,7 +204,7 @@ pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
                 err <= FURNACE_REL,
             );
         }
-        let tol = MC_SIGMAS * se.luminance() + 1e-3 * quad.luminance().abs() + 1e-9;
+        let tol = MC_SIGMAS * se.luminance() + MC_QUADRATURE_REL * quad.luminance().abs() + ROUNDING_REL;
         let pass = (mc.luminance() - quad.luminance()).abs() <= tol;
         t.test(
             format!("furnace θ_o={:.2} h={h}: MC vs quadrature", WO_THETAS[k]),
@@ -223,7 +223,13 @@ pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
         t.report("non-reciprocity max relative (report)".into(), recip);
         if let Model::KajiyaKay(kk) = f {
             let defect = kajiya_kay_ratio_defect(kk, &recip_samples);
-            t.test("non-reciprocity = cosθ_r/cosθ_i (max rel. error)".into(), defect, 0.0, 1e-9, defect <= 1e-9);
+            t.test(
+                "non-reciprocity = cosθ_r/cosθ_i (max rel. error)".into(),
+                defect,
+                0.0,
+                ROUNDING_REL,
+                defect <= ROUNDING_REL,
+            );
         }
     }
 
@@ -340,15 +346,8 @@ pub fn check_case(case: &CheckCase, effort: &Effort) -> Vec<Row> {
     }
 }
 
-fn random_direction(rng: &mut Pcg64) -> DVec3 {
-    let z: f64 = 2.0 * rng.random::<f64>() - 1.0;
-    let p = std::f64::consts::TAU * rng.random::<f64>();
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    DVec3::new(z, r * p.cos(), r * p.sin())
-}
-
 /// Counts non-finite and negative results over random and extreme arguments.
-pub fn finiteness(f: &impl ScatteringFunction, pairs: usize, rng: &mut Pcg64) -> (usize, usize) {
+pub fn finiteness(f: &impl ScatteringFunction, pairs: usize, rng: &mut TestRng) -> (usize, usize) {
     let extremes = [
         DVec3::X,
         -DVec3::X,
@@ -370,7 +369,11 @@ pub fn finiteness(f: &impl ScatteringFunction, pairs: usize, rng: &mut Pcg64) ->
             negative += 1;
         }
         if let Some(s) = f.sample(wo, h, u) {
-            if !s.weight.is_finite() || !s.pdf.is_finite() || !s.wi.is_finite() || (s.wi.length() - 1.0).abs() > 1e-6 {
+            if !s.weight.is_finite()
+                || !s.pdf.is_finite()
+                || !s.wi.is_finite()
+                || (s.wi.length() - 1.0).abs() > UNIT_LENGTH_ABS
+            {
                 nonfinite += 1;
             }
             if s.weight.min_component() < 0.0 || s.pdf < 0.0 {
@@ -388,9 +391,9 @@ pub fn finiteness(f: &impl ScatteringFunction, pairs: usize, rng: &mut Pcg64) ->
         }
     }
     for _ in 0..pairs {
-        let (wi, wo) = (random_direction(rng), random_direction(rng));
-        let h = 2.0 * rng.random::<f64>() - 1.0;
-        test(wi, wo, h, [rng.random(), rng.random(), rng.random(), rng.random()]);
+        let (wi, wo) = (rng.sphere_direction(), rng.sphere_direction());
+        let h = rng.offset();
+        test(wi, wo, h, rng.u4());
     }
     (nonfinite, negative)
 }
@@ -406,10 +409,10 @@ fn furnace_at(f: &Model, wo: DVec3, h: f64, q: &Quadrature) -> Rgb {
 }
 
 /// Mean sample weight (camera-side furnace) with its standard error.
-fn mc_furnace(f: &Model, wo: DVec3, h: f64, n: usize, rng: &mut Pcg64) -> (Rgb, Rgb) {
+fn mc_furnace(f: &Model, wo: DVec3, h: f64, n: usize, rng: &mut TestRng) -> (Rgb, Rgb) {
     let (mut s, mut s2) = (Rgb::ZERO, Rgb::ZERO);
     for _ in 0..n {
-        if let Some(x) = f.sample(wo, h, [rng.random(), rng.random(), rng.random(), rng.random()]) {
+        if let Some(x) = f.sample(wo, h, rng.u4()) {
             s += x.weight;
             s2 += x.weight * x.weight;
         }
@@ -420,7 +423,7 @@ fn mc_furnace(f: &Model, wo: DVec3, h: f64, n: usize, rng: &mut Pcg64) -> (Rgb, 
 
 /// Max relative reciprocity defect of the (h-averaged) f_s over random pairs; also returns
 /// the pairs with their two values for model-specific analysis.
-fn reciprocity(f: &Model, pairs: usize, rng: &mut Pcg64) -> (f64, Vec<(DVec3, DVec3, Rgb, Rgb)>) {
+fn reciprocity(f: &Model, pairs: usize, rng: &mut TestRng) -> (f64, Vec<(DVec3, DVec3, Rgb, Rgb)>) {
     let near = f.properties().field == Field::Near;
     let eval_avg = |a: DVec3, b: DVec3| {
         if near {
@@ -434,7 +437,7 @@ fn reciprocity(f: &Model, pairs: usize, rng: &mut Pcg64) -> (f64, Vec<(DVec3, DV
     let mut worst: f64 = 0.0;
     let mut samples = Vec::with_capacity(pairs);
     for _ in 0..pairs {
-        let (wi, wr) = (random_direction(rng), random_direction(rng));
+        let (wi, wr) = (rng.sphere_direction(), rng.sphere_direction());
         let (a, b) = (eval_avg(wi, wr), eval_avg(wr, wi));
         if a.max_component() > 1e-12 || b.max_component() > 1e-12 {
             worst = worst.max(max_rel(a, b));
@@ -482,11 +485,11 @@ pub fn pdf_integral(f: &impl ScatteringFunction, wo: DVec3, h: f64) -> f64 {
 
 /// Max relative disagreement of `sample()` with `pdf()` and `eval()·cosθ_i/pdf`.
 pub fn sample_consistency(f: &impl ScatteringFunction, wo: DVec3, h: f64, n: usize, seed: u64) -> f64 {
-    let mut rng = Pcg64::seed_from_u64(seed);
+    let mut rng = TestRng::new(seed);
     let delta = f.properties().lobes == Lobes::Delta;
     let mut worst: f64 = 0.0;
     for _ in 0..n {
-        let Some(s) = f.sample(wo, h, [rng.random(), rng.random(), rng.random(), rng.random()]) else { continue };
+        let Some(s) = f.sample(wo, h, rng.u4()) else { continue };
         if delta {
             let c = f.cone(theta(wo), fiberlab_math::relative_phi(s.wi, wo));
             worst = worst.max(max_rel(s.weight, c.value / c.pdf));

@@ -4,6 +4,7 @@
 //! (docs/theory/radiometry.md, "Backward-form models").
 
 use crate::Row;
+use crate::tolerance::ROUNDING_REL;
 use fiberlab_math::frame::direction;
 use fiberlab_scatter::Model;
 use fiberlab_scatter::marschner_2003::{albedo_table, caustic_table, cubic_azimuth_error_table};
@@ -64,8 +65,8 @@ pub fn model_reports(label: &str, model: &Model) -> Vec<Row> {
                         test: format!("albedo paper/energy θ_i={t:.2}"),
                         value: ratio,
                         expected: 2.0,
-                        tolerance: 1e-9,
-                        pass: (ratio - 2.0).abs() <= 1e-9,
+                        tolerance: ROUNDING_REL,
+                        pass: (ratio - 2.0).abs() <= ROUNDING_REL,
                         report: false,
                     });
                 }

@@ -2,6 +2,7 @@
 //! sphere, including θ = ±π/2 exactly and h = ±1. Parameters are drawn from each model's own
 //! specification (ends of the ranges included), so models added later are covered too.
 
+use fiberlab_check::tolerance::UNIT_LENGTH_ABS;
 use fiberlab_math::DVec3;
 use fiberlab_math::frame::direction;
 use fiberlab_scatter::params::{ParamKind, ParamSpec, Range};
@@ -79,7 +80,7 @@ proptest! {
             if let Some(s) = model.sample(wi, h, [u[0], u[1], u[2], u[3]]) {
                 prop_assert!(s.weight.is_finite() && s.weight.min_component() >= 0.0, "{} {pairs:?}: weight {:?}", spec.name, s.weight);
                 prop_assert!(s.pdf.is_finite() && s.pdf >= 0.0);
-                prop_assert!((s.wi.length() - 1.0).abs() < 1e-9);
+                prop_assert!((s.wi.length() - 1.0).abs() < UNIT_LENGTH_ABS);
             }
         }
     }

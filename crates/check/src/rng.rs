@@ -59,6 +59,11 @@ impl TestRng {
         let c = (1.0 - s * s).max(0.0).sqrt();
         DVec3::new(s, c * p.cos(), c * p.sin())
     }
+
+    /// The stream as a closure of uniforms in [0, 1), for code that takes `FnMut() -> f64`.
+    pub fn into_uniforms(mut self) -> impl FnMut() -> f64 {
+        move || self.uniform()
+    }
 }
 
 #[cfg(test)]

@@ -241,11 +241,7 @@ mod tests {
     fn round_trip_recovers_known_parameters() {
         let truth =
             build("chiang", &[("beta_m", "0.35"), ("beta_n", "0.45"), ("alpha", "3"), ("sigma_a", "0.5")]).unwrap();
-        let mut s = 12345u64;
-        let mut uniform = move || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = fiberlab_check::rng::TestRng::new(12345).into_uniforms();
         let mut data = Vec::new();
         for i in 0..12 {
             for j in 0..16 {

@@ -13,8 +13,6 @@ mod model;
 pub mod params;
 pub mod radiometry;
 pub mod sampling;
-#[cfg(test)]
-mod test_rng;
 
 pub mod chiang_2016;
 pub mod deon_2011;

@@ -997,7 +997,7 @@ mod tests {
     use fiberlab_math::fresnel;
     use proptest::prelude::*;
 
-    use crate::test_rng::lcg;
+    use fiberlab_check::rng::TestRng;
 
     fn model(edit: impl FnOnce(&mut MarschnerParams)) -> Marschner {
         let mut p = MarschnerParams::default();
@@ -1082,7 +1082,7 @@ mod tests {
             }),
             model(|p| p.glints = false),
         ];
-        let mut rng = lcg(11);
+        let mut rng = TestRng::new(11).into_uniforms();
         for m in &variants {
             for _ in 0..3000 {
                 let (wi, wr) = (random_direction(&mut rng), random_direction(&mut rng));
@@ -1423,7 +1423,7 @@ mod tests {
 
     #[test]
     fn sample_agrees_with_pdf_and_eval() {
-        let mut rng = lcg(5);
+        let mut rng = TestRng::new(5).into_uniforms();
         for m in sampling_variants() {
             let mut produced = 0;
             for _ in 0..20_000 {

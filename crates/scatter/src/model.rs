@@ -171,13 +171,13 @@ mod tests {
     /// The fused `eval_and_pdf` of every model returns exactly what `eval` and `pdf` do.
     #[test]
     fn eval_and_pdf_agrees_with_eval_and_pdf() {
-        let mut u = crate::test_rng::lcg(5);
+        let mut u = fiberlab_check::rng::TestRng::new(5).into_uniforms();
         let mut unit = || {
             let (x, phi) = (2.0 * u() - 1.0, std::f64::consts::TAU * u());
             let r = (1.0 - x * x).sqrt();
             DVec3::new(x, r * phi.cos(), r * phi.sin())
         };
-        let mut u2 = crate::test_rng::lcg(6);
+        let mut u2 = fiberlab_check::rng::TestRng::new(6).into_uniforms();
         for spec in MODELS {
             let m = build::<&str, &str>(spec.name, &[]).unwrap();
             for _ in 0..200 {

@@ -209,7 +209,7 @@ mod tests {
     use crate::{Properties, Sample};
     use approx::assert_relative_eq;
 
-    use crate::test_rng::lcg;
+    use fiberlab_check::rng::TestRng;
 
     #[test]
     fn ellipse_width_matches_projected_points() {
@@ -249,7 +249,7 @@ mod tests {
         let field = |w: DVec3| Rgb::splat(w.z * w.z + 0.1 * w.x + 0.2);
         let wr = direction(-0.6, 0.3);
         let q = scattering_integral(&f, &c, wr, field, &Quadrature { theta: 256, phi: 512, h: 1 });
-        let (m, se) = scattering_integral_monte_carlo(&f, &c, wr, field, 400_000, lcg(7));
+        let (m, se) = scattering_integral_monte_carlo(&f, &c, wr, field, 400_000, TestRng::new(7).into_uniforms());
         assert!((q[0] - m[0]).abs() < 4.0 * se[0] + 1e-4, "quadrature {q:?} vs MC {m:?} ± {se:?}");
     }
 

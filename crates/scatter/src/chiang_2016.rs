@@ -18,7 +18,7 @@
 //!
 //! Absorption comes from exactly one of: `sigma_a`; the melanin concentrations
 //! (`eumelanin` and/or `pheomelanin`, the missing one 0); or a desired `color`
-//! ([`Absorption`]). Giving keys from two of these groups is an error. With none, eumelanin
+//! ([`crate::hair::absorption::Absorption`]). Giving keys from two of these groups is an error. With none, eumelanin
 //! 1.3 (pbrt's default, a brown).
 //!
 //! # Formula
@@ -110,16 +110,15 @@
 //! # Ok::<(), fiberlab_scatter::chiang_2016::ChiangError>(())
 //! ```
 
-use crate::hair::absorption::Absorption;
 use crate::hair::attenuation::{Hit, hit_attenuation};
 use crate::hair::backward_form::{MIN_COS, max_relative_non_reciprocity};
 use crate::hair::longitudinal::Longitudinal;
 use crate::hair::normal_plane::exit_azimuth;
-use crate::hair::parameters::{self, ALPHA_RANGE, BETA_RANGE, ETA_RANGE};
+use crate::hair::parameters::{self, HairFiberParams};
 use crate::hair::roughness::{lobe_variances, logistic_scale};
 use crate::hair::tilt::{lobe_tilts, rotate};
 use crate::params::{ParamSet, ParamSpec, parameter_error};
-use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{Field, Lobes, Model, ModelSpec, Properties, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
 use fiberlab_math::special::{logistic, logistic_cdf, safe_sqrt, sample_trimmed_logistic};
 use fiberlab_math::{DVec3, Rgb};
@@ -146,56 +145,9 @@ pub const SPEC: ModelSpec = ModelSpec {
     build: |p: &ParamSet| Ok(Chiang::new(ChiangParams::from_param_set(p)?)?.into()),
 };
 
-/// Parameters of [`Chiang`]; the tilt in **radians** (the registry takes degrees).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ChiangParams {
-    /// Index of refraction η ∈ (1, 4].
-    pub eta: f64,
-    /// Longitudinal roughness β_m ∈ (0, 1].
-    pub beta_m: f64,
-    /// Azimuthal roughness β_n ∈ (0, 1].
-    pub beta_n: f64,
-    /// Cuticle tilt α, radians, in [−20°, 20°]; > 0 moves the R lobe toward the root.
-    pub alpha: f64,
-    /// Where σ_a comes from.
-    pub absorption: Absorption,
-}
-
-impl Default for ChiangParams {
-    /// pbrt-v4's defaults: η = 1.55, β_m = β_n = 0.3, α = 2°, eumelanin 1.3 (a brown).
-    fn default() -> Self {
-        Self { eta: 1.55, beta_m: 0.3, beta_n: 0.3, alpha: 2f64.to_radians(), absorption: Absorption::default() }
-    }
-}
-
-impl ChiangParams {
-    /// Blond hair: the defaults with eumelanin 0.3 ([`Absorption::BLOND`]).
-    #[must_use]
-    pub fn blond() -> Self {
-        Self { absorption: Absorption::BLOND, ..Self::default() }
-    }
-    /// Brown hair: the defaults, eumelanin 1.3 ([`Absorption::BROWN`]).
-    #[must_use]
-    pub fn brown() -> Self {
-        Self { absorption: Absorption::BROWN, ..Self::default() }
-    }
-    /// Black hair: the defaults with eumelanin 8 ([`Absorption::BLACK`]).
-    #[must_use]
-    pub fn black() -> Self {
-        Self { absorption: Absorption::BLACK, ..Self::default() }
-    }
-
-    /// Reads the registry parameters (`alpha` degrees → radians).
-    pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
-        Ok(Self {
-            eta: p.number("eta")?,
-            beta_m: p.number("beta_m")?,
-            beta_n: p.number("beta_n")?,
-            alpha: p.degrees("alpha")?,
-            absorption: Absorption::from_param_set(p)?,
-        })
-    }
-}
+/// Parameters of [`Chiang`]: the shared hair-fiber parameters (tilt in **radians**; the
+/// registry takes degrees), with presets `blond()`, `brown()`, `black()`.
+pub type ChiangParams = HairFiberParams;
 
 parameter_error! {
     /// Why a [`Chiang`] fiber cannot be built: a parameter outside its range (named, with
@@ -219,12 +171,8 @@ pub struct Chiang {
 impl Chiang {
     /// A Chiang fiber; the error names the parameter out of range.
     pub fn new(params: ChiangParams) -> Result<Self, ChiangError> {
-        let ChiangParams { eta, beta_m, beta_n, alpha, absorption } = params;
-        ETA_RANGE.check("eta", eta)?;
-        BETA_RANGE.check("beta_m", beta_m)?;
-        BETA_RANGE.check("beta_n", beta_n)?;
-        ALPHA_RANGE.check_degrees("alpha", alpha)?;
-        absorption.validate()?;
+        params.validate()?;
+        let HairFiberParams { beta_m, beta_n, alpha, absorption, .. } = params;
         let s = logistic_scale(beta_n);
         Ok(Self {
             params,

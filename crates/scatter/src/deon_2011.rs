@@ -14,7 +14,7 @@
 //! | `alpha` | degrees at the edge, radians in [`DeonParams`] | 2 | [−20, 20] cuticle scale tilt, sign as `chiang` |
 //! | `p_max` | — | 3 | integer in [1, 16]: explicit lobes p < p_max |
 //! | `theta_n` | — | camera | `camera` (θ_o) or `difference` (θ_d): inclination of N_p |
-//! | `sigma_a`, `eumelanin`, `pheomelanin`, `color` | | | as `chiang` ([`Absorption`]) |
+//! | `sigma_a`, `eumelanin`, `pheomelanin`, `color` | | | as `chiang` ([`crate::hair::absorption::Absorption`]) |
 //!
 //! # Formula
 //! Backward form (as Tungsten's `HairBcsdf`, [`crate::hair::backward_form`]): with
@@ -81,10 +81,12 @@
 //! ```
 //! use fiberlab_scatter::deon_2011::{Deon, DeonParams};
 //! use fiberlab_scatter::hair::absorption::Absorption;
+//! use fiberlab_scatter::hair::parameters::HairFiberParams;
 //! use std::f64::consts::PI;
 //!
 //! let eta = 1.55;
-//! let fiber = Deon::new(DeonParams { absorption: Absorption::NONE, ..DeonParams::default() })?;
+//! let lossless = HairFiberParams { absorption: Absorption::NONE, ..HairFiberParams::default() };
+//! let fiber = Deon::new(DeonParams { fiber: lossless, ..DeonParams::default() })?;
 //! let fresnel = |cos_i: f64| {
 //!     let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (eta * eta)).sqrt();
 //!     let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
@@ -106,12 +108,11 @@
 //! # Ok::<(), fiberlab_scatter::deon_2011::DeonError>(())
 //! ```
 
-use crate::hair::absorption::Absorption;
 use crate::hair::attenuation::{chord_length, first_transmission, next_order, surface_fresnel, transmittance};
 use crate::hair::backward_form::{MIN_COS, max_relative_non_reciprocity};
 use crate::hair::longitudinal::Longitudinal;
 use crate::hair::normal_plane::exit_azimuth;
-use crate::hair::parameters::{self, ALPHA_RANGE, BETA_RANGE, ETA_RANGE};
+use crate::hair::parameters::{self, HairFiberParams};
 use crate::hair::roughness::{azimuthal_sigma, lobe_variance, longitudinal_variance};
 use crate::hair::tilt::{lobe_tilts, rotate};
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
@@ -177,19 +178,12 @@ pub const SPEC: ModelSpec = ModelSpec {
     build: |p: &ParamSet| Ok(Deon::new(DeonParams::from_param_set(p)?)?.into()),
 };
 
-/// Parameters of [`Deon`]; the tilt in **radians** (the registry takes degrees).
+/// Parameters of [`Deon`]: the shared hair-fiber parameters (tilt in **radians**; the
+/// registry takes degrees) and the two choices of this model.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DeonParams {
-    /// Index of refraction η ∈ (1, 4].
-    pub eta: f64,
-    /// Longitudinal roughness β_m ∈ (0, 1].
-    pub beta_m: f64,
-    /// Azimuthal roughness β_n ∈ (0, 1] (Gaussian width `σ_n = πs(β_n)/√3`).
-    pub beta_n: f64,
-    /// Cuticle tilt α, radians, in [−20°, 20°]; > 0 moves the R lobe toward the root.
-    pub alpha: f64,
-    /// Where σ_a comes from.
-    pub absorption: Absorption,
+    /// Index, roughnesses, tilt and absorption (as [`crate::chiang_2016::ChiangParams`]).
+    pub fiber: HairFiberParams,
     /// Inclination at which `N_p` (η′, Fresnel, absorption) is evaluated.
     pub theta_n: AzimuthalInclination,
     /// Number of explicit lobes, 1 to 16; the higher orders form the residual.
@@ -197,35 +191,28 @@ pub struct DeonParams {
 }
 
 impl Default for DeonParams {
-    /// η = 1.55, β_m = β_n = 0.3, α = 2°, eumelanin 1.3, `theta_n = camera`, `p_max = 3`.
+    /// The hair-fiber defaults (η = 1.55, β_m = β_n = 0.3, α = 2°, eumelanin 1.3),
+    /// `theta_n = camera`, `p_max = 3`.
     fn default() -> Self {
-        Self {
-            eta: 1.55,
-            beta_m: 0.3,
-            beta_n: 0.3,
-            alpha: 2f64.to_radians(),
-            absorption: Absorption::default(),
-            theta_n: AzimuthalInclination::Camera,
-            p_max: 3,
-        }
+        Self { fiber: HairFiberParams::default(), theta_n: AzimuthalInclination::Camera, p_max: 3 }
     }
 }
 
 impl DeonParams {
-    /// Blond hair: the defaults with eumelanin 0.3 ([`Absorption::BLOND`]).
+    /// Blond hair ([`HairFiberParams::blond`]) with the defaults of this model.
     #[must_use]
     pub fn blond() -> Self {
-        Self { absorption: Absorption::BLOND, ..Self::default() }
+        Self { fiber: HairFiberParams::blond(), ..Self::default() }
     }
-    /// Brown hair: the defaults, eumelanin 1.3 ([`Absorption::BROWN`]).
+    /// Brown hair ([`HairFiberParams::brown`]).
     #[must_use]
     pub fn brown() -> Self {
-        Self { absorption: Absorption::BROWN, ..Self::default() }
+        Self { fiber: HairFiberParams::brown(), ..Self::default() }
     }
-    /// Black hair: the defaults with eumelanin 8 ([`Absorption::BLACK`]).
+    /// Black hair ([`HairFiberParams::black`]).
     #[must_use]
     pub fn black() -> Self {
-        Self { absorption: Absorption::BLACK, ..Self::default() }
+        Self { fiber: HairFiberParams::black(), ..Self::default() }
     }
 
     /// Reads the registry parameters (`alpha` degrees → radians).
@@ -235,11 +222,7 @@ impl DeonParams {
             _ => AzimuthalInclination::Camera,
         };
         Ok(Self {
-            eta: p.number("eta")?,
-            beta_m: p.number("beta_m")?,
-            beta_n: p.number("beta_n")?,
-            alpha: p.degrees("alpha")?,
-            absorption: Absorption::from_param_set(p)?,
+            fiber: HairFiberParams::from_param_set(p)?,
             theta_n,
             // An integer in [1, 16]: the parameter's kind has checked it.
             p_max: p.number("p_max")? as usize,
@@ -487,12 +470,9 @@ impl Deon {
     /// A d'Eon fiber; builds the azimuthal table (a few tens of milliseconds at β_n = 0.1,
     /// less for rougher fibers). The error names the parameter out of range.
     pub fn new(params: DeonParams) -> Result<Self, DeonError> {
-        let DeonParams { eta, beta_m, beta_n, alpha, absorption, theta_n, p_max } = params;
-        ETA_RANGE.check("eta", eta)?;
-        BETA_RANGE.check("beta_m", beta_m)?;
-        BETA_RANGE.check("beta_n", beta_n)?;
-        ALPHA_RANGE.check_degrees("alpha", alpha)?;
-        absorption.validate()?;
+        let DeonParams { fiber, theta_n, p_max } = params;
+        fiber.validate()?;
+        let HairFiberParams { eta, beta_m, beta_n, alpha, absorption } = fiber;
         P_MAX_RANGE.check("p_max", p_max as f64)?;
         let sigma_a = absorption.sigma_a(beta_n);
         let v0 = longitudinal_variance(beta_m);

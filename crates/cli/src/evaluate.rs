@@ -12,9 +12,10 @@ use fiberlab_render::integrator::{Region, RenderSettings, render};
 use fiberlab_render::model_loader::load_model;
 use fiberlab_render::scene::Scene;
 use fiberlab_render::scene_file::SceneFile;
-use fiberlab_scatter::kajiya_kay_1989::{self, KajiyaKay, KajiyaKayParams};
+use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
+use fiberlab_scatter::measured::Measured;
 use fiberlab_scatter::params::{ParamSet, RawValue};
-use fiberlab_scatter::{ExternalData, Model, measured};
+use fiberlab_scatter::{ExternalData, Model, Registered};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
@@ -82,7 +83,7 @@ fn build_model(name: &str, args: &Args, target: &Model) -> anyhow::Result<Model>
         let table = args.table.as_ref().with_context(|| format!("model `{name}` needs --table"))?;
         pairs.push((key.to_string(), RawValue::Text(table.to_string_lossy().into_owned())));
     }
-    if spec.name == kajiya_kay_1989::SPEC.name && pairs.is_empty() {
+    if spec.name == KajiyaKay::INFO.name && pairs.is_empty() {
         return fitted_kajiya_kay(target);
     }
     load_model(spec.name, &pairs, Path::new("")).with_context(|| format!("model `{name}`"))
@@ -92,8 +93,8 @@ fn build_model(name: &str, args: &Args, target: &Model) -> anyhow::Result<Model>
 fn fitted_kajiya_kay(target: &Model) -> anyhow::Result<Model> {
     let data = crate::fit::from_model(target);
     let free = [("k_d".to_string(), 0.02), ("k_s".to_string(), 0.1), ("p".to_string(), 10.0)];
-    let spec = &kajiya_kay_1989::SPEC;
-    let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[])?;
+    let info = KajiyaKay::INFO;
+    let base = ParamSet::parse::<&str, &str>(info.name, info.params, &[])?;
     let r = fiberlab_fit::fit(&base, &free, &data, 400)?;
     let value = |key: &str| r.params.iter().find(|(k, _)| k == key).map_or(0.0, |(_, v)| *v);
     let tint = mean_colour(target);
@@ -158,7 +159,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let reference = match (&args.reference, &args.table) {
         (Some(p), _) => load(p)?,
         (None, Some(_)) => {
-            set_hair_model(&mut scene, &build_model(measured::SPEC.name, args, &target)?);
+            set_hair_model(&mut scene, &build_model(Measured::INFO.name, args, &target)?);
             let img = render_with(&scene, &settings, args.reference_spp);
             write(&img, &args.out, "reference")?;
             to_image(&img)

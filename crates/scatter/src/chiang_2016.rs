@@ -112,13 +112,14 @@
 
 use crate::hair::attenuation::{Hit, hit_attenuation};
 use crate::hair::backward_form::{MIN_COS, max_relative_non_reciprocity};
+use crate::hair::fiber::HairFiberParams;
 use crate::hair::longitudinal::Longitudinal;
 use crate::hair::normal_plane::exit_azimuth;
-use crate::hair::parameters::{self, HairFiberParams};
+use crate::hair::parameters;
 use crate::hair::roughness::{lobe_variances, logistic_scale};
 use crate::hair::tilt::{lobe_tilts, rotate};
 use crate::params::{ParamSet, ParamSpec, parameter_error};
-use crate::{Field, Lobes, Model, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
 use fiberlab_math::special::{logistic, logistic_cdf, safe_sqrt, sample_trimmed_logistic};
 use fiberlab_math::{DVec3, Rgb};
@@ -136,14 +137,19 @@ const PARAMS: [ParamSpec; 8] = [
 ];
 
 /// Registry entry: `chiang`.
-pub const SPEC: ModelSpec = ModelSpec {
-    name: "chiang",
-    summary: "Chiang 2016 / pbrt-v4 near-field hair: d'Eon M_p, logistic N_p, exact sampling",
-    citation: "Chiang et al. 2016; d'Eon et al. 2011",
-    params: &PARAMS,
-    data: None,
-    build: |p: &ParamSet| Ok(Chiang::new(ChiangParams::from_param_set(p)?)?.into()),
-};
+impl Registered for Chiang {
+    const INFO: ModelInfo = ModelInfo {
+        name: "chiang",
+        summary: "Chiang 2016 / pbrt-v4 near-field hair: d'Eon M_p, logistic N_p, exact sampling",
+        citation: "Chiang et al. 2016; d'Eon et al. 2011",
+        params: &PARAMS,
+        data: None,
+    };
+
+    fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Ok(Chiang::new(ChiangParams::from_param_set(p)?)?)
+    }
+}
 
 /// Parameters of [`Chiang`]: the shared hair-fiber parameters (tilt in **radians**; the
 /// registry takes degrees), with presets `blond()`, `brown()`, `black()`.
@@ -331,11 +337,5 @@ impl ScatteringFunction for Chiang {
             return None;
         }
         Some(Sample { wi, weight: g / pdf, pdf, delta: false })
-    }
-}
-
-impl From<Chiang> for Model {
-    fn from(m: Chiang) -> Self {
-        Model::Chiang(m)
     }
 }

@@ -81,7 +81,7 @@
 //! ```
 //! use fiberlab_scatter::deon_2011::{Deon, DeonParams};
 //! use fiberlab_scatter::hair::absorption::Absorption;
-//! use fiberlab_scatter::hair::parameters::HairFiberParams;
+//! use fiberlab_scatter::hair::fiber::HairFiberParams;
 //! use std::f64::consts::PI;
 //!
 //! let eta = 1.55;
@@ -110,13 +110,14 @@
 
 use crate::hair::attenuation::{chord_length, first_transmission, next_order, surface_fresnel, transmittance};
 use crate::hair::backward_form::{MIN_COS, max_relative_non_reciprocity};
+use crate::hair::fiber::HairFiberParams;
 use crate::hair::longitudinal::Longitudinal;
 use crate::hair::normal_plane::exit_azimuth;
-use crate::hair::parameters::{self, HairFiberParams};
+use crate::hair::parameters;
 use crate::hair::roughness::{azimuthal_sigma, lobe_variance, longitudinal_variance};
 use crate::hair::tilt::{lobe_tilts, rotate};
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
-use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
 use fiberlab_math::special::{safe_sqrt, wrapped_gaussian};
 use fiberlab_math::{DVec3, Rgb, bravais};
@@ -169,14 +170,19 @@ const PARAMS: [ParamSpec; 10] = [
 ];
 
 /// Registry entry: `deon`.
-pub const SPEC: ModelSpec = ModelSpec {
-    name: "deon",
-    summary: "d'Eon 2011 far-field hair: d'Eon M_p, exact width-integrated N_p (tabulated), exact sampling",
-    citation: "d'Eon et al. 2011",
-    params: &PARAMS,
-    data: None,
-    build: |p: &ParamSet| Ok(Deon::new(DeonParams::from_param_set(p)?)?.into()),
-};
+impl Registered for Deon {
+    const INFO: ModelInfo = ModelInfo {
+        name: "deon",
+        summary: "d'Eon 2011 far-field hair: d'Eon M_p, exact width-integrated N_p (tabulated), exact sampling",
+        citation: "d'Eon et al. 2011",
+        params: &PARAMS,
+        data: None,
+    };
+
+    fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Ok(Deon::new(DeonParams::from_param_set(p)?)?)
+    }
+}
 
 /// Parameters of [`Deon`]: the shared hair-fiber parameters (tilt in **radians**; the
 /// registry takes degrees) and the two choices of this model.
@@ -669,11 +675,5 @@ impl ScatteringFunction for Deon {
             return None;
         }
         Some(Sample { wi, weight: g / pdf, pdf, delta: false })
-    }
-}
-
-impl From<Deon> for Model {
-    fn from(m: Deon) -> Self {
-        Model::Deon(m)
     }
 }

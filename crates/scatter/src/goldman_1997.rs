@@ -17,7 +17,7 @@
 
 use crate::kajiya_kay_1989::{self, KajiyaKay, KajiyaKayError, KajiyaKayParams, theta_of};
 use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
-use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, relative_phi};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{PI, TAU};
@@ -44,14 +44,19 @@ const PARAMS: [ParamSpec; 5] = [
 ];
 
 /// Registry entry: `goldman`.
-pub const SPEC: ModelSpec = ModelSpec {
-    name: "goldman",
-    summary: "Kajiya–Kay with Goldman's forward/backward directional factor",
-    citation: "Goldman 1997; docs/theory/radiometry.md",
-    params: &PARAMS,
-    data: None,
-    build: |p: &ParamSet| Ok(Goldman::new(GoldmanParams::from_param_set(p)?)?.into()),
-};
+impl Registered for Goldman {
+    const INFO: ModelInfo = ModelInfo {
+        name: "goldman",
+        summary: "Kajiya–Kay with Goldman's forward/backward directional factor",
+        citation: "Goldman 1997; docs/theory/radiometry.md",
+        params: &PARAMS,
+        data: None,
+    };
+
+    fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Ok(Goldman::new(GoldmanParams::from_param_set(p)?)?)
+    }
+}
 
 /// Parameters of [`Goldman`]: a Kajiya–Kay fiber and the directional weights.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -212,12 +217,6 @@ impl ScatteringFunction for Goldman {
             return None;
         }
         self.kk.sample_with(wo, u, self.sample_phi(u[3]), |wi| self.eval(wi, wo, h), |wi| self.pdf(wi, wo, h))
-    }
-}
-
-impl From<Goldman> for Model {
-    fn from(m: Goldman) -> Self {
-        Model::Goldman(m)
     }
 }
 

@@ -12,26 +12,31 @@
 
 use crate::params::{AlbedoParams, ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::{cos_theta_direction, cos_theta_pdf};
-use crate::{Field, Lobes, Model, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::cos_theta;
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{PI, TAU};
 
 /// Registry entry: `diffuse`.
-pub const SPEC: ModelSpec = ModelSpec {
-    name: "diffuse",
-    summary: "ideal diffuse fiber, f_s = albedo/π²",
-    citation: "Marschner, Scattering from fibers (course notes); docs/theory/radiometry.md",
-    params: &[ParamSpec {
-        key: "albedo",
-        kind: ParamKind::Color(Range::UNIT),
-        unit: "",
-        default: "0.8",
-        doc: "albedo ρ = π²·f_s",
-    }],
-    data: None,
-    build: |p: &ParamSet| Ok(IdealDiffuse::new(IdealDiffuseParams::from_param_set(p)?)?.into()),
-};
+impl Registered for IdealDiffuse {
+    const INFO: ModelInfo = ModelInfo {
+        name: "diffuse",
+        summary: "ideal diffuse fiber, f_s = albedo/π²",
+        citation: "Marschner, Scattering from fibers (course notes); docs/theory/radiometry.md",
+        params: &[ParamSpec {
+            key: "albedo",
+            kind: ParamKind::Color(Range::UNIT),
+            unit: "",
+            default: "0.8",
+            doc: "albedo ρ = π²·f_s",
+        }],
+        data: None,
+    };
+
+    fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Ok(IdealDiffuse::new(IdealDiffuseParams::from_param_set(p)?)?)
+    }
+}
 
 /// Parameters of [`IdealDiffuse`]: its albedo.
 pub type IdealDiffuseParams = AlbedoParams;
@@ -87,11 +92,5 @@ impl ScatteringFunction for IdealDiffuse {
     fn sample(&self, _wo: DVec3, _h: f64, u: [f64; 4]) -> Option<Sample> {
         let wi = cos_theta_direction(u[0], u[1], TAU * u[2]);
         Some(Sample { wi, weight: self.albedo, pdf: cos_theta_pdf(cos_theta(wi)), delta: false })
-    }
-}
-
-impl From<IdealDiffuse> for Model {
-    fn from(m: IdealDiffuse) -> Self {
-        Model::Diffuse(m)
     }
 }

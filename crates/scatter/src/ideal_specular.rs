@@ -20,42 +20,47 @@
 //! Sampling is exact: `φ = 2·asin(2ξ − 1)` (mirror) or `φ = π(2ξ − 1)` (uniform).
 
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
-use crate::{ConeValue, Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{ConeValue, Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta};
 use fiberlab_math::{DVec3, Rgb, fresnel};
 use std::f64::consts::{PI, TAU};
 
 /// Registry entry: `specular`.
-pub const SPEC: ModelSpec = ModelSpec {
-    name: "specular",
-    summary: "ideal specular fiber: a delta lobe on the cone θ_r = −θ_i",
-    citation: "Marschner, Scattering from fibers (course notes); docs/theory/radiometry.md",
-    params: &[
-        ParamSpec {
-            key: "azimuth",
-            kind: ParamKind::Choice(&["uniform", "mirror"]),
-            unit: "",
-            default: "mirror",
-            doc: "azimuthal distribution on the cone",
-        },
-        ParamSpec {
-            key: "fresnel",
-            kind: ParamKind::Choice(&["on", "off"]),
-            unit: "",
-            default: "off",
-            doc: "weight by dielectric Fresnel reflectance",
-        },
-        ParamSpec {
-            key: "eta",
-            kind: ParamKind::Number(ETA_RANGE),
-            unit: "",
-            default: "1.55",
-            doc: "index of refraction (used with fresnel=on)",
-        },
-    ],
-    data: None,
-    build: |p: &ParamSet| Ok(IdealSpecular::new(IdealSpecularParams::from_param_set(p)?)?.into()),
-};
+impl Registered for IdealSpecular {
+    const INFO: ModelInfo = ModelInfo {
+        name: "specular",
+        summary: "ideal specular fiber: a delta lobe on the cone θ_r = −θ_i",
+        citation: "Marschner, Scattering from fibers (course notes); docs/theory/radiometry.md",
+        params: &[
+            ParamSpec {
+                key: "azimuth",
+                kind: ParamKind::Choice(&["uniform", "mirror"]),
+                unit: "",
+                default: "mirror",
+                doc: "azimuthal distribution on the cone",
+            },
+            ParamSpec {
+                key: "fresnel",
+                kind: ParamKind::Choice(&["on", "off"]),
+                unit: "",
+                default: "off",
+                doc: "weight by dielectric Fresnel reflectance",
+            },
+            ParamSpec {
+                key: "eta",
+                kind: ParamKind::Number(ETA_RANGE),
+                unit: "",
+                default: "1.55",
+                doc: "index of refraction (used with fresnel=on)",
+            },
+        ],
+        data: None,
+    };
+
+    fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Ok(IdealSpecular::new(IdealSpecularParams::from_param_set(p)?)?)
+    }
+}
 
 /// Parameters of [`IdealSpecular`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -189,11 +194,5 @@ impl ScatteringFunction for IdealSpecular {
     fn cone(&self, theta_o: f64, phi: f64) -> ConeValue {
         let n = self.azimuthal_pdf(phi);
         ConeValue { value: Rgb::splat(n * self.attenuation(theta_o.cos(), phi)), pdf: n }
-    }
-}
-
-impl From<IdealSpecular> for Model {
-    fn from(m: IdealSpecular) -> Self {
-        Model::Specular(m)
     }
 }

@@ -24,7 +24,7 @@
 use crate::function::MIN_COS;
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::Tabulated1D;
-use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -64,14 +64,19 @@ pub(crate) const PARAMS: [ParamSpec; 3] = [
 ];
 
 /// Registry entry: `kajiya-kay`.
-pub const SPEC: ModelSpec = ModelSpec {
-    name: "kajiya-kay",
-    summary: "Kajiya–Kay diffuse + specular cone, as a scattering function",
-    citation: "Kajiya & Kay 1989; docs/theory/radiometry.md",
-    params: &PARAMS,
-    data: None,
-    build: |p: &ParamSet| Ok(KajiyaKay::new(KajiyaKayParams::from_param_set(p)?)?.into()),
-};
+impl Registered for KajiyaKay {
+    const INFO: ModelInfo = ModelInfo {
+        name: "kajiya-kay",
+        summary: "Kajiya–Kay diffuse + specular cone, as a scattering function",
+        citation: "Kajiya & Kay 1989; docs/theory/radiometry.md",
+        params: &PARAMS,
+        data: None,
+    };
+
+    fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Ok(KajiyaKay::new(KajiyaKayParams::from_param_set(p)?)?)
+    }
+}
 
 /// Parameters of [`KajiyaKay`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -242,11 +247,5 @@ impl ScatteringFunction for KajiyaKay {
 
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {
         self.sample_with(wo, u, PI * (2.0 * u[3] - 1.0), |wi| self.eval(wi, wo, h), |wi| self.pdf(wi, wo, h))
-    }
-}
-
-impl From<KajiyaKay> for Model {
-    fn from(m: KajiyaKay) -> Self {
-        Model::KajiyaKay(m)
     }
 }

@@ -14,26 +14,31 @@
 
 use crate::params::{AlbedoParams, ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::cosine_hemisphere;
-use crate::{Field, Lobes, Model, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, phi, relative_phi};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::PI;
 
 /// Registry entry: `lambertian-cylinder`.
-pub const SPEC: ModelSpec = ModelSpec {
-    name: "lambertian-cylinder",
-    summary: "opaque cylinder with a Lambertian surface",
-    citation: "docs/theory/radiometry.md (Tungsten LambertianFiberBcsdf)",
-    params: &[ParamSpec {
-        key: "albedo",
-        kind: ParamKind::Color(Range::UNIT),
-        unit: "",
-        default: "0.8",
-        doc: "surface albedo ρ",
-    }],
-    data: None,
-    build: |p: &ParamSet| Ok(LambertianCylinder::new(LambertianCylinderParams::from_param_set(p)?)?.into()),
-};
+impl Registered for LambertianCylinder {
+    const INFO: ModelInfo = ModelInfo {
+        name: "lambertian-cylinder",
+        summary: "opaque cylinder with a Lambertian surface",
+        citation: "docs/theory/radiometry.md (Tungsten LambertianFiberBcsdf)",
+        params: &[ParamSpec {
+            key: "albedo",
+            kind: ParamKind::Color(Range::UNIT),
+            unit: "",
+            default: "0.8",
+            doc: "surface albedo ρ",
+        }],
+        data: None,
+    };
+
+    fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Ok(LambertianCylinder::new(LambertianCylinderParams::from_param_set(p)?)?)
+    }
+}
 
 /// Parameters of [`LambertianCylinder`]: its surface albedo.
 pub type LambertianCylinderParams = AlbedoParams;
@@ -106,11 +111,5 @@ impl ScatteringFunction for LambertianCylinder {
         let n = DVec3::new(0.0, phi_n.cos(), phi_n.sin());
         let wi = cosine_hemisphere(n, DVec3::X, u[1], u[2]);
         Some(Sample { wi, weight: self.albedo, pdf: Self::density(wi, wo), delta: false })
-    }
-}
-
-impl From<LambertianCylinder> for Model {
-    fn from(m: LambertianCylinder) -> Self {
-        Model::LambertianCylinder(m)
     }
 }

@@ -13,6 +13,7 @@ mod model;
 pub mod params;
 pub mod radiometry;
 pub mod sampling;
+mod spec;
 
 pub mod chiang_2016;
 pub mod deon_2011;
@@ -26,4 +27,5 @@ pub mod measured;
 
 pub use error::ModelError;
 pub use function::{ConeValue, Field, Lobes, MIN_COS, Properties, Sample, ScatteringFunction};
-pub use model::{ALL_MODELS, ExternalData, MODELS, Model, ModelSpec, build, build_raw, find};
+pub use model::{ALL_MODELS, MODELS, Model, ModelSpec, build, build_raw, find};
+pub use spec::{ExternalData, ModelInfo, Registered};

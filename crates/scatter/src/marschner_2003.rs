@@ -165,7 +165,7 @@ use crate::hair::normal_plane::{Caustic, NormalPlane, RootMode, representative};
 use crate::hair::parameters::ETA_RANGE;
 use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
 use crate::radiometry::{Quadrature, albedo};
-use crate::{Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
 use fiberlab_math::special::{gaussian, normal_mass, sample_truncated_normal, wrapped_gaussian};
 use fiberlab_math::{DVec3, Rgb};
@@ -301,14 +301,19 @@ const PARAMS: [ParamSpec; 14] = [
 ];
 
 /// Registry entry: `marschner`.
-pub const SPEC: ModelSpec = ModelSpec {
-    name: "marschner",
-    summary: "Marschner et al. 2003 hair: R, TT, TRT with caustic glints and eccentricity",
-    citation: "Marschner et al. 2003",
-    params: &PARAMS,
-    data: None,
-    build: |p: &ParamSet| Ok(Marschner::new(MarschnerParams::from_param_set(p)?)?.into()),
-};
+impl Registered for Marschner {
+    const INFO: ModelInfo = ModelInfo {
+        name: "marschner",
+        summary: "Marschner et al. 2003 hair: R, TT, TRT with caustic glints and eccentricity",
+        citation: "Marschner et al. 2003",
+        params: &PARAMS,
+        data: None,
+    };
+
+    fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Ok(Marschner::new(MarschnerParams::from_param_set(p)?)?)
+    }
+}
 
 /// A scattering path: p = number of internal segments.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -868,12 +873,6 @@ impl ScatteringFunction for Marschner {
         let pdf = q / cos_i.max(MIN_COS_THETA_I);
         debug_assert!(weight.is_finite() && pdf.is_finite());
         Some(Sample { wi, weight, pdf, delta: false })
-    }
-}
-
-impl From<Marschner> for Model {
-    fn from(m: Marschner) -> Self {
-        Model::Marschner(m)
     }
 }
 

@@ -31,7 +31,7 @@
 
 use crate::params::{ParamKind, ParamSet, ParamSpec};
 use crate::sampling::{cos_theta_direction, cos_theta_pdf};
-use crate::{ExternalData, Field, Lobes, Model, ModelError, ModelSpec, Properties, Sample, ScatteringFunction};
+use crate::{ExternalData, Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, relative_phi, theta};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -40,20 +40,25 @@ use thiserror::Error;
 
 /// Registry entry: `measured`. Building it needs the table's data, which the I/O layer
 /// loads; [`crate::build`] alone reports how to provide it.
-pub const SPEC: ModelSpec = ModelSpec {
-    name: "measured",
-    summary: "tabulated f_s from a goniophotometer table (fiberlab measure CSV)",
-    citation: "fiberlab measure; docs/theory/radiometry.md (normalization)",
-    params: &[ParamSpec {
-        key: "table",
-        kind: ParamKind::Text,
-        unit: "path",
-        default: "",
-        doc: "CSV written by `fiberlab measure` (rows with lobe=all are used)",
-    }],
-    data: Some(ExternalData::Table { key: "table" }),
-    build: |_: &ParamSet| Err(ModelError::NeedsData { model: "measured", key: "table" }),
-};
+impl Registered for Measured {
+    const INFO: ModelInfo = ModelInfo {
+        name: "measured",
+        summary: "tabulated f_s from a goniophotometer table (fiberlab measure CSV)",
+        citation: "fiberlab measure; docs/theory/radiometry.md (normalization)",
+        params: &[ParamSpec {
+            key: "table",
+            kind: ParamKind::Text,
+            unit: "path",
+            default: "",
+            doc: "CSV written by `fiberlab measure` (rows with lobe=all are used)",
+        }],
+        data: Some(ExternalData::Table { key: "table" }),
+    };
+
+    fn from_param_set(_p: &ParamSet) -> Result<Self, ModelError> {
+        Err(ModelError::NeedsData { model: "measured", key: "table" })
+    }
+}
 
 /// Why a [`Measured`] function cannot be built from a table.
 #[non_exhaustive]
@@ -276,12 +281,6 @@ impl ScatteringFunction for Measured {
         }
         let weight = self.eval(wi, wo, h) * (cos_theta(wi) / pdf);
         Some(Sample { wi, weight, pdf, delta: false })
-    }
-}
-
-impl From<Measured> for Model {
-    fn from(m: Measured) -> Self {
-        Model::Measured(m)
     }
 }
 

@@ -2,10 +2,11 @@
 //! renderer's hot loop), and the registry that builds them from `key=value` parameters.
 
 use crate::params::{ParamSet, ParamSpec, RawValue};
+use crate::spec::{ExternalData, Registered};
 use crate::{ConeValue, ModelError, Properties, Sample, ScatteringFunction};
 use fiberlab_math::{DVec3, Rgb};
 
-/// How a model appears on the command line: name, parameters and constructor.
+/// A registry entry: a model's [`ModelInfo`] with its constructor.
 #[derive(Clone, Copy, Debug)]
 pub struct ModelSpec {
     /// Name used on the command line (`--model NAME`) and in scene files.
@@ -24,19 +25,36 @@ pub struct ModelSpec {
     pub build: fn(&ParamSet) -> Result<Model, ModelError>,
 }
 
-/// External data a model is built from, which a pure crate cannot read: the caller (the
-/// renderer's model loader) reads it and constructs the model.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ExternalData {
-    /// A measured table file (`fiberlab measure` CSV), whose path is the text parameter `key`.
-    Table {
-        /// The parameter holding the path.
-        key: &'static str,
-    },
+impl ModelSpec {
+    /// The entry of a [`Registered`] model with its constructor.
+    const fn of<T: Registered>(build: fn(&ParamSet) -> Result<Model, ModelError>) -> Self {
+        let i = T::INFO;
+        Self { name: i.name, summary: i.summary, citation: i.citation, params: i.params, data: i.data, build }
+    }
 }
 
 macro_rules! models {
-    ($($variant:ident($ty:ty) = $spec:path),* $(,)?) => {
+    (
+        from_params: $($variant:ident($ty:ty)),* ;
+        from_data: $($dvariant:ident($dty:ty)),* $(;)?
+    ) => {
+        models!(@enum $($variant($ty),)* $($dvariant($dty),)*);
+
+        /// Every model the enum can hold, in the order `fiberlab models` lists them; those with
+        /// [`ModelSpec::data`] cannot be built from parameters alone.
+        pub const ALL_MODELS: &[ModelSpec] = &[
+            $(ModelSpec::of::<$ty>(|p| Ok(Model::$variant(<$ty as Registered>::from_param_set(p)?))),)*
+            $(ModelSpec::of::<$dty>(|p| Ok(Model::$dvariant(<$dty as Registered>::from_param_set(p)?))),)*
+        ];
+
+        /// The models that can be built from parameters alone (every entry of [`ALL_MODELS`]
+        /// without [`ModelSpec::data`]), what code that builds every model from its defaults
+        /// iterates.
+        pub const MODELS: &[ModelSpec] = &[
+            $(ModelSpec::of::<$ty>(|p| Ok(Model::$variant(<$ty as Registered>::from_param_set(p)?))),)*
+        ];
+    };
+    (@enum $($variant:ident($ty:ty),)*) => {
         /// Every registered scattering model, as one enum for static dispatch.
         #[derive(Clone, Debug)]
         #[non_exhaustive]
@@ -47,9 +65,13 @@ macro_rules! models {
             )*
         }
 
-        /// Every model the enum can hold, in the order `fiberlab models` lists them; those with
-        /// [`ModelSpec::data`] cannot be built from parameters alone.
-        pub const ALL_MODELS: &[ModelSpec] = &[$($spec),*];
+        $(
+            impl From<$ty> for Model {
+                fn from(m: $ty) -> Self {
+                    Model::$variant(m)
+                }
+            }
+        )*
 
         impl ScatteringFunction for Model {
             #[inline]
@@ -81,29 +103,18 @@ macro_rules! models {
 }
 
 models! {
-    Diffuse(crate::ideal_diffuse::IdealDiffuse) = crate::ideal_diffuse::SPEC,
-    LambertianCylinder(crate::lambertian_cylinder::LambertianCylinder) = crate::lambertian_cylinder::SPEC,
-    Specular(crate::ideal_specular::IdealSpecular) = crate::ideal_specular::SPEC,
-    KajiyaKay(crate::kajiya_kay_1989::KajiyaKay) = crate::kajiya_kay_1989::SPEC,
-    Goldman(crate::goldman_1997::Goldman) = crate::goldman_1997::SPEC,
-    Marschner(crate::marschner_2003::Marschner) = crate::marschner_2003::SPEC,
-    Chiang(crate::chiang_2016::Chiang) = crate::chiang_2016::SPEC,
-    Deon(crate::deon_2011::Deon) = crate::deon_2011::SPEC,
-    Measured(crate::measured::Measured) = crate::measured::SPEC,
+    from_params:
+        Diffuse(crate::ideal_diffuse::IdealDiffuse),
+        LambertianCylinder(crate::lambertian_cylinder::LambertianCylinder),
+        Specular(crate::ideal_specular::IdealSpecular),
+        KajiyaKay(crate::kajiya_kay_1989::KajiyaKay),
+        Goldman(crate::goldman_1997::Goldman),
+        Marschner(crate::marschner_2003::Marschner),
+        Chiang(crate::chiang_2016::Chiang),
+        Deon(crate::deon_2011::Deon);
+    from_data:
+        Measured(crate::measured::Measured);
 }
-
-/// The models that can be built from parameters alone (every entry of [`ALL_MODELS`] without
-/// [`ModelSpec::data`]), what code that builds every model from its defaults iterates.
-pub const MODELS: &[ModelSpec] = &[
-    crate::ideal_diffuse::SPEC,
-    crate::lambertian_cylinder::SPEC,
-    crate::ideal_specular::SPEC,
-    crate::kajiya_kay_1989::SPEC,
-    crate::goldman_1997::SPEC,
-    crate::marschner_2003::SPEC,
-    crate::chiang_2016::SPEC,
-    crate::deon_2011::SPEC,
-];
 
 /// The registry entry called `name`.
 pub fn find(name: &str) -> Result<&'static ModelSpec, ModelError> {
@@ -150,21 +161,33 @@ mod tests {
     fn typed_defaults_match_the_registry_defaults() {
         use crate::lambertian_cylinder as l;
         use crate::{goldman_1997 as g, ideal_diffuse as d, ideal_specular as s, kajiya_kay_1989 as k};
-        let defaults = |spec: &ModelSpec| ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
-        assert_eq!(d::IdealDiffuseParams::from_param_set(&defaults(&d::SPEC)), Ok(d::IdealDiffuseParams::default()));
+        let defaults = |spec: &crate::ModelInfo| ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
         assert_eq!(
-            l::LambertianCylinderParams::from_param_set(&defaults(&l::SPEC)),
+            d::IdealDiffuseParams::from_param_set(&defaults(&d::IdealDiffuse::INFO)),
+            Ok(d::IdealDiffuseParams::default())
+        );
+        assert_eq!(
+            l::LambertianCylinderParams::from_param_set(&defaults(&l::LambertianCylinder::INFO)),
             Ok(l::LambertianCylinderParams::default())
         );
-        assert_eq!(s::IdealSpecularParams::from_param_set(&defaults(&s::SPEC)), Ok(s::IdealSpecularParams::default()));
-        assert_eq!(k::KajiyaKayParams::from_param_set(&defaults(&k::SPEC)), Ok(k::KajiyaKayParams::default()));
-        assert_eq!(g::GoldmanParams::from_param_set(&defaults(&g::SPEC)), Ok(g::GoldmanParams::default()));
+        assert_eq!(
+            s::IdealSpecularParams::from_param_set(&defaults(&s::IdealSpecular::INFO)),
+            Ok(s::IdealSpecularParams::default())
+        );
+        assert_eq!(
+            k::KajiyaKayParams::from_param_set(&defaults(&k::KajiyaKay::INFO)),
+            Ok(k::KajiyaKayParams::default())
+        );
+        assert_eq!(g::GoldmanParams::from_param_set(&defaults(&g::Goldman::INFO)), Ok(g::GoldmanParams::default()));
         use crate::{chiang_2016 as c, deon_2011 as e, marschner_2003 as m};
-        assert_eq!(m::MarschnerParams::from_param_set(&defaults(&m::SPEC)), Ok(m::MarschnerParams::default()));
-        assert_eq!(c::ChiangParams::from_param_set(&defaults(&c::SPEC)), Ok(c::ChiangParams::default()));
-        assert_eq!(e::DeonParams::from_param_set(&defaults(&e::SPEC)), Ok(e::DeonParams::default()));
+        assert_eq!(
+            m::MarschnerParams::from_param_set(&defaults(&m::Marschner::INFO)),
+            Ok(m::MarschnerParams::default())
+        );
+        assert_eq!(c::ChiangParams::from_param_set(&defaults(&c::Chiang::INFO)), Ok(c::ChiangParams::default()));
+        assert_eq!(e::DeonParams::from_param_set(&defaults(&e::Deon::INFO)), Ok(e::DeonParams::default()));
         // Goldman names Kajiya–Kay's entries by index: the indices must point at the keys.
-        let kk = &k::SPEC.params;
+        let kk = &k::KajiyaKay::INFO.params;
         assert_eq!([kk[k::K_D].key, kk[k::K_S].key, kk[k::P].key], ["k_d", "k_s", "p"]);
     }
 

@@ -5,9 +5,10 @@
 //! reach the evaluation code.
 
 use crate::ModelError;
+pub use crate::error::ParameterError;
+use crate::error::Shown;
 use fiberlab_math::Rgb;
 use std::fmt;
-use thiserror::Error;
 
 /// An interval of valid values, each end open or closed (`f64::INFINITY` for unbounded).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,43 +95,6 @@ impl Range {
     }
 }
 
-/// A value outside its parameter's valid range, named by the parameter's key. Shared by
-/// every model's error type (each model's `XError` wraps it).
-#[non_exhaustive]
-#[derive(Clone, Debug, Error, PartialEq)]
-pub enum ParameterError {
-    /// NaN or ±∞.
-    #[error("parameter `{key}` = {} is not finite; valid range {range}", Shown(*.value))]
-    NotFinite {
-        /// Parameter key.
-        key: &'static str,
-        /// The offending value.
-        value: f64,
-        /// The valid range, with its unit.
-        range: String,
-    },
-    /// A finite value outside the valid range.
-    #[error("parameter `{key}` = {} is out of range; valid range {range}", Shown(*.value))]
-    OutOfRange {
-        /// Parameter key.
-        key: &'static str,
-        /// The offending value (in the range's unit).
-        value: f64,
-        /// The valid range, with its unit.
-        range: String,
-    },
-}
-
-impl ParameterError {
-    /// The key of the parameter at fault.
-    #[must_use]
-    pub fn key(&self) -> &'static str {
-        match self {
-            ParameterError::NotFinite { key, .. } | ParameterError::OutOfRange { key, .. } => key,
-        }
-    }
-}
-
 /// Declares a model's error type for a model whose only way to fail is a parameter out of
 /// its range: `Parameter(ParameterError)`, and its conversion into [`ModelError`]. Models with
 /// more ways to fail write their enum by hand with the same `Parameter` variant.
@@ -181,18 +145,6 @@ impl AlbedoParams {
     /// Reads the registry parameter `albedo`.
     pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
         Ok(Self { albedo: p.color("albedo")? })
-    }
-}
-
-/// A number as a person reads it: twelve significant digits, plain for ordinary magnitudes,
-/// in exponent form for huge or tiny ones (so 1e308 is not printed with 309 digits).
-struct Shown(f64);
-
-impl fmt::Display for Shown {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        // Twelve significant digits: hides the rounding of unit conversions (29.999999999999996°).
-        let x = if self.0.is_finite() { format!("{:.11e}", self.0).parse().unwrap_or(self.0) } else { self.0 };
-        if x.is_finite() && x != 0.0 && !(1e-4..1e7).contains(&x.abs()) { write!(f, "{x:e}") } else { write!(f, "{x}") }
     }
 }
 

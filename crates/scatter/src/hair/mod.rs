@@ -12,6 +12,7 @@
 //! | [`roughness`] | Chiang's maps β → `v_p`, `s`, and d'Eon's azimuthal σ | Chiang 2016 |
 //! | [`backward_form`] | `f_s = g/cosθ_i`, light-side albedo, measured non-reciprocity | Chiang 2016 |
 //! | [`parameters`] | the parameter table entries the hair models share | |
+//! | [`fiber`] | the fiber parameters Chiang and d'Eon share, with presets and checks | |
 //!
 //! The mathematics, in our words and with the peers' discrepancies, is in
 //! `docs/theory/hair.md`, `docs/theory/conventions.md`, `docs/theory/radiometry.md` and
@@ -32,6 +33,7 @@
 pub mod absorption;
 pub mod attenuation;
 pub mod backward_form;
+pub mod fiber;
 pub mod longitudinal;
 pub mod normal_plane;
 pub mod parameters;

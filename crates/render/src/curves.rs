@@ -17,7 +17,7 @@
 //!
 //! Tubes are **one-sided**: only the entry point of a ray into a tube counts. A ray leaving a
 //! fiber (reflected or transmitted, spawned on its surface) therefore never re-hits it, which
-//! is what treating a fiber hit as one scattering event (models.md §1.4) requires.
+//! is what treating a fiber hit as one scattering event (`docs/theory/conventions.md`, "Fiber scattering function versus renderer BSDF") requires.
 //!
 //! # Shading frame at a hit (matches the scattering models' frame, math::frame)
 //! * `u`: tangent, root → tip: the vertex tangents interpolated linearly along the segment
@@ -29,11 +29,11 @@
 //! * `h = (q·v)/r` ∈ [−1, 1], where `q` is the vector from the axis to the ray's point of
 //!   closest approach, measured in the normal plane of the segment axis. As the projected ray
 //!   runs along `−w`, its offset along `v` is constant, so `h` is exactly the normal-plane
-//!   offset of models.md §1.2, increasing toward `+v`.
+//!   offset of `docs/theory/conventions.md`, increasing toward `+v`.
 //!
 //! This is pbrt's hair frame (`x` = tangent, `y` across, `z` toward the camera, `h` along
 //! `+y`): the mirror reflection off the tube at offset `h` leaves at `φ_i − φ_o = −2 asin h`,
-//! which is Φ(0, h) of models.md §1.2 in pbrt's `φ_i − φ_o` convention (tested below by
+//! which is Φ(0, h) of `docs/theory/conventions.md` ("Exit azimuth") in pbrt's `φ_i − φ_o` convention (tested below by
 //! reflecting the ray off the actual cylinder normal).
 
 use crate::bvh::{Aabb, Bvh, Ray};
@@ -520,7 +520,7 @@ mod tests {
 
     proptest! {
         /// Reflecting the ray off the true cylinder normal at the hit gives the R-path azimuth
-        /// φ_i − φ_o = −2 asin h (models.md §1.2 in pbrt's convention) and θ_i = −θ_o.
+        /// φ_i − φ_o = −2 asin h (`docs/theory/conventions.md`, "Exit azimuth", in pbrt's convention) and θ_i = −θ_o.
         #[test]
         fn mirror_reflection_matches_phi_of_h(
             ox in -1.0f64..1.0, oz in -1.0f64..1.0, dy in -0.9f64..0.9, angle in 0.0f64..std::f64::consts::TAU, off in -0.99f64..0.99

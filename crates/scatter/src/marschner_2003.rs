@@ -98,7 +98,10 @@
 //!   lower end (0.2) in red, a light brown.
 //! * **Grazing**: `cos²θ_d` in the denominator is clamped at [`MIN_COS_THETA_D`]² (S would
 //!   be infinite only at θ_r = −θ_i = ±90° exactly); `|dΦ/dγ|` is clamped at
-//!   [`MIN_DPHI`] exactly on a caustic.
+//!   [`MIN_DPHI`] exactly on a caustic. Toward the fiber axis (θ_i → ±90°) the pdf per
+//!   steradian grows like 1/cosθ_i (the density in (θ_i, φ) is finite; `dω = cosθ dθ dφ`), and
+//!   on the axis itself `cosθ_i` is taken as [`crate::MIN_COS`], the rule every model uses; on
+//!   the specular cone `f_s` grows like 1/cos²θ_d, the form of the paper's `M_p N_p/cos²θ_d`.
 //! * Parameter ranges: a ≥ 0.75 keeps `η*₁ − 1 = (η − 1)(2a² − 1) > 0` (η* ≤ 1 has no
 //!   refraction); β_R ≥ 1° and |α_R| ≤ 20° keep the truncated θ-Gaussians of the sampler
 //!   representable in double precision.
@@ -165,7 +168,7 @@ use crate::hair::normal_plane::{Caustic, NormalPlane, RootMode, representative};
 use crate::hair::parameters::ETA_RANGE;
 use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
 use crate::radiometry::{Quadrature, albedo};
-use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
+use crate::{Field, Lobes, MIN_COS, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
 use fiberlab_math::special::{gaussian, normal_mass, sample_truncated_normal, wrapped_gaussian};
 use fiberlab_math::{DVec3, Rgb};
@@ -178,7 +181,6 @@ pub const MIN_COS_THETA_D: f64 = 1e-6;
 /// Smallest `|dΦ/dγ|` in `N_p`: the density is infinite exactly on a caustic.
 pub const MIN_DPHI: f64 = 1e-12;
 /// Smallest `cosθ_i` used to convert the (θ_i, φ) density to a density per steradian.
-const MIN_COS_THETA_I: f64 = 1e-300;
 /// `eval` skips a lobe whose θ_h lies more than this many β_p from α_p: its Gaussian is
 /// below e^{−72} ≈ 5·10⁻³² of its peak (the pdf never skips; it must match `sample`).
 pub const LOBE_CUTOFF_SIGMAS: f64 = 12.0;
@@ -829,7 +831,7 @@ impl ScatteringFunction for Marschner {
 
     fn pdf(&self, wi: DVec3, wo: DVec3, _h: f64) -> f64 {
         let q = self.angular_density(&PairAngles::new(wi, wo));
-        q / cos_theta(wi).max(MIN_COS_THETA_I)
+        q / cos_theta(wi).max(MIN_COS)
     }
 
     fn sample(&self, wo: DVec3, _h: f64, u: [f64; 4]) -> Option<Sample> {
@@ -870,7 +872,7 @@ impl ScatteringFunction for Marschner {
         // q is per dθ_i dφ; dω = cosθ_i dθ_i dφ, so pdf = q/cosθ_i and f·cosθ_i/pdf = f·cos²θ_i/q.
         let cos_i = cos_theta(wi);
         let weight = self.eval(wi, wo, 0.0) * (cos_i * cos_i / q);
-        let pdf = q / cos_i.max(MIN_COS_THETA_I);
+        let pdf = q / cos_i.max(MIN_COS);
         debug_assert!(weight.is_finite() && pdf.is_finite());
         Some(Sample { wi, weight, pdf, delta: false })
     }

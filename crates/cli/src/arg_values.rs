@@ -6,6 +6,7 @@
 
 use fiberlab_math::DVec3;
 use fiberlab_render::integrator::Region;
+use std::path::{Path, PathBuf};
 
 /// An angle written in degrees: the radians the code uses, and the degrees as written
 /// (for titles and messages).
@@ -54,6 +55,61 @@ pub fn positive_count(text: &str) -> Result<usize, String> {
         0 => Err("expected a positive integer, got 0".into()),
         n => Ok(n),
     }
+}
+
+/// An output prefix (`--out PREFIX`), the one rule of every verb that writes files: the
+/// files are `PREFIX` plus their suffix (`.exr`, `.png`, `_residuals.png`, …). A given
+/// extension of an output kind (`render.exr`) is dropped, a directory is refused (it would
+/// otherwise become hidden files `dir/.exr`), and the directory the files go to must exist
+/// and be writable — checked here, before any work is done.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct OutPrefix(PathBuf);
+
+/// Output extensions an `--out` prefix may carry by mistake; they are dropped.
+const OUTPUT_EXTENSIONS: [&str; 7] = ["exr", "png", "csv", "toml", "svg", "json", "jpg"];
+
+impl OutPrefix {
+    /// The output file `PREFIX` + `suffix`.
+    #[must_use]
+    pub fn with(&self, suffix: &str) -> PathBuf {
+        let mut s = self.0.clone().into_os_string();
+        s.push(suffix);
+        s.into()
+    }
+}
+
+impl std::fmt::Display for OutPrefix {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.0.display())
+    }
+}
+
+/// `--out PREFIX`: see [`OutPrefix`].
+pub fn out_prefix(text: &str) -> Result<OutPrefix, String> {
+    if text.is_empty() {
+        return Err("expected an output prefix such as `out/render`".into());
+    }
+    let path = PathBuf::from(text);
+    if text.ends_with('/') || path.is_dir() {
+        let inside = Path::new(text.trim_end_matches('/')).join("render");
+        return Err(format!("`{text}` is a directory; give a prefix inside it, e.g. `{}`", inside.display()));
+    }
+    let path = match path.extension().and_then(|e| e.to_str()) {
+        Some(e) if OUTPUT_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()) => path.with_extension(""),
+        _ => path,
+    };
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(format!("the directory `{}` does not exist", dir.display()));
+    }
+    tempfile::Builder::new()
+        .prefix(".fiberlab-write-check")
+        .tempfile_in(&dir)
+        .map_err(|e| format!("cannot write in `{}`: {}", dir.display(), e.kind()))?;
+    Ok(OutPrefix(path))
 }
 
 /// Seconds ≥ 0, finite.
@@ -296,5 +352,22 @@ mod tests {
         assert_eq!(named_rect("g=0,0,1,1").unwrap().name, "g");
         assert!(named_rect("=0,0,1,1").unwrap_err().contains("non-empty name"));
         assert!(named_rect("0,0,1,1").unwrap_err().contains("NAME=X0,Y0,X1,Y1"));
+    }
+
+    #[test]
+    fn out_prefixes_drop_output_extensions_and_refuse_directories_and_missing_places() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().display().to_string();
+        let p = out_prefix(&format!("{d}/render.exr")).unwrap();
+        assert_eq!(p.with(".png"), dir.path().join("render.png"));
+        assert_eq!(out_prefix(&format!("{d}/v1.2")).unwrap().with(".exr"), dir.path().join("v1.2.exr"));
+        let e = out_prefix(&d).unwrap_err();
+        assert!(e.contains("is a directory") && e.contains("render"), "{e}");
+        assert!(out_prefix(&format!("{d}/")).unwrap_err().contains("is a directory"));
+        let e = out_prefix(&format!("{d}/missing/r")).unwrap_err();
+        assert!(e.contains("does not exist") && e.contains("missing"), "{e}");
+        assert!(out_prefix("").is_err());
+        // The check leaves nothing behind.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
     }
 }

@@ -24,8 +24,8 @@ pub struct Args {
     #[arg(long)]
     align: bool,
     /// Output prefix of the figure PREFIX.png (A | B | false-colour |A − B|).
-    #[arg(long)]
-    out: Option<PathBuf>,
+    #[arg(long, value_name = "PREFIX", value_parser = crate::arg_values::out_prefix)]
+    out: Option<crate::arg_values::OutPrefix>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -210,7 +210,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
     }
     if let Some(prefix) = &args.out {
-        figure(&a, &b, &diff, &prefix.with_extension("png"))?;
+        figure(&a, &b, &diff, &prefix.with(".png"))?;
     }
     Ok(())
 }

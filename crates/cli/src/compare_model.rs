@@ -20,8 +20,8 @@ pub struct Args {
     #[command(flatten)]
     model: ModelArgs,
     /// Prefix of the difference figures (PREFIX_LOBE.png, first incidence); none if absent.
-    #[arg(long)]
-    out: Option<PathBuf>,
+    #[arg(long, value_name = "PREFIX", value_parser = crate::arg_values::out_prefix)]
+    out: Option<crate::arg_values::OutPrefix>,
 }
 
 /// Bin-averaged model `f_s` (cosθ-weighted, h-averaged for near-field models), `[θ][φ]`.
@@ -96,7 +96,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             if s == 0
                 && let Some(prefix) = &args.out
             {
-                let path = PathBuf::from(format!("{}_{lobe}.png", prefix.display()));
+                let path = prefix.with(&format!("_{lobe}.png"));
                 let title = format!(
                     "|{} − measured| ({lobe}), θ_i = {:.1}°",
                     args.model.label(),

@@ -43,8 +43,8 @@ pub struct Args {
     #[arg(long, default_value_t = 400)]
     iterations: u64,
     /// Output prefix (PREFIX.toml, PREFIX_residuals.png).
-    #[arg(long, default_value = "fit")]
-    out: PathBuf,
+    #[arg(long, value_name = "PREFIX", default_value = "fit", value_parser = crate::arg_values::out_prefix)]
+    out: crate::arg_values::OutPrefix,
 }
 
 /// Observations from a table lobe: bin centres, luminance values, standard errors with a floor
@@ -180,7 +180,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         // A TOML float (with `{:?}`, `3.0` stays a float and every digit of the value is kept).
         toml.push_str(&format!("{k} = {v:?}\n"));
     }
-    let toml_path = args.out.with_extension("toml");
+    let toml_path = args.out.with(".toml");
     write_atomically(&toml_path, toml.as_bytes())?;
     println!("wrote {}", toml_path.display());
     if let Some((nt, np)) = grid {
@@ -188,7 +188,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         let image: Vec<Vec<f64>> = (0..nt).map(|i| (0..np).map(|j| r.residuals[i * np + j].abs()).collect()).collect();
         let azimuthal = (0..np).map(|j| (0..nt).map(|i| image[i][j]).sum()).collect();
         let cone = image[nt / 2].clone();
-        let path = PathBuf::from(format!("{}_residuals.png", args.out.display()));
+        let path = args.out.with("_residuals.png");
         write_figure(&path, &Grids { image, azimuthal, cone }, "|residual| / σ (first incidence)", Scale::Log, 3.0)?;
         println!("wrote {}", path.display());
     }

@@ -44,8 +44,8 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Output prefix: PREFIX.csv and PREFIX.png are written.
-    #[arg(long)]
-    out: PathBuf,
+    #[arg(long, value_name = "PREFIX", value_parser = crate::arg_values::out_prefix)]
+    out: crate::arg_values::OutPrefix,
 }
 
 /// The fiber: `--fiber FILE.toml` (through the shared TOML conversion), then `--param`
@@ -101,12 +101,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if stop.load(Ordering::Relaxed) {
         eprintln!("interrupted: writing what was traced so far");
     }
-    write_csv(&measurements, &args.out.with_extension("csv"))?;
+    write_csv(&measurements, &args.out.with(".csv"))?;
     let first = &measurements[0];
     let params: Vec<String> = args.params.iter().map(ToString::to_string).collect();
     let title = format!("measured fiber {}   θ_i = {}°", params.join(" "), thetas[0].degrees);
-    write_figure(&args.out.with_extension("png"), &figure(first), &title, Scale::Log, 4.0)?;
-    write_exr(first, &args.out.with_extension("exr"))?;
+    write_figure(&args.out.with(".png"), &figure(first), &title, Scale::Log, 4.0)?;
+    write_exr(first, &args.out.with(".exr"))?;
     let traced: usize = measurements.iter().map(|m| m.traced).sum();
     println!("traced {traced} rays in {seconds:.2} s: {:.3} Mrays/s", traced as f64 / seconds / 1e6);
     for m in &measurements {
@@ -134,9 +134,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     println!(
         "wrote {}, {} and {}",
-        args.out.with_extension("csv").display(),
-        args.out.with_extension("png").display(),
-        args.out.with_extension("exr").display()
+        args.out.with(".csv").display(),
+        args.out.with(".png").display(),
+        args.out.with(".exr").display()
     );
     Ok(())
 }

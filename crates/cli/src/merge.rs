@@ -21,8 +21,8 @@ pub struct Args {
     #[arg(required = true)]
     parts: Vec<PathBuf>,
     /// Output prefix: writes PREFIX.exr and PREFIX.png.
-    #[arg(long, default_value = "render")]
-    out: String,
+    #[arg(long, value_name = "PREFIX", default_value = "render", value_parser = crate::arg_values::out_prefix)]
+    out: crate::arg_values::OutPrefix,
     /// Exposure for the PNG in stops.
     #[arg(long, default_value_t = 0.0)]
     exposure: f64,
@@ -167,8 +167,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             image.set_attribute(key, v);
         }
     }
-    image.write_exr(&PathBuf::from(format!("{}.exr", args.out)))?;
-    image.write_png(&PathBuf::from(format!("{}.png", args.out)), args.exposure, ToneMap::Filmic)?;
+    image.write_exr(&args.out.with(".exr"))?;
+    image.write_png(&args.out.with(".png"), args.exposure, ToneMap::Filmic)?;
     eprintln!("merged {} parts → {}.exr, {}.png", images.len(), args.out, args.out);
     Ok(())
 }

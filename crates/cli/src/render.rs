@@ -42,8 +42,8 @@ pub struct Args {
     #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "tile", value_parser = arg_values::pixel_rect)]
     crop: Option<PixelRect>,
     /// Output prefix: writes PREFIX.exr and PREFIX.png.
-    #[arg(long, default_value = "render")]
-    out: String,
+    #[arg(long, value_name = "PREFIX", default_value = "render", value_parser = arg_values::out_prefix)]
+    out: arg_values::OutPrefix,
     /// Exposure for the PNG in stops (default: the scene's).
     #[arg(long, allow_hyphen_values = true)]
     exposure: Option<f64>,
@@ -167,8 +167,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     );
     bar.finish_and_clear();
     let s = &out.stats;
-    let exr = PathBuf::from(format!("{}.exr", args.out));
-    let png = PathBuf::from(format!("{}.png", args.out));
+    let (exr, png) = (args.out.with(".exr"), args.out.with(".png"));
     let mut image = out.image;
     // What the image is, in its header, so that `fiberlab merge` can check its parts.
     image.set_attribute("scene", scene_hash);

@@ -116,6 +116,12 @@ fn scene_errors_name_file_line_and_key() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("bad.toml:11:1:") && err.contains("bogus"), "{err}");
     std::fs::write(d.join("s.toml"), SCENE.replace("file = \"h.hair\"", "generator = { strands = 10 }")).unwrap();
+    // An output place that cannot be written is refused before the scene is even read.
+    let out = fiberlab(d).args(["render", "s.toml", "--out", "/nonexistent/dir/r"]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("/nonexistent/dir") && err.contains("does not exist"), "{err}");
+    let out = fiberlab(d).args(["render", "s.toml", "--out", "."]).output().unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("is a directory"));
     let out = fiberlab(d).args(["render", "s.toml", "--tile", "3/3"]).output().unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("0 ≤ I < N"), "{}", String::from_utf8_lossy(&out.stderr));

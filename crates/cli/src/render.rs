@@ -139,7 +139,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let (w, h) = file.image_size();
     let region = config.pixels.region(w, h)?;
     if let Some(h) = &args.hair {
-        file.override_hair(h.clone());
+        file.override_hair(h.clone())?;
     }
     let scene_hash = scene_hash(args)?;
     let (scene, scene_settings) = file.build()?;

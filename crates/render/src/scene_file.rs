@@ -83,18 +83,28 @@ angular_radius_deg = 2.0
 irradiance = [4.0, 3.7, 3.2]
 "#;
 
-/// A scene file error with its location.
+/// A scene file error with its location (`path:line:column: message`; `path: message` for
+/// an error of the whole file, e.g. one that cannot be read).
 #[derive(Debug, thiserror::Error)]
-#[error("{path}:{line}:{column}: {message}")]
 pub struct SceneError {
     /// Scene file (`<default scene>` for the built-in one).
     pub path: PathBuf,
-    /// 1-based line.
+    /// 1-based line (0: the error is not at a place in the file).
     pub line: usize,
     /// 1-based column.
     pub column: usize,
     /// What is wrong, naming the key or value.
     pub message: String,
+}
+
+impl std::fmt::Display for SceneError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.line == 0 {
+            write!(f, "{}: {}", self.path.display(), self.message)
+        } else {
+            write!(f, "{}:{}:{}: {}", self.path.display(), self.line, self.column, self.message)
+        }
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -245,11 +255,18 @@ impl SceneFile {
 
     /// Reads and parses a scene file.
     pub fn read(path: &Path) -> Result<Self, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+        let bytes = std::fs::read(path).map_err(|e| SceneError {
             path: path.into(),
             line: 0,
             column: 0,
             message: e.to_string(),
+        })?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let at = e.utf8_error().valid_up_to();
+            let before = String::from_utf8_lossy(&e.as_bytes()[..at]).into_owned();
+            let line = before.matches('\n').count() + 1;
+            let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+            SceneError { path: path.into(), line, column, message: format!("byte {at}: not UTF-8 text") }
         })?;
         Self::parse(&text, path)
     }
@@ -260,9 +277,22 @@ impl SceneFile {
         Self::parse(DEFAULT_SCENE, Path::new("<default scene>")).expect("the default scene parses")
     }
 
-    /// Uses this `.hair` file for every `[[hair]]` entry instead of its own source.
-    pub fn override_hair(&mut self, path: PathBuf) {
+    /// Uses this `.hair` file for every `[[hair]]` entry instead of its own source; a scene
+    /// without `[[hair]]` has no material to give it, which is an error.
+    pub fn override_hair(&mut self, path: PathBuf) -> Result<(), SceneError> {
+        if self.desc.hair.is_empty() {
+            return Err(SceneError {
+                path: self.path.clone(),
+                line: 0,
+                column: 0,
+                message: format!(
+                    "--hair {}: the scene has no [[hair]] entry whose strands it would replace; add one with a fiber material",
+                    path.display()
+                ),
+            });
+        }
         self.hair_override = Some(path);
+        Ok(())
     }
 
     /// The `[render]` section.
@@ -526,6 +556,23 @@ mod tests {
     }
 
     const CAMERA: &str = "[camera]\neye = [0, 0, 5]\ntarget = [0, 0, 0]\nfov = 30\nwidth = 8\nheight = 8\n";
+
+    #[test]
+    fn hair_override_needs_hair_and_bad_text_is_located() {
+        let mut f = SceneFile::parse(CAMERA, Path::new("s.toml")).unwrap();
+        let e = f.override_hair(PathBuf::from("h.hair")).unwrap_err().to_string();
+        assert!(e.starts_with("s.toml: --hair h.hair: the scene has no [[hair]]"), "{e}");
+        let mut d = SceneFile::default_scene();
+        d.override_hair(PathBuf::from("h.hair")).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, b"[camera]\nfov = \xff30\n").unwrap();
+        let e = SceneFile::read(&path).unwrap_err();
+        assert_eq!((e.line, e.column), (2, 7), "{e}");
+        assert!(e.to_string().contains("byte 15: not UTF-8"), "{e}");
+        let e = SceneFile::read(&dir.path().join("none.toml")).unwrap_err().to_string();
+        assert!(!e.contains(":0:0"), "{e}");
+    }
 
     #[test]
     fn default_scene_parses_and_builds_small() {

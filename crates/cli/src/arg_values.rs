@@ -112,6 +112,15 @@ pub fn out_prefix(text: &str) -> Result<OutPrefix, String> {
     Ok(OutPrefix(path))
 }
 
+/// A finite number (e.g. an exposure in stops, which may be negative).
+pub fn finite(text: &str) -> Result<f64, String> {
+    let x: f64 = number(text, "a finite number")?;
+    if !x.is_finite() {
+        return Err(format!("expected a finite number, got `{text}`"));
+    }
+    Ok(x)
+}
+
 /// Seconds ≥ 0, finite.
 pub fn seconds(text: &str) -> Result<f64, String> {
     let s: f64 = number(text, "seconds")?;

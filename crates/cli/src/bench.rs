@@ -17,8 +17,8 @@ pub struct Args {
     #[arg(long = "param", value_name = "KEY=VALUE", requires = "model")]
     params: Vec<String>,
     /// Calls per measurement.
-    #[arg(long, default_value_t = 1_000_000)]
-    calls: usize,
+    #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..))]
+    calls: u64,
     /// Also measure the renderer on the default scene: BVH build, rays/s (camera and
     /// incoherent, against brute force), samples/s.
     #[arg(long)]
@@ -110,7 +110,7 @@ fn measure(model: &Model, calls: usize) -> (f64, f64) {
 /// Runs the measurements and prints the table.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let baseline_model = fiberlab_scatter::build::<&str, &str>("diffuse", &[])?;
-    let (baseline, _) = measure(&baseline_model, args.calls);
+    let (baseline, _) = measure(&baseline_model, args.calls as usize);
     let models: Vec<(String, Model)> = match &args.model {
         Some(name) => {
             let m = ModelArgs { model: name.clone(), params: args.params.clone(), params_file: None };
@@ -127,7 +127,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     println!("baseline: diffuse eval = {baseline:.2} ns/call ({} calls × 5, median)", args.calls);
     println!("{:<40} {:>12} {:>10} {:>14} {:>10}", "model", "eval ns", "× base", "sample ns", "× base");
     for (label, model) in &models {
-        let (e, s) = measure(model, args.calls);
+        let (e, s) = measure(model, args.calls as usize);
         println!("{label:<40} {e:>12.2} {:>10.1} {s:>14.2} {:>10.1}", e / baseline, s / baseline);
     }
     Ok(())

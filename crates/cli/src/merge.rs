@@ -24,7 +24,7 @@ pub struct Args {
     #[arg(long, value_name = "PREFIX", default_value = "render", value_parser = crate::arg_values::out_prefix)]
     out: crate::arg_values::OutPrefix,
     /// Exposure for the PNG in stops.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = crate::arg_values::finite)]
     exposure: f64,
 }
 

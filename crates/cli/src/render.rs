@@ -45,7 +45,7 @@ pub struct Args {
     #[arg(long, value_name = "PREFIX", default_value = "render", value_parser = arg_values::out_prefix)]
     out: arg_values::OutPrefix,
     /// Exposure for the PNG in stops (default: the scene's).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = arg_values::finite)]
     exposure: Option<f64>,
     /// No progress bar.
     #[arg(long)]

@@ -212,6 +212,11 @@ fn bad_flag_values_are_reported_before_any_file_is_read() {
         (&["render", "missing.toml", "--tile", "3/3"], "0 ≤ I < N"),
         (&["render", "missing.toml", "--crop", "4,0,2,2"], "x0 < x1"),
         (&["render", "missing.toml", "--time-limit=-1"], "seconds ≥ 0"),
+        (&["render", "missing.toml", "--exposure", "nan"], "finite"),
+        (&["render", "missing.toml", "--spp", "0"], "--spp"),
+        (&["render", "missing.toml", "--out", "/nonexistent/dir/r"], "does not exist"),
+        (&["merge", "missing.exr", "--exposure", "inf"], "finite"),
+        (&["bench", "--calls", "0", "--params-file", "missing.toml"], "--calls"),
         (
             &["plot", "--model", "diffuse", "--theta-i", "90", "--out", "x.png", "--params-file", "missing.toml"],
             "(-90, 90)",

@@ -466,15 +466,55 @@ impl SceneFile {
         Ok(())
     }
 
+    /// A radiometric colour (radiance, irradiance, emission, a scale): every channel finite
+    /// and ≥ 0, else an error at `span` naming `what`.
+    fn radiometric(&self, span: std::ops::Range<usize>, what: &str, c: [f64; 3]) -> Result<Rgb, SceneError> {
+        if c.iter().all(|x| x.is_finite() && *x >= 0.0) {
+            Ok(rgb(c))
+        } else {
+            Err(self.error(
+                span,
+                format!("{what} = [{}, {}, {}] must be finite and ≥ 0 in every channel", c[0], c[1], c[2]),
+            ))
+        }
+    }
+
+    /// Three finite coordinates, else an error at `span` naming `what`.
+    fn point(&self, span: std::ops::Range<usize>, what: &str, c: [f64; 3]) -> Result<DVec3, SceneError> {
+        if c.iter().all(|x| x.is_finite()) {
+            Ok(dvec(c))
+        } else {
+            Err(self.error(span, format!("{what} = [{}, {}, {}] must be finite", c[0], c[1], c[2])))
+        }
+    }
+
     /// `[[light]]`: the lights at infinity.
     fn lights(&self, scene: &mut SceneBuilder) -> Result<(), SceneError> {
         for l in &self.desc.light {
             let light = match l.get_ref() {
-                LightDesc::Environment { radiance } => Light::Constant { radiance: rgb(*radiance) },
+                LightDesc::Environment { radiance } => {
+                    Light::Constant { radiance: self.radiometric(l.span(), "environment: radiance", *radiance)? }
+                }
                 LightDesc::Envmap { file, scale } => {
-                    let img =
-                        LinearImage::read_exr(&self.resolve(file)).map_err(|e| self.error(l.span(), e.to_string()))?;
-                    Light::Map(Box::new(EnvironmentMap::new(img, Rgb::splat(scale.unwrap_or(1.0)))))
+                    let scale = self.radiometric(l.span(), "envmap: scale", [scale.unwrap_or(1.0); 3])?;
+                    let path = self.resolve(file);
+                    let img = LinearImage::read_exr(&path).map_err(|e| self.error(l.span(), e.to_string()))?;
+                    if let Some(at) = img.pixels().iter().position(|p| p.iter().any(|c| !(c.is_finite() && *c >= 0.0)))
+                    {
+                        let (x, y) = (at % img.width(), at / img.width());
+                        let p = img.pixels()[at];
+                        return Err(self.error(
+                            l.span(),
+                            format!(
+                                "envmap {}: pixel x = {x}, y = {y} is [{}, {}, {}]; radiance must be finite and ≥ 0",
+                                path.display(),
+                                p[0],
+                                p[1],
+                                p[2]
+                            ),
+                        ));
+                    }
+                    Light::Map(Box::new(EnvironmentMap::new(img, scale)))
                 }
                 LightDesc::Sun { direction, angular_radius_deg, irradiance } => {
                     if !(*angular_radius_deg > 0.0 && *angular_radius_deg < 90.0) || dvec(*direction).length() == 0.0 {
@@ -483,13 +523,18 @@ impl SceneFile {
                             format!("sun: angular_radius_deg = {angular_radius_deg} must be in (0, 90) and direction non-zero"),
                         ));
                     }
-                    Light::sun(dvec(*direction), angular_radius_deg.to_radians(), rgb(*irradiance))
+                    let direction = self.point(l.span(), "sun: direction", *direction)?;
+                    let irradiance = self.radiometric(l.span(), "sun: irradiance", *irradiance)?;
+                    Light::sun(direction, angular_radius_deg.to_radians(), irradiance)
                 }
                 LightDesc::Distant { direction, irradiance } => {
                     let Some(direction) = dvec(*direction).try_normalize() else {
                         return Err(self.error(l.span(), "distant: direction must be non-zero and finite".to_string()));
                     };
-                    Light::Distant { direction, irradiance: rgb(*irradiance) }
+                    Light::Distant {
+                        direction,
+                        irradiance: self.radiometric(l.span(), "distant: irradiance", *irradiance)?,
+                    }
                 }
             };
             scene.light(light);
@@ -505,7 +550,9 @@ impl SceneFile {
                 return Err(self.error(s.span(), format!("sphere: radius = {} must be > 0", sd.radius)));
             }
             let material = self.surface_material(names, &sd.material)?;
-            scene.sphere(dvec(sd.center), sd.radius, material, sd.emission.map(rgb));
+            let center = self.point(s.span(), "sphere: center", sd.center)?;
+            let emission = sd.emission.map(|e| self.radiometric(s.span(), "sphere: emission", e)).transpose()?;
+            scene.sphere(center, sd.radius, material, emission);
         }
         Ok(())
     }
@@ -516,9 +563,16 @@ impl SceneFile {
             let md = m.get_ref();
             let material = self.surface_material(names, &md.material)?;
             let mesh = match (&md.file, md.floor) {
-                (Some(f), None) => TriangleMesh::load_obj(&self.resolve(f.get_ref()), md.scale, dvec(md.translate))
-                    .map_err(|e| self.error(f.span(), e.to_string()))?,
-                (None, Some(y)) => TriangleMesh::floor(y, 100.0),
+                (Some(f), None) => {
+                    if !(md.scale.is_finite() && md.scale > 0.0) {
+                        return Err(self.error(m.span(), format!("mesh: scale = {} must be finite and > 0", md.scale)));
+                    }
+                    let translate = self.point(m.span(), "mesh: translate", md.translate)?;
+                    TriangleMesh::load_obj(&self.resolve(f.get_ref()), md.scale, translate)
+                        .map_err(|e| self.error(f.span(), e.to_string()))?
+                }
+                (None, Some(y)) if y.is_finite() => TriangleMesh::floor(y, 100.0),
+                (None, Some(y)) => return Err(self.error(m.span(), format!("mesh: floor = {y} must be finite"))),
                 _ => return Err(self.error(m.span(), "mesh: give exactly one of file, floor".into())),
             };
             scene.mesh(mesh, material);
@@ -556,6 +610,28 @@ mod tests {
     }
 
     const CAMERA: &str = "[camera]\neye = [0, 0, 5]\ntarget = [0, 0, 0]\nfov = 30\nwidth = 8\nheight = 8\n";
+
+    #[test]
+    fn non_finite_and_negative_scene_numbers_are_refused_where_they_are() {
+        let base = format!("{CAMERA}[materials.m]\nlambert = [0.5, 0.5, 0.5]\n");
+        for (extra, says) in [
+            ("[[light]]\ntype = \"distant\"\ndirection = [0, 1, 0]\nirradiance = [1, nan, 1]\n", "distant: irradiance"),
+            ("[[light]]\ntype = \"environment\"\nradiance = [0.1, -0.2, 0.3]\n", "environment: radiance"),
+            (
+                "[[light]]\ntype = \"sun\"\ndirection = [0, 1, 0]\nangular_radius_deg = 1\nirradiance = [-1, 1, 1]\n",
+                "sun: irradiance",
+            ),
+            ("[[sphere]]\ncenter = [0, nan, 0]\nradius = 1\nmaterial = \"m\"\n", "sphere: center"),
+            (
+                "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\nemission = [1, inf, 1]\n",
+                "sphere: emission",
+            ),
+            ("[[mesh]]\nfloor = nan\nmaterial = \"m\"\n", "mesh: floor"),
+        ] {
+            let e = err(&format!("{base}{extra}")).to_string();
+            assert!(e.starts_with("s.toml:") && e.contains(says), "{extra}: {e}");
+        }
+    }
 
     #[test]
     fn hair_override_needs_hair_and_bad_text_is_located() {

@@ -68,6 +68,23 @@ impl TriangleMesh {
 
     /// Loads every object of a Wavefront OBJ file (triangulated), scaled and translated.
     pub fn load_obj(path: &Path, scale: f64, translate: DVec3) -> Result<Self, MeshError> {
+        // Vertex records are checked here, with their line numbers (the OBJ reader does not
+        // report lines, and would pass NaN coordinates on).
+        let text =
+            std::fs::read_to_string(path).map_err(|e| MeshError { path: path.into(), message: e.to_string() })?;
+        for (n, line) in text.lines().enumerate() {
+            let mut words = line.split_whitespace();
+            if matches!(words.next(), Some("v" | "vn")) {
+                let ok =
+                    words.take(3).map(|w| w.parse::<f64>()).filter(|x| matches!(x, Ok(v) if v.is_finite())).count();
+                if ok != 3 {
+                    return Err(MeshError {
+                        path: path.into(),
+                        message: format!("line {}: expected three finite coordinates, got `{}`", n + 1, line.trim()),
+                    });
+                }
+            }
+        }
         let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
         let (models, _) =
             tobj::load_obj(path, &opts).map_err(|e| MeshError { path: path.into(), message: e.to_string() })?;
@@ -172,5 +189,11 @@ mod tests {
         let (t, _) = mesh.intersect(&Ray::new(DVec3::new(1.0, 1.0, 3.0), -DVec3::Z)).unwrap();
         assert!((t - 3.0).abs() < 1e-12);
         assert!(TriangleMesh::load_obj(&dir.path().join("none.obj"), 1.0, DVec3::ZERO).is_err());
+        // A NaN or missing coordinate is an error naming its line.
+        std::fs::write(&path, "v 0 0 0\nv 1 nan 0\nv 1 1 0\nf 1 2 3\n").unwrap();
+        let e = TriangleMesh::load_obj(&path, 1.0, DVec3::ZERO).unwrap_err().to_string();
+        assert!(e.ends_with("line 2: expected three finite coordinates, got `v 1 nan 0`"), "{e}");
+        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 1 1\nf 1 2 3\n").unwrap();
+        assert!(TriangleMesh::load_obj(&path, 1.0, DVec3::ZERO).unwrap_err().to_string().contains("line 3"));
     }
 }

@@ -414,13 +414,9 @@ mod tests {
                 }
             }
             assert!((total - 1.0).abs() < 1e-4, "θ_o = {theta_o}: ∫ pdf = {total}");
-            for k in 0..500 {
-                let u = [
-                    (k as f64 + 0.5) / 500.0,
-                    (k as f64 * 0.618) % 1.0,
-                    (k as f64 * 0.414) % 1.0,
-                    (k as f64 * 0.732) % 1.0,
-                ];
+            let mut rng = fiberlab_check::rng::TestRng::new(17);
+            for _ in 0..500 {
+                let u = rng.u4();
                 let s = m.sample(wo, 0.0, u).unwrap();
                 assert!((s.pdf - m.pdf(s.wi, wo, 0.0)).abs() <= 1e-12 * s.pdf);
                 let expect = m.eval(s.wi, wo, 0.0) * (cos_theta(s.wi) / s.pdf);

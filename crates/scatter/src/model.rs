@@ -1,26 +1,18 @@
 //! [`Model`]: the closed set of models, dispatched statically (no virtual calls in the
 //! renderer's hot loop), and the registry that builds them from `key=value` parameters.
 
-use crate::params::{ParamSet, ParamSpec, RawValue};
-use crate::spec::{ExternalData, Registered};
+use crate::params::{ParamSet, RawValue};
+use crate::spec::{ModelInfo, Registered};
 use crate::{ConeValue, ModelError, Properties, Sample, ScatteringFunction};
 use fiberlab_math::{DVec3, Rgb};
 
-/// A registry entry: a model's [`ModelInfo`] with its constructor.
+/// A registry entry: a model's [`ModelInfo`] (read through `Deref`: `spec.name`,
+/// `spec.params`, …) with its constructor.
 #[derive(Clone, Copy, Debug)]
 pub struct ModelSpec {
-    /// Name used on the command line (`--model NAME`) and in scene files.
-    pub name: &'static str,
-    /// One-line description.
-    pub summary: &'static str,
-    /// Paper or section the model implements.
-    pub citation: &'static str,
-    /// Parameters with units, defaults and valid ranges.
-    pub params: &'static [ParamSpec],
-    /// External data the model is built from, loaded by the caller (`None`: parameters
-    /// alone build it, with [`ModelSpec::build`]).
-    pub data: Option<ExternalData>,
-    /// Builds the model from validated parameters (for models with [`ModelSpec::data`],
+    /// Name, summary, citation, parameter table and external data.
+    pub info: ModelInfo,
+    /// Builds the model from validated parameters (for models with [`ModelInfo::data`],
     /// [`ModelError::NeedsData`]: the caller loads the data and builds the model itself).
     pub build: fn(&ParamSet) -> Result<Model, ModelError>,
 }
@@ -28,8 +20,14 @@ pub struct ModelSpec {
 impl ModelSpec {
     /// The entry of a [`Registered`] model with its constructor.
     const fn of<T: Registered>(build: fn(&ParamSet) -> Result<Model, ModelError>) -> Self {
-        let i = T::INFO;
-        Self { name: i.name, summary: i.summary, citation: i.citation, params: i.params, data: i.data, build }
+        Self { info: T::INFO, build }
+    }
+}
+
+impl std::ops::Deref for ModelSpec {
+    type Target = ModelInfo;
+    fn deref(&self) -> &ModelInfo {
+        &self.info
     }
 }
 
@@ -41,14 +39,14 @@ macro_rules! models {
         models!(@enum $($variant($ty),)* $($dvariant($dty),)*);
 
         /// Every model the enum can hold, in the order `fiberlab models` lists them; those with
-        /// [`ModelSpec::data`] cannot be built from parameters alone.
+        /// [`ModelInfo::data`] cannot be built from parameters alone.
         pub const ALL_MODELS: &[ModelSpec] = &[
             $(ModelSpec::of::<$ty>(|p| Ok(Model::$variant(<$ty as Registered>::from_param_set(p)?))),)*
             $(ModelSpec::of::<$dty>(|p| Ok(Model::$dvariant(<$dty as Registered>::from_param_set(p)?))),)*
         ];
 
         /// The models that can be built from parameters alone (every entry of [`ALL_MODELS`]
-        /// without [`ModelSpec::data`]), what code that builds every model from its defaults
+        /// without [`ModelInfo::data`]), what code that builds every model from its defaults
         /// iterates.
         pub const MODELS: &[ModelSpec] = &[
             $(ModelSpec::of::<$ty>(|p| Ok(Model::$variant(<$ty as Registered>::from_param_set(p)?))),)*

@@ -166,8 +166,7 @@ pub fn chi2_test(f: &impl ScatteringFunction, wo: DVec3, h: f64, cfg: &Chi2Confi
         stat += (rest_obs - e).powi(2) / e;
         cells += 1;
     }
-    let dof = cells.saturating_sub(1).max(1);
-    let p_value = ChiSquared::new(dof as f64).map(|d| 1.0 - d.cdf(stat)).unwrap_or(0.0);
+    let (dof, p_value) = upper_tail(stat, cells);
     Chi2Outcome {
         statistic: stat,
         dof,
@@ -219,8 +218,7 @@ pub fn chi2_cone(f: &impl ScatteringFunction, wo: DVec3, bins: usize, samples: u
             cells += 1;
         }
     }
-    let dof = cells.saturating_sub(1).max(1);
-    let p_value = ChiSquared::new(dof as f64).map(|d| 1.0 - d.cdf(stat)).unwrap_or(0.0);
+    let (dof, p_value) = upper_tail(stat, cells);
     Chi2Outcome {
         statistic: stat,
         dof,
@@ -231,4 +229,11 @@ pub fn chi2_cone(f: &impl ScatteringFunction, wo: DVec3, bins: usize, samples: u
         untrusted_mass: 0.0,
         pdf_integral: mass.iter().sum(),
     }
+}
+
+/// Degrees of freedom (`cells − 1`, at least 1) and the probability that a χ² variable of
+/// them exceeds `stat`.
+fn upper_tail(stat: f64, cells: usize) -> (usize, f64) {
+    let dof = cells.saturating_sub(1).max(1);
+    (dof, ChiSquared::new(dof as f64).map(|d| 1.0 - d.cdf(stat)).unwrap_or(0.0))
 }

@@ -169,9 +169,10 @@ impl SplitMix64 {
 impl HairParams {
     /// Checks every parameter's range.
     pub fn validate(&self) -> Result<(), GeneratorError> {
-        let bad = |key, value: f64, expected| Err(GeneratorError { key, value: value.to_string(), expected });
+        // Values in their shortest form (`{:?}`: exponent form for huge or tiny ones).
+        let bad = |key, value: f64, expected| Err(GeneratorError { key, value: format!("{value:?}"), expected });
         if self.segments == 0 || self.segments > usize::from(u16::MAX) {
-            return bad("segments", self.segments as f64, "1 to 65535");
+            return Err(GeneratorError { key: "segments", value: self.segments.to_string(), expected: "1 to 65535" });
         }
         for (key, v) in
             [("length", self.length), ("root_diameter", self.root_diameter), ("head_radius", self.head_radius)]
@@ -202,7 +203,8 @@ impl HairParams {
             return bad("scalp_angle_deg", self.scalp_angle_deg, "(0, 180]");
         }
         if !self.head_center.iter().all(|c| c.is_finite()) {
-            return bad("head_center", f64::NAN, "finite coordinates");
+            let value = format!("{:?}", self.head_center);
+            return Err(GeneratorError { key: "head_center", value, expected: "finite coordinates" });
         }
         Ok(())
     }
@@ -387,5 +389,10 @@ mod tests {
         let e = HairParams { length: f64::NAN, ..HairParams::default() }.generate().unwrap_err();
         assert_eq!(e.key, "length");
         assert!("frizzy".parse::<Style>().is_err());
+        // Huge values in exponent form, not 309 digits; the array that is wrong as written.
+        let e = HairParams { length: -1e308, ..HairParams::default() }.generate().unwrap_err().to_string();
+        assert!(e.contains("`length` = -1e308 is invalid"), "{e}");
+        let e = HairParams { head_center: [0.0, f64::INFINITY, 0.0], ..HairParams::default() }.validate();
+        assert!(e.unwrap_err().to_string().contains("[0.0, inf, 0.0]"));
     }
 }

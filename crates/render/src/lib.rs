@@ -5,8 +5,9 @@
 //! one model loader for user input ([`model_loader`], with [`toml_params`]).
 //!
 //! Fiber scattering comes from [`fiberlab_scatter`] (any registered model); file formats from
-//! [`fiberlab_io`]. This crate owns no scattering physics: at a fiber hit it builds the fiber
-//! frame (see [`curves`]) and calls the model.
+//! [`fiberlab_io`]; the strand diameters a scene accepts are in [`strand_diameters`]. This
+//! crate owns no scattering physics: at a fiber hit it builds the fiber frame (see [`curves`])
+//! and calls the model.
 #![forbid(unsafe_code)]
 
 pub mod bench;
@@ -22,4 +23,5 @@ pub mod sampler;
 pub mod scene;
 pub mod scene_file;
 pub mod shapes;
+pub mod strand_diameters;
 pub mod toml_params;

@@ -7,6 +7,7 @@
 //! [materials.NAME]    # model = "<scatter model>", params = { key = value }   (fibers)
 //!                     # or lambert = [r, g, b] | mirror = [r, g, b]            (surfaces)
 //! [[hair]]            # material; file = "x.hair" or generator = { … HairParams … }
+//!                     # (strand diameters: crate::strand_diameters)
 //! [[sphere]]          # center, radius, material, optional emission = [r, g, b] (a light)
 //! [[mesh]]            # file = "x.obj", material, scale, translate; or floor = y
 //! [[light]]           # type = "environment" (radiance) | "envmap" (file, scale)
@@ -23,6 +24,7 @@ use crate::light::{EnvironmentMap, Light};
 use crate::model_loader::{LoadError, load_model};
 use crate::scene::{FiberMaterialId, Scene, SceneBuilder, SurfaceMaterial, SurfaceMaterialId};
 use crate::shapes::TriangleMesh;
+use crate::strand_diameters;
 use crate::toml_params::raw_pairs;
 use fiberlab_io::{HairFile, LinearImage};
 use fiberlab_math::{DVec3, Rgb};
@@ -339,18 +341,31 @@ impl SceneFile {
         (c.width, c.height)
     }
 
-    /// `[camera]`.
+    /// `[camera]`: each rule checked on its own, so that the error names the one that failed.
     fn camera(&self) -> Result<Camera, SceneError> {
         let d = &self.desc.camera;
         let c = d.get_ref();
-        Camera::look_at(dvec(c.eye), dvec(c.target), dvec(c.up), c.fov, c.width, c.height).ok_or_else(|| {
-            self.error(
-                d.span(),
-                "camera: eye and target must differ, up must not be parallel to the view, \
-                 0 < fov < 180, width and height > 0"
-                    .into(),
-            )
-        })
+        let fail = |message: String| Err(self.error(d.span(), format!("camera: {message}")));
+        for (key, v) in [("eye", c.eye), ("target", c.target), ("up", c.up)] {
+            if !v.iter().all(|x| x.is_finite()) {
+                return fail(format!("{key} = {v:?} must be finite"));
+            }
+        }
+        let view = dvec(c.target) - dvec(c.eye);
+        if view.try_normalize().is_none() {
+            return fail(format!("eye and target are both {:?}; they must differ", c.eye));
+        }
+        if view.normalize().cross(dvec(c.up)).try_normalize().is_none() {
+            return fail(format!("up = {:?} is zero or parallel to the view direction (target − eye)", c.up));
+        }
+        if !(c.fov > 0.0 && c.fov < 180.0) {
+            return fail(format!("fov = {:?} must be in (0, 180) degrees", c.fov));
+        }
+        if c.width == 0 || c.height == 0 {
+            return fail(format!("width and height must be > 0 (got {} × {})", c.width, c.height));
+        }
+        Camera::look_at(dvec(c.eye), dvec(c.target), dvec(c.up), c.fov, c.width, c.height)
+            .map_or_else(|| fail("eye, target and up do not make a camera frame".into()), Ok)
     }
 
     /// `[render]`: the sampling settings.
@@ -450,17 +465,25 @@ impl SceneFile {
         for h in &self.desc.hair {
             let hd = h.get_ref();
             let material = self.fiber_material(names, &hd.material)?;
-            let hair = if let Some(p) = &self.hair_override {
-                HairFile::read(p).map_err(|e| self.error(h.span(), e.to_string()))?
+            // The hair, where its errors are reported, and what it is called in them.
+            let (hair, span, source) = if let Some(p) = &self.hair_override {
+                let hair = HairFile::read(p).map_err(|e| self.error(h.span(), e.to_string()))?;
+                (hair, h.span(), format!("--hair {}", p.display()))
             } else {
                 match (&hd.file, &hd.generator) {
                     (Some(f), None) => {
-                        HairFile::read(&self.resolve(f.get_ref())).map_err(|e| self.error(f.span(), e.to_string()))?
+                        let path = self.resolve(f.get_ref());
+                        let hair = HairFile::read(&path).map_err(|e| self.error(f.span(), e.to_string()))?;
+                        (hair, f.span(), format!("hair file {}", path.display()))
                     }
-                    (None, Some(g)) => g.get_ref().generate().map_err(|e| self.error(g.span(), e.to_string()))?,
+                    (None, Some(g)) => {
+                        let hair = g.get_ref().generate().map_err(|e| self.error(g.span(), e.to_string()))?;
+                        (hair, g.span(), "hair generator".to_string())
+                    }
                     _ => return Err(self.error(h.span(), "hair: give exactly one of file, generator".into())),
                 }
             };
+            strand_diameters::check(&hair).map_err(|e| self.error(span, format!("{source}: {e}")))?;
             scene.fibers(CurveSet::from_hair(&hair), material);
         }
         Ok(())
@@ -472,10 +495,7 @@ impl SceneFile {
         if c.iter().all(|x| x.is_finite() && *x >= 0.0) {
             Ok(rgb(c))
         } else {
-            Err(self.error(
-                span,
-                format!("{what} = [{}, {}, {}] must be finite and ≥ 0 in every channel", c[0], c[1], c[2]),
-            ))
+            Err(self.error(span, format!("{what} = {c:?} must be finite and ≥ 0 in every channel")))
         }
     }
 
@@ -484,7 +504,7 @@ impl SceneFile {
         if c.iter().all(|x| x.is_finite()) {
             Ok(dvec(c))
         } else {
-            Err(self.error(span, format!("{what} = [{}, {}, {}] must be finite", c[0], c[1], c[2])))
+            Err(self.error(span, format!("{what} = {c:?} must be finite")))
         }
     }
 
@@ -506,24 +526,24 @@ impl SceneFile {
                         return Err(self.error(
                             l.span(),
                             format!(
-                                "envmap {}: pixel x = {x}, y = {y} is [{}, {}, {}]; radiance must be finite and ≥ 0",
-                                path.display(),
-                                p[0],
-                                p[1],
-                                p[2]
+                                "envmap {}: pixel x = {x}, y = {y} is {p:?}; radiance must be finite and ≥ 0",
+                                path.display()
                             ),
                         ));
                     }
                     Light::Map(Box::new(EnvironmentMap::new(img, scale)))
                 }
                 LightDesc::Sun { direction, angular_radius_deg, irradiance } => {
-                    if !(*angular_radius_deg > 0.0 && *angular_radius_deg < 90.0) || dvec(*direction).length() == 0.0 {
+                    if !(*angular_radius_deg > 0.0 && *angular_radius_deg < 90.0) {
                         return Err(self.error(
                             l.span(),
-                            format!("sun: angular_radius_deg = {angular_radius_deg} must be in (0, 90) and direction non-zero"),
+                            format!("sun: angular_radius_deg = {angular_radius_deg:?} must be in (0, 90)"),
                         ));
                     }
                     let direction = self.point(l.span(), "sun: direction", *direction)?;
+                    if direction.length() == 0.0 {
+                        return Err(self.error(l.span(), "sun: direction must be non-zero".to_string()));
+                    }
                     let irradiance = self.radiometric(l.span(), "sun: irradiance", *irradiance)?;
                     Light::sun(direction, angular_radius_deg.to_radians(), irradiance)
                 }
@@ -547,7 +567,7 @@ impl SceneFile {
         for s in &self.desc.sphere {
             let sd = s.get_ref();
             if !(sd.radius > 0.0 && sd.radius.is_finite()) {
-                return Err(self.error(s.span(), format!("sphere: radius = {} must be > 0", sd.radius)));
+                return Err(self.error(s.span(), format!("sphere: radius = {:?} must be finite and > 0", sd.radius)));
             }
             let material = self.surface_material(names, &sd.material)?;
             let center = self.point(s.span(), "sphere: center", sd.center)?;
@@ -565,14 +585,16 @@ impl SceneFile {
             let mesh = match (&md.file, md.floor) {
                 (Some(f), None) => {
                     if !(md.scale.is_finite() && md.scale > 0.0) {
-                        return Err(self.error(m.span(), format!("mesh: scale = {} must be finite and > 0", md.scale)));
+                        return Err(
+                            self.error(m.span(), format!("mesh: scale = {:?} must be finite and > 0", md.scale))
+                        );
                     }
                     let translate = self.point(m.span(), "mesh: translate", md.translate)?;
                     TriangleMesh::load_obj(&self.resolve(f.get_ref()), md.scale, translate)
                         .map_err(|e| self.error(f.span(), e.to_string()))?
                 }
                 (None, Some(y)) if y.is_finite() => TriangleMesh::floor(y, 100.0),
-                (None, Some(y)) => return Err(self.error(m.span(), format!("mesh: floor = {y} must be finite"))),
+                (None, Some(y)) => return Err(self.error(m.span(), format!("mesh: floor = {y:?} must be finite"))),
                 _ => return Err(self.error(m.span(), "mesh: give exactly one of file, floor".into())),
             };
             scene.mesh(mesh, material);
@@ -627,10 +649,60 @@ mod tests {
                 "sphere: emission",
             ),
             ("[[mesh]]\nfloor = nan\nmaterial = \"m\"\n", "mesh: floor"),
+            ("[[sphere]]\ncenter = [0, 0, 0]\nradius = -1e308\nmaterial = \"m\"\n", "sphere: radius = -1e308 must"),
+            ("[[light]]\ntype = \"environment\"\nradiance = [1e308, -1, 0]\n", "= [1e308, -1.0, 0.0] must"),
+            (
+                "[[light]]\ntype = \"sun\"\ndirection = [0, 0, 0]\nangular_radius_deg = 1\nirradiance = [1, 1, 1]\n",
+                "sun: direction must be non-zero",
+            ),
         ] {
             let e = err(&format!("{base}{extra}")).to_string();
             assert!(e.starts_with("s.toml:") && e.contains(says), "{extra}: {e}");
         }
+    }
+
+    /// Each camera rule is reported alone: the message names the rule that failed and no other.
+    #[test]
+    fn camera_errors_name_only_the_rule_that_failed() {
+        let camera = |eye: &str, up: &str, fov: &str, width: &str| {
+            err(&format!(
+                "[camera]\neye = {eye}\ntarget = [0, 0, 0]\nup = {up}\nfov = {fov}\nwidth = {width}\nheight = 8\n"
+            ))
+            .to_string()
+        };
+        let (eye, up) = ("[0, 0, 5]", "[0, 1, 0]");
+        for (e, says, not) in [
+            (camera("[0, 0, 0]", up, "30", "8"), "eye and target are both", "fov"),
+            (camera(eye, "[0, 0, 2]", "30", "8"), "parallel to the view", "fov"),
+            (camera(eye, up, "180", "8"), "fov = 180.0 must be in (0, 180) degrees", "up"),
+            (camera(eye, up, "1e308", "8"), "fov = 1e308 must", "width"),
+            (camera(eye, up, "30", "0"), "width and height must be > 0 (got 0 × 8)", "fov"),
+            (camera("[0, nan, 5]", up, "30", "8"), "eye = [0.0, NaN, 5.0] must be finite", "fov"),
+        ] {
+            assert!(e.starts_with("s.toml:1:1: camera: ") && e.contains(says) && !e.contains(not), "{e}");
+        }
+    }
+
+    /// Strand diameters outside the accepted range (see `strand_diameters`) are errors naming
+    /// the scene, the hair's source, the strand, the segment and the value.
+    #[test]
+    fn strand_diameters_out_of_range_name_source_strand_and_value() {
+        let mats = "[materials.h]\nmodel = \"kajiya-kay\"\n";
+        let e = err(&format!(
+            "{CAMERA}{mats}[[hair]]\nmaterial = \"h\"\ngenerator = {{ strands = 3, root_diameter = 1e30 }}\n"
+        ))
+        .to_string();
+        assert!(e.starts_with("s.toml:11:13: hair generator: strand 0, segment 0: diameter "), "{e}");
+        assert!(e.contains("e29 is larger than 10 %"), "{e}");
+        let dir = tempfile::tempdir().unwrap();
+        let mut hair = HairParams { strands: 4, ..HairParams::default() }.generate().unwrap();
+        hair.thickness.as_mut().unwrap().iter_mut().skip(25).take(2).for_each(|t| *t = 0.0);
+        hair.write(&dir.path().join("thin.hair")).unwrap();
+        let path = dir.path().join("s.toml");
+        std::fs::write(&path, format!("{CAMERA}{mats}[[hair]]\nmaterial = \"h\"\nfile = \"thin.hair\"\n")).unwrap();
+        let e = SceneFile::read(&path).unwrap().build().map(|_| ()).unwrap_err().to_string();
+        assert!(e.contains("thin.hair: strand 1, segment 0: diameter 0.0 must be finite and > 0"), "{e}");
+        assert!(e.contains(":11:8: hair file "), "{e}");
     }
 
     #[test]

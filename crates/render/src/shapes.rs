@@ -68,19 +68,29 @@ impl TriangleMesh {
 
     /// Loads every object of a Wavefront OBJ file (triangulated), scaled and translated.
     pub fn load_obj(path: &Path, scale: f64, translate: DVec3) -> Result<Self, MeshError> {
-        // Vertex records are checked here, with their line numbers (the OBJ reader does not
-        // report lines, and would pass NaN coordinates on).
+        // Vertex and normal records are checked here, with their line numbers (the OBJ reader
+        // does not report lines, would pass NaN coordinates on, and reads them as `f32`, so a
+        // coordinate beyond `f32::MAX` would become infinite).
         let text =
             std::fs::read_to_string(path).map_err(|e| MeshError { path: path.into(), message: e.to_string() })?;
         for (n, line) in text.lines().enumerate() {
             let mut words = line.split_whitespace();
-            if matches!(words.next(), Some("v" | "vn")) {
-                let ok =
-                    words.take(3).map(|w| w.parse::<f64>()).filter(|x| matches!(x, Ok(v) if v.is_finite())).count();
+            if let Some(kind @ ("v" | "vn")) = words.next() {
+                let what = if kind == "v" { "vertex" } else { "normal" };
+                let ok = words
+                    .take(3)
+                    .map(|w| w.parse::<f64>())
+                    .filter(|x| matches!(x, Ok(v) if v.is_finite() && v.abs() <= f64::from(f32::MAX)))
+                    .count();
                 if ok != 3 {
                     return Err(MeshError {
                         path: path.into(),
-                        message: format!("line {}: expected three finite coordinates, got `{}`", n + 1, line.trim()),
+                        message: format!(
+                            "line {}: expected three finite {what} coordinates (|x| ≤ {:e}), got `{}`",
+                            n + 1,
+                            f32::MAX,
+                            line.trim()
+                        ),
                     });
                 }
             }
@@ -101,6 +111,14 @@ impl TriangleMesh {
         }
         if triangles.is_empty() {
             return Err(MeshError { path: path.into(), message: "no triangles".into() });
+        }
+        if let Some(t) = triangles.iter().position(|t| !t.iter().all(|v| v.is_finite())) {
+            return Err(MeshError {
+                path: path.into(),
+                message: format!(
+                    "triangle {t}: a vertex is not finite after scale = {scale:?}, translate = {translate}"
+                ),
+            });
         }
         Ok(Self::new(triangles))
     }
@@ -192,8 +210,22 @@ mod tests {
         // A NaN or missing coordinate is an error naming its line.
         std::fs::write(&path, "v 0 0 0\nv 1 nan 0\nv 1 1 0\nf 1 2 3\n").unwrap();
         let e = TriangleMesh::load_obj(&path, 1.0, DVec3::ZERO).unwrap_err().to_string();
-        assert!(e.ends_with("line 2: expected three finite coordinates, got `v 1 nan 0`"), "{e}");
+        assert!(
+            e.contains("line 2: expected three finite vertex coordinates") && e.ends_with("got `v 1 nan 0`"),
+            "{e}"
+        );
         std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 1 1\nf 1 2 3\n").unwrap();
         assert!(TriangleMesh::load_obj(&path, 1.0, DVec3::ZERO).unwrap_err().to_string().contains("line 3"));
+        // Normals the same way; a coordinate beyond f32 (which the reader would make ∞) too.
+        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 1 1 0\nvn 0 0 1\nvn 0 inf 1\nf 1//1 2//1 3//2\n").unwrap();
+        let e = TriangleMesh::load_obj(&path, 1.0, DVec3::ZERO).unwrap_err().to_string();
+        assert!(e.contains("line 5: expected three finite normal coordinates") && e.ends_with("`vn 0 inf 1`"), "{e}");
+        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 1e39 1 0\nf 1 2 3\n").unwrap();
+        let e = TriangleMesh::load_obj(&path, 1.0, DVec3::ZERO).unwrap_err().to_string();
+        assert!(e.contains("line 3:"), "{e}");
+        // Finite vertices that scaling makes infinite.
+        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 3e38 1 0\nf 1 2 3\n").unwrap();
+        let e = TriangleMesh::load_obj(&path, 1e300, DVec3::ZERO).unwrap_err().to_string();
+        assert!(e.contains("triangle 0: a vertex is not finite after scale = 1e300"), "{e}");
     }
 }

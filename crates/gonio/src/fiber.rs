@@ -14,15 +14,24 @@ use thiserror::Error;
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum FiberError {
     /// A value outside its range, or not finite.
-    #[error("fiber parameter `{key}` = {value} is invalid; valid range {range}")]
+    #[error("fiber parameter `{key}` = {} is invalid; valid range {range}", shown(*.value))]
     OutOfRange {
         /// Key.
         key: &'static str,
-        /// Value given.
+        /// Value given, in the unit of `range` (degrees for angles, as the user writes them).
         value: f64,
-        /// Valid range.
+        /// Valid range, with its unit.
         range: &'static str,
     },
+}
+
+/// A number as a person reads it in an error: rounded to twelve significant digits (so that
+/// a radian → degree round trip shows 3, not 2.9999999999999996) in its shortest form, with
+/// an exponent for huge or tiny magnitudes (1e308, not 309 digits).
+fn shown(x: f64) -> String {
+    let rounded = if x.is_finite() { format!("{x:.11e}").parse().unwrap_or(x) } else { x };
+    let text = format!("{rounded:?}");
+    text.strip_suffix(".0").map_or(text.clone(), str::to_string)
 }
 
 /// How the ellipse is oriented about the fiber axis.
@@ -106,10 +115,12 @@ impl Fiber {
             check("sigma_a", self.sigma_a[c], self.sigma_a[c] >= 0.0, "[0, ∞)")?;
         }
         check("aspect", self.aspect, self.aspect > 0.0 && self.aspect <= 1.0, "(0, 1]")?;
+        // Angles are checked and reported in degrees, the unit they are written in.
         if let Orientation::Fixed(o) = self.orientation {
-            check("orientation", o, true, "finite")?;
+            check("orientation", o.to_degrees(), true, "finite degrees")?;
         }
-        check("scale_angle", self.scale_angle, self.scale_angle.abs() < 0.35, "(−20°, 20°)")?;
+        let scale_degrees = self.scale_angle.to_degrees();
+        check("scale_angle", scale_degrees, scale_degrees.abs() < 20.0, "(−20, 20) degrees")?;
         check("scale_length", self.scale_length, self.scale_length > 0.0, "(0, ∞)")?;
         // The sawtooth must not cut the fiber: its height L·tanα stays below the radius.
         let height = self.scale_length * self.scale_angle.tan().abs();
@@ -243,14 +254,21 @@ pub enum FiberKeyError {
         known: String,
     },
     /// Unreadable or out-of-range value, or a key given twice (the message names the key).
+    /// The model error is shown, not chained as a source, so that it is printed once.
     #[error("fiber: {0}")]
-    Parameter(#[from] ModelError),
+    Parameter(ModelError),
     /// `orientation` neither degrees nor `average`.
     #[error("fiber parameter `orientation`: cannot read `{0}` as degrees or `average`")]
     Orientation(String),
     /// Values individually valid but not together.
     #[error(transparent)]
     Invalid(#[from] FiberError),
+}
+
+impl From<ModelError> for FiberKeyError {
+    fn from(e: ModelError) -> Self {
+        FiberKeyError::Parameter(e)
+    }
 }
 
 impl Fiber {
@@ -335,6 +353,27 @@ mod tests {
         assert_eq!(Fiber::from_pairs::<&str, &str>(&[]).unwrap(), Fiber::default());
         let m = Fiber::from_pairs(&[("medulla_radius", "0.3"), ("medulla_sigma_s", "5")]).unwrap();
         assert_eq!(m.medulla.unwrap().sigma_s, 5.0);
+    }
+
+    /// Angles are reported in degrees (the unit they are written in), huge values in exponent
+    /// form, and a parameter error once, not repeated by an error chain.
+    #[test]
+    fn errors_show_values_in_the_unit_given_once() {
+        let e = Fiber::from_pairs(&[("scale_angle", "25")]).unwrap_err();
+        let text = e.to_string();
+        assert!(text.contains("`scale_angle` = 25 is out of range") && text.contains("degrees"), "{text}");
+        assert!(std::error::Error::source(&e).is_none(), "the message is not chained twice: {e:?}");
+        // Valid alone, too high together: scale_length is reported, the angle in degrees.
+        let e = Fiber::from_pairs(&[("scale_angle", "19"), ("scale_length", "1e308")]).unwrap_err().to_string();
+        assert!(e.contains("`scale_length` = 1e308 is invalid"), "{e}");
+        // A fiber built in Rust with an angle in radians out of range: shown in degrees.
+        let f = Fiber { scale_angle: 0.5, ..Fiber::default() };
+        let e = f.validate().unwrap_err().to_string();
+        assert!(e.contains(&format!("`scale_angle` = {} is invalid", shown(0.5f64.to_degrees()))), "{e}");
+        assert!(e.contains("28.6478897565") && e.contains("(−20, 20) degrees"), "{e}");
+        let f = Fiber { scale_angle: 3f64.to_radians(), scale_length: 20.0, ..Fiber::default() };
+        assert!(f.validate().unwrap_err().to_string().contains("`scale_length` = 20 is invalid"));
+        assert_eq!(shown(3f64.to_radians().to_degrees()), "3");
     }
 
     /// TOML arrays, numbers and booleans mean what the same values written as text mean.

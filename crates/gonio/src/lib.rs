@@ -123,7 +123,8 @@ pub fn measure(
 ) -> Result<Measurement, FiberError> {
     fiber.validate()?;
     if setup.theta_i.is_nan() || setup.theta_i.abs() >= 89.9f64.to_radians() {
-        return Err(FiberError::OutOfRange { key: "theta_i", value: setup.theta_i, range: "(−89.9°, 89.9°)" });
+        let value = setup.theta_i.to_degrees();
+        return Err(FiberError::OutOfRange { key: "theta_i", value, range: "(−89.9, 89.9) degrees" });
     }
     let (nt, np) = (setup.bins_theta.max(1), setup.bins_phi.max(1));
     let wi = direction(setup.theta_i, setup.phi_i);

@@ -317,10 +317,11 @@ impl ParamSpec {
             };
             choices.iter().find(|c| c.eq_ignore_ascii_case(&w)).copied()
         };
+        // The range is shown with the parameter's unit, in which the value was given.
         match self.kind {
-            ParamKind::Number(r) => Ok(ParamValue::Number(r.check(self.key, number(raw)?)?)),
+            ParamKind::Number(r) => Ok(ParamValue::Number(r.check_in(self.key, number(raw)?, self.unit)?)),
             ParamKind::Integer(r) => {
-                let x = r.check(self.key, number(raw)?)?;
+                let x = r.check_in(self.key, number(raw)?, self.unit)?;
                 if x.fract() != 0.0 {
                     return Err(bad(format!("a whole number in {r}")));
                 }
@@ -333,7 +334,10 @@ impl ParamSpec {
                     [r, g, b] => Rgb::new(number(r)?, number(g)?, number(b)?),
                     _ => return Err(bad("one number or three numbers r,g,b".into())),
                 };
-                Ok(ParamValue::Color(r.check_rgb(self.key, c)?))
+                for i in 0..3 {
+                    r.check_in(self.key, c[i], self.unit)?;
+                }
+                Ok(ParamValue::Color(c))
             }
             ParamKind::Choice(choices) => word(raw)
                 .and_then(|w| choose(choices, &w))
@@ -605,6 +609,18 @@ mod tests {
         assert!(e.to_string().contains("`alpha` = 30") && e.to_string().contains("[-20, 20] degrees"), "{e}");
         let e = Range::UNIT.check("x", 1e308).unwrap_err();
         assert!(e.to_string().contains("1e308"), "{e}");
+        // Parsed parameters: the range carries the parameter's unit, the value as given.
+        static TILT: [ParamSpec; 1] = [ParamSpec {
+            key: "tilt",
+            kind: ParamKind::Number(Range::open(-20.0, 20.0)),
+            unit: "degrees",
+            default: "0",
+            doc: "",
+        }];
+        let e = ParamSet::parse("m", &TILT, &[("tilt", "25")]).unwrap_err().to_string();
+        assert!(e.ends_with("`tilt` = 25 is out of range; valid range (-20, 20) degrees"), "{e}");
+        let e = ParamSet::parse("m", &TILT, &[("tilt", "-1e308")]).unwrap_err().to_string();
+        assert!(e.contains("`tilt` = -1e308 is out of range"), "{e}");
     }
 
     #[test]

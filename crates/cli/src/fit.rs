@@ -1,12 +1,17 @@
-//! `fiberlab fit`: model parameters fitted to a measured table (or a user's CSV of
-//! `theta_i,phi_i,theta_r,phi_r,value[,std]`, degrees) by weighted least squares; prints the
-//! parameters with uncertainties and writes them as `PREFIX.toml` (accepted by every
+//! `fiberlab fit`: model parameters fitted to a measured table, a user's CSV of
+//! `theta_i,phi_i,theta_r,phi_r,value[,std]` or `…,f_r,f_g,f_b[,std_r,std_g,std_b]` (degrees,
+//! θ in [−90°, 90°], φ in [−360°, 360°]), or another model, by weighted least squares; shows
+//! a progress bar, prints the parameters with uncertainties (or why one is undefined) and
+//! flags a parameter that ended on its bound; writes them as `PREFIX.toml` (accepted by every
 //! command's `--params-file`), plus a residual map `PREFIX_residuals.png`.
+//!
+//! A colour parameter is fitted per channel when the data has channels (a table, a CSV with
+//! `f_r,f_g,f_b`, a `--target`): see `fiberlab_fit`.
 
 use crate::files::write_atomically;
 use crate::plot::{Grids, Scale, write_figure};
 use anyhow::{Context, bail};
-use fiberlab_fit::{Observation, fit};
+use fiberlab_fit::{Channel, FitOptions, FitResult, FreeParam, Observation, Uncertainty, fit_with};
 use fiberlab_math::frame::direction;
 use fiberlab_scatter::params::{ParamSet, split_key_value};
 use std::path::{Path, PathBuf};
@@ -36,9 +41,20 @@ pub struct Args {
     /// A parameter held fixed, KEY=VALUE (repeatable).
     #[arg(long = "fix", value_name = "KEY=VALUE")]
     fix: Vec<String>,
-    /// A free parameter and its starting value, KEY=VALUE (repeatable).
+    /// A free parameter and its starting value, KEY=VALUE (repeatable). A colour parameter
+    /// (e.g. `sigma_a`) is fitted per channel when the data has channels (a table, a CSV with
+    /// f_r,f_g,f_b, a --target): each channel is an independent measurement, so the colour
+    /// itself is recovered (start with one value or r,g,b). From luminance-only data (a CSV
+    /// `value` column, or --luminance) it is fitted as one grey value.
     #[arg(long = "init", value_name = "KEY=VALUE")]
     init: Vec<String>,
+    /// Fit the luminance of f_s only (colour parameters as one grey value), even when the
+    /// data has channels.
+    #[arg(long)]
+    luminance: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
     /// Optimizer iterations.
     #[arg(long, default_value_t = 400)]
     iterations: u64,
@@ -47,12 +63,17 @@ pub struct Args {
     out: crate::arg_values::OutPrefix,
 }
 
-/// Observations from a table lobe: bin centres, luminance values, standard errors with a floor
-/// (empty bins have no spread: 1 % of the largest value).
 /// Observations and, for tables, the `(θ, φ)` bin grid of each incidence.
 type Observations = (Vec<Observation>, Option<(usize, usize)>);
 
-fn from_table(path: &Path, lobe: &str) -> anyhow::Result<Observations> {
+/// The channels an observation of colour data is split into: the luminance alone, or r, g, b.
+fn channels(per_channel: bool) -> Vec<Channel> {
+    if per_channel { (0..3).map(Channel::Rgb).collect() } else { vec![Channel::Luminance] }
+}
+
+/// Observations from a table lobe: bin centres, values (per channel or luminance), standard
+/// errors with a floor (empty bins have no spread: 1 % of the largest value).
+fn from_table(path: &Path, lobe: &str, per_channel: bool) -> anyhow::Result<Observations> {
     let lobes = fiberlab_io::table::read(path)?;
     let t = lobes.get(lobe).with_context(|| format!("{}: no rows with lobe `{lobe}`", path.display()))?;
     let (nt, np) = (t.bins_theta, t.bins_phi);
@@ -63,20 +84,28 @@ fn from_table(path: &Path, lobe: &str) -> anyhow::Result<Observations> {
         for b in 0..nt * np {
             let tr = -std::f64::consts::FRAC_PI_2 + ((b / np) as f64 + 0.5) * std::f64::consts::PI / nt as f64;
             let p = -std::f64::consts::PI + ((b % np) as f64 + 0.5) * std::f64::consts::TAU / np as f64;
-            obs.push(Observation {
-                wi,
-                wo: direction(tr, t.phi_in[s] + p),
-                value: t.f[s][b].luminance(),
-                sigma: t.std[s][b].luminance().max(0.01 * peak),
-            });
+            for channel in channels(per_channel) {
+                obs.push(Observation {
+                    wi,
+                    wo: direction(tr, t.phi_in[s] + p),
+                    value: channel.of(t.f[s][b]),
+                    sigma: channel.of(t.std[s][b]).max(0.01 * peak),
+                    channel,
+                });
+            }
         }
     }
     Ok((obs, Some((nt, np))))
 }
 
 /// Observations of a target model on a 10° (θ_i, θ_r) × 15° φ grid, weighted by
-/// cosθ_i cosθ_r: σ = s/sqrt(cosθ_i cosθ_r) with s the grid's mean value.
+/// cosθ_i cosθ_r: σ = s/sqrt(cosθ_i cosθ_r) with s the grid's mean value; luminances.
 pub(crate) fn from_model(model: &fiberlab_scatter::Model) -> Vec<Observation> {
+    from_model_in(model, false)
+}
+
+/// [`from_model`], per channel when `per_channel` (each channel's σ from its own mean).
+fn from_model_in(model: &fiberlab_scatter::Model, per_channel: bool) -> Vec<Observation> {
     use fiberlab_scatter::{Field, ScatteringFunction};
     let near = model.properties().field == Field::Near;
     let mut obs = Vec::new();
@@ -85,30 +114,52 @@ pub(crate) fn from_model(model: &fiberlab_scatter::Model) -> Vec<Observation> {
             for j in 0..24 {
                 let (ti, tr) = (f64::to_radians(-80.0 + 10.0 * i as f64), f64::to_radians(-80.0 + 10.0 * r as f64));
                 let (wi, wo) = (direction(ti, 0.0), direction(tr, f64::to_radians(-172.5 + 15.0 * j as f64)));
-                let value = if near {
-                    (0..8).map(|k| model.eval(wi, wo, -1.0 + (k as f64 + 0.5) / 4.0).luminance()).sum::<f64>() / 8.0
+                let f = if near {
+                    (0..8)
+                        .map(|k| model.eval(wi, wo, -1.0 + (k as f64 + 0.5) / 4.0))
+                        .fold(fiberlab_math::Rgb::ZERO, |a, b| a + b)
+                        * 0.125
                 } else {
-                    model.eval(wi, wo, 0.0).luminance()
+                    model.eval(wi, wo, 0.0)
                 };
-                obs.push(Observation { wi, wo, value, sigma: 1.0 / (ti.cos() * tr.cos()).sqrt() });
+                for channel in channels(per_channel) {
+                    let sigma = 1.0 / (ti.cos() * tr.cos()).sqrt();
+                    obs.push(Observation { wi, wo, value: channel.of(f), sigma, channel });
+                }
             }
         }
     }
-    let mean = obs.iter().map(|o| o.value).sum::<f64>() / obs.len() as f64;
-    obs.iter_mut().for_each(|o| o.sigma *= mean.max(1e-12));
+    for channel in channels(per_channel) {
+        let of_channel = || obs.iter().filter(|o| o.channel == channel);
+        let mean = of_channel().map(|o| o.value).sum::<f64>() / of_channel().count() as f64;
+        obs.iter_mut().filter(|o| o.channel == channel).for_each(|o| o.sigma *= mean.max(1e-12));
+    }
     obs
 }
 
-fn from_csv(path: &Path) -> anyhow::Result<Vec<Observation>> {
+/// The angle columns of a CSV and the range each must lie in (degrees).
+const ANGLE_RANGES: [(&str, f64, f64); 4] =
+    [("theta_i", -90.0, 90.0), ("phi_i", -360.0, 360.0), ("theta_r", -90.0, 90.0), ("phi_r", -360.0, 360.0)];
+
+/// A user's CSV: `value` (luminance) or `f_r,f_g,f_b` (per channel, or their luminance when
+/// `per_channel` is false), with optional standard errors `std` / `std_r,std_g,std_b`
+/// (default 5 % of the value). Errors name the file, line and column.
+fn from_csv(path: &Path, per_channel: bool) -> anyhow::Result<Vec<Observation>> {
     let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let mut r = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
     let header = r.headers()?.clone();
     let col = |c: &str| header.iter().position(|h| h == c);
-    let idx: Vec<usize> = ["theta_i", "phi_i", "theta_r", "phi_r", "value"]
-        .iter()
-        .map(|c| col(c).with_context(|| format!("{}: line 1: missing column `{c}`", path.display())))
-        .collect::<anyhow::Result<_>>()?;
-    let std_col = col("std");
+    let required = |c: &str| col(c).with_context(|| format!("{}: line 1: missing column `{c}`", path.display()));
+    let angles: Vec<usize> = ANGLE_RANGES.iter().map(|(c, _, _)| required(c)).collect::<anyhow::Result<_>>()?;
+    let rgb_cols: Option<Vec<usize>> = ["f_r", "f_g", "f_b"].iter().map(|c| col(c)).collect();
+    // Value columns with their standard-error columns, and the channel each measures.
+    let values: Vec<(usize, Option<usize>, Channel)> = match rgb_cols {
+        Some(v) => {
+            let std: Vec<Option<usize>> = ["std_r", "std_g", "std_b"].iter().map(|c| col(c)).collect();
+            (0..3).map(|c| (v[c], std[c], Channel::Rgb(c))).collect()
+        }
+        None => vec![(required("value")?, col("std"), Channel::Luminance)],
+    };
     let mut obs = Vec::new();
     for rec in r.records() {
         let rec = rec?;
@@ -116,76 +167,124 @@ fn from_csv(path: &Path) -> anyhow::Result<Vec<Observation>> {
         let num = |i: usize| -> anyhow::Result<f64> {
             let t = rec.get(i).unwrap_or("");
             t.parse::<f64>().ok().filter(|v| v.is_finite()).with_context(|| {
-                format!("{}: line {line}, column {}: expected a finite number, got `{t}`", path.display(), i + 1)
+                format!(
+                    "{}: line {line}, column {} (`{}`): expected a finite number, got `{t}`",
+                    path.display(),
+                    i + 1,
+                    &header[i]
+                )
             })
         };
-        let v: Vec<f64> = idx.iter().map(|&i| num(i)).collect::<anyhow::Result<_>>()?;
-        let sigma = match std_col {
-            Some(i) => num(i)?,
-            None => 0.05 * v[4].abs().max(1e-6),
-        };
-        if sigma <= 0.0 {
-            bail!("{}: line {line}: std must be positive", path.display());
+        let mut a = [0.0; 4];
+        for (k, (&i, (name, lo, hi))) in angles.iter().zip(ANGLE_RANGES).enumerate() {
+            a[k] = num(i)?;
+            if !(lo..=hi).contains(&a[k]) {
+                bail!(
+                    "{}: line {line}, column {} (`{name}`): {} degrees is outside [{lo}, {hi}]",
+                    path.display(),
+                    i + 1,
+                    a[k]
+                );
+            }
         }
-        obs.push(Observation {
-            wi: direction(v[0].to_radians(), v[1].to_radians()),
-            wo: direction(v[2].to_radians(), v[3].to_radians()),
-            value: v[4],
-            sigma,
-        });
+        let (wi, wo) =
+            (direction(a[0].to_radians(), a[1].to_radians()), direction(a[2].to_radians(), a[3].to_radians()));
+        let mut row = Vec::new();
+        for &(i, std, channel) in &values {
+            let value = num(i)?;
+            let sigma = match std {
+                Some(s) => num(s)?,
+                None => 0.05 * value.abs().max(1e-6),
+            };
+            if sigma <= 0.0 {
+                bail!("{}: line {line}, column {}: std must be positive", path.display(), std.map_or(0, |s| s + 1));
+            }
+            row.push(Observation { wi, wo, value, sigma, channel });
+        }
+        if row.len() == 3 && !per_channel {
+            // Luminance of the channels, σ by propagation of independent errors.
+            let weights = [0.2126, 0.7152, 0.0722];
+            let value = (0..3).map(|c| weights[c] * row[c].value).sum();
+            let sigma = (0..3).map(|c| (weights[c] * row[c].sigma).powi(2)).sum::<f64>().sqrt();
+            row = vec![Observation { wi, wo, value, sigma, channel: Channel::Luminance }];
+        }
+        obs.extend(row);
     }
     Ok(obs)
 }
 
+/// `KEY=VALUE` of `--init`: one starting number, or three (`r,g,b`) for a colour.
+fn free_param(text: &str) -> anyhow::Result<FreeParam> {
+    let (key, value) = split_key_value(text)?;
+    let start = value
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+        .collect::<Option<Vec<f64>>>()
+        .filter(|v| v.len() == 1 || v.len() == 3)
+        .with_context(|| format!("--init {key}: `{value}` is not one finite number or three (r,g,b)"))?;
+    Ok(FreeParam { key, start })
+}
+
 /// Runs the fit.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    let free: Vec<FreeParam> = args.init.iter().map(|p| free_param(p)).collect::<anyhow::Result<_>>()?;
+    let spec = fiberlab_scatter::find(&args.model)?;
+    // Channels are fitted when a colour parameter is free and the data has channels.
+    let colour_free = free.iter().any(|f| {
+        spec.params.iter().any(|s| s.key == f.key && matches!(s.kind, fiberlab_scatter::params::ParamKind::Color(_)))
+    });
+    let per_channel = colour_free && !args.luminance;
     let (data, grid) = match (&args.table, &args.data, &args.target) {
-        (Some(t), None, None) => from_table(t, &args.lobe)?,
-        (None, Some(d), None) => (from_csv(d)?, None),
+        (Some(t), None, None) => from_table(t, &args.lobe, per_channel)?,
+        (None, Some(d), None) => (from_csv(d, per_channel)?, None),
         (None, None, Some(name)) => {
             let target = crate::model_args::ModelArgs {
                 model: name.clone(),
                 params: args.target_params.clone(),
                 params_file: None,
             };
-            (from_model(&target.build()?), None)
+            (from_model_in(&target.build()?, per_channel), None)
         }
         _ => bail!("give exactly one of --table, --data and --target"),
     };
     let fixed: Vec<(String, String)> =
         args.fix.iter().map(|p| split_key_value(p).map_err(anyhow::Error::from)).collect::<anyhow::Result<_>>()?;
-    let free: Vec<(String, f64)> = args
-        .init
-        .iter()
-        .map(|p| {
-            let (k, v) = split_key_value(p)?;
-            let x = v.parse::<f64>().with_context(|| format!("--init {k}: `{v}` is not a number"))?;
-            Ok((k, x))
-        })
-        .collect::<anyhow::Result<_>>()?;
-    let spec = fiberlab_scatter::find(&args.model)?;
     let base = ParamSet::parse(spec.name, spec.params, &fixed).with_context(|| format!("--fix for `{}`", spec.name))?;
-    let r = fit(&base, &free, &data, args.iterations)?;
-    println!("model {}: {} observations, {} iterations", args.model, data.len(), r.iterations);
-    for ((k, v), u) in r.params.iter().zip(&r.uncertainties) {
-        println!("  {k} = {v:.6} ± {u:.6}");
-    }
-    println!("  χ² = {:.3}, dof = {}, reduced χ² = {:.3}", r.chi2, r.dof, r.chi2 / r.dof as f64);
+    let bar = if args.quiet { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(args.iterations) };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("fitting: iteration {pos}/{len} (at most) {wide_bar} {elapsed}")
+            .expect("valid template"),
+    );
+    let progress = bar.clone();
+    let options = FitOptions {
+        max_iters: args.iterations,
+        progress: Some(std::sync::Arc::new(move |i| progress.set_position(i))),
+    };
+    let r = fit_with(&base, &free, &data, &options);
+    bar.finish_and_clear();
+    let r = r?;
+    print_result(&args.model, data.len(), &r);
     let mut toml =
         format!("# fitted by fiberlab fit; use with --params-file\nmodel = \"{}\"\n\n[params]\n", args.model);
     for (k, v) in &fixed {
         toml.push_str(&format!("{k} = \"{v}\"\n"));
     }
-    for (k, v) in &r.params {
-        // A TOML float (with `{:?}`, `3.0` stays a float and every digit of the value is kept).
-        toml.push_str(&format!("{k} = {v:?}\n"));
+    for (k, v) in &r.values {
+        // TOML floats (with `{:?}`, `3.0` stays a float and every digit of the value is kept);
+        // a colour fitted per channel as an array r, g, b.
+        match v.as_slice() {
+            [x] => toml.push_str(&format!("{k} = {x:?}\n")),
+            _ => toml.push_str(&format!("{k} = {v:?}\n")),
+        }
     }
     let toml_path = args.out.with(".toml");
     write_atomically(&toml_path, toml.as_bytes())?;
     println!("wrote {}", toml_path.display());
     if let Some((nt, np)) = grid {
-        // Residual map of the first incidence.
-        let image: Vec<Vec<f64>> = (0..nt).map(|i| (0..np).map(|j| r.residuals[i * np + j].abs()).collect()).collect();
+        // Residual map of the first incidence: per bin, the RMS over its observations (channels).
+        let k = data.iter().take_while(|o| o.wi == data[0].wi && o.wo == data[0].wo).count().max(1);
+        let bin = |b: usize| (r.residuals[b * k..(b + 1) * k].iter().map(|x| x * x).sum::<f64>() / k as f64).sqrt();
+        let image: Vec<Vec<f64>> = (0..nt).map(|i| (0..np).map(|j| bin(i * np + j)).collect()).collect();
         let azimuthal = (0..np).map(|j| (0..nt).map(|i| image[i][j]).sum()).collect();
         let cone = image[nt / 2].clone();
         let path = args.out.with("_residuals.png");
@@ -193,4 +292,20 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         println!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// The fitted numbers with their 1σ uncertainties — or why one is undefined, never `± NaN` —
+/// a warning for each that ended on its bound, and the χ².
+fn print_result(model: &str, observations: usize, r: &FitResult) {
+    println!("model {model}: {observations} observations, {} iterations", r.iterations);
+    for (((k, v), u), bound) in r.params.iter().zip(&r.uncertainties).zip(&r.at_bound) {
+        match u {
+            Uncertainty::Sigma(s) => println!("  {k} = {v:.6} ± {s:.6}"),
+            Uncertainty::Undefined(why) => println!("  {k} = {v:.6}   (uncertainty undefined: {why})"),
+        }
+        if let Some(b) = bound {
+            println!("    warning: `{k}` {b}; the best fit may lie beyond it (check the model, --fix or the data)");
+        }
+    }
+    println!("  χ² = {:.3}, dof = {}, reduced χ² = {:.3}", r.chi2, r.dof, r.chi2 / r.dof as f64);
 }

@@ -1,15 +1,50 @@
 //! Fitting scattering-model parameters to measured values by weighted least squares:
 //! Nelder–Mead (the `argmin` crate) on `χ² = Σ ((f_s(ω_i, ω_o) − value)/σ)²`, then
 //! uncertainties from the Gauss–Newton covariance `(JᵀJ)⁻¹·χ²/dof` at the optimum.
-//! Values are luminances of `f_s` in sr⁻¹; near-field models are averaged over h. Pure.
+//!
+//! Each observation is one number: the luminance of `f_s` in sr⁻¹, or one of its channels
+//! ([`Channel`]); near-field models are averaged over h. A colour parameter is fitted **per
+//! channel** (three free numbers) when the data has channels, since then the three channels
+//! are three independent measurements and the colour (e.g. the absorption `sigma_a` of a
+//! hair) is what one wants to know — one scale for a fixed colour would need its hue known in
+//! advance. From luminance-only data the channels cannot be told apart, and a colour is fitted
+//! as one grey value (all channels equal).
+//!
+//! An uncertainty that the covariance cannot give is an [`Uncertainty::Undefined`] with the
+//! reason, and a parameter that ends on (within [`BOUND_TOLERANCE`] of) an end of its valid
+//! range is reported with that end ([`AtBound`]). Pure.
 #![forbid(unsafe_code)]
 
-use argmin::core::{CostFunction, Error, Executor, State};
+use argmin::core::observers::{Observe, ObserverMode};
+use argmin::core::{CostFunction, Error, Executor, KV, State};
 use argmin::solver::neldermead::NelderMead;
-use fiberlab_math::DVec3;
-use fiberlab_scatter::params::{ParamKind, ParamSet, RawValue};
+use fiberlab_math::{DVec3, Rgb};
+use fiberlab_scatter::params::{ParamKind, ParamSet, Range, RawValue};
 use fiberlab_scatter::{Field, Model, ModelError, ModelSpec, ScatteringFunction, find};
+use std::fmt;
+use std::sync::Arc;
 use thiserror::Error;
+
+/// What an observation measures of `f_s`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Channel {
+    /// Its Rec. 709 luminance.
+    #[default]
+    Luminance,
+    /// One colour channel: 0 red, 1 green, 2 blue.
+    Rgb(usize),
+}
+
+impl Channel {
+    /// This channel of a colour.
+    #[must_use]
+    pub fn of(self, f: Rgb) -> f64 {
+        match self {
+            Channel::Luminance => f.luminance(),
+            Channel::Rgb(c) => f[c.min(2)],
+        }
+    }
+}
 
 /// One measured value.
 #[derive(Clone, Copy, Debug)]
@@ -18,10 +53,12 @@ pub struct Observation {
     pub wi: DVec3,
     /// Direction toward the viewer (fiber frame).
     pub wo: DVec3,
-    /// Measured `f_s` luminance (sr⁻¹).
+    /// Measured `f_s` (sr⁻¹) in `channel`.
     pub value: f64,
     /// Its standard error (> 0).
     pub sigma: f64,
+    /// What of `f_s` was measured.
+    pub channel: Channel,
 }
 
 /// Why a fit could not be made.
@@ -39,16 +76,117 @@ pub enum FitError {
     Optimizer(String),
 }
 
+/// A free parameter and its starting value: one number, or three (r, g, b) for a colour
+/// fitted per channel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FreeParam {
+    /// The parameter's key.
+    pub key: String,
+    /// Starting value(s).
+    pub start: Vec<f64>,
+}
+
+/// How to run a fit.
+#[derive(Clone)]
+pub struct FitOptions {
+    /// Largest number of optimizer iterations.
+    pub max_iters: u64,
+    /// Called with the iteration number after each optimizer iteration.
+    pub progress: Option<Arc<dyn Fn(u64) + Send + Sync>>,
+}
+
+/// Why a parameter's uncertainty is undefined.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Undefined {
+    /// The parameter ended on its bound: χ² is not a parabola around an optimum there.
+    AtBound,
+    /// The residuals do not depend on the parameter (its Jacobian column is zero).
+    NoEffect,
+    /// The Jacobian's columns are (nearly) dependent: the data cannot separate this
+    /// parameter from the others; the condition number of the scaled `JᵀJ`.
+    IllConditioned(f64),
+    /// The model cannot be built on either side of the value (no difference quotient).
+    NoDerivative,
+}
+
+/// A one-σ uncertainty, or why there is none.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Uncertainty {
+    /// One standard deviation.
+    Sigma(f64),
+    /// No uncertainty can be given, for this reason.
+    Undefined(Undefined),
+}
+
+impl Uncertainty {
+    /// The σ, if defined.
+    #[must_use]
+    pub fn sigma(self) -> Option<f64> {
+        match self {
+            Uncertainty::Sigma(s) => Some(s),
+            Uncertainty::Undefined(_) => None,
+        }
+    }
+}
+
+impl fmt::Display for Undefined {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Undefined::AtBound => {
+                f.write_str("the value is on its bound, where χ² has no minimum to measure a curvature at")
+            }
+            Undefined::NoEffect => f.write_str("the data do not depend on it (its column of the Jacobian is zero)"),
+            Undefined::IllConditioned(c) => write!(
+                f,
+                "the Jacobian is ill-conditioned (condition number {c:.1e}): the data cannot tell it apart \
+                 from the other free parameters"
+            ),
+            Undefined::NoDerivative => f.write_str("the model cannot be evaluated on either side of the value"),
+        }
+    }
+}
+
+/// A fitted value within [`BOUND_TOLERANCE`] of an end of its valid range.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AtBound {
+    /// The end it is on.
+    pub bound: f64,
+    /// True for the lower end.
+    pub lower: bool,
+    /// The parameter's valid range.
+    pub range: Range,
+}
+
+impl fmt::Display for AtBound {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let side = if self.lower { "lower" } else { "upper" };
+        write!(f, "ended on its {side} bound {:?} (valid range {})", self.bound, self.range)
+    }
+}
+
+/// A value ends on its bound when it is within this fraction of the range's width (or, for
+/// a range open on one side, of `max(1, |bound|)`) of the bound.
+pub const BOUND_TOLERANCE: f64 = 1e-3;
+
+/// Condition number of the scaled `JᵀJ` above which the uncertainties are not given: the
+/// central differences are good to about 1e-8 relative, so beyond 1e8 the inverse is noise.
+pub const MAX_CONDITION: f64 = 1e8;
+
 /// A fitted model.
 #[derive(Clone, Debug)]
 pub struct FitResult {
-    /// Free parameters and their fitted values.
+    /// Fitted numbers: `key` for a number or a grey colour, `key[r]`, `key[g]`, `key[b]` for
+    /// a colour fitted per channel.
     pub params: Vec<(String, f64)>,
-    /// One-σ uncertainties of the free parameters (NaN when the covariance is singular).
-    pub uncertainties: Vec<f64>,
+    /// One-σ uncertainty of each of `params`, or why it is undefined.
+    pub uncertainties: Vec<Uncertainty>,
+    /// For each of `params`, the bound it ended on, if any.
+    pub at_bound: Vec<Option<AtBound>>,
+    /// Fitted values per parameter key: one number, or r, g, b.
+    pub values: Vec<(String, Vec<f64>)>,
     /// χ² at the optimum.
     pub chi2: f64,
-    /// Degrees of freedom (observations − free parameters).
+    /// Degrees of freedom (observations − free numbers).
     pub dof: usize,
     /// Normalized residuals `(f − value)/σ` per observation.
     pub residuals: Vec<f64>,
@@ -56,35 +194,74 @@ pub struct FitResult {
     pub iterations: u64,
 }
 
-/// The least-squares problem: the model's validated fixed parameters and the free keys,
-/// whose trial values are set as numbers (never formatted to text and parsed back).
+/// One free number: a parameter, or one channel of a colour parameter.
+#[derive(Clone, Debug)]
+struct Coordinate {
+    key: &'static str,
+    /// `None`: the whole parameter (a number, or a colour as grey); `Some(c)`: channel c.
+    channel: Option<usize>,
+    range: Range,
+}
+
+impl Coordinate {
+    fn name(&self) -> String {
+        match self.channel {
+            None => self.key.to_string(),
+            Some(c) => format!("{}[{}]", self.key, ["r", "g", "b"][c]),
+        }
+    }
+}
+
+/// The least-squares problem: the model's validated fixed parameters and the free
+/// coordinates, whose trial values are set as numbers (never formatted to text and parsed back).
 struct Problem<'a> {
     spec: &'static ModelSpec,
     base: &'a ParamSet,
-    free: &'a [String],
+    coordinates: &'a [Coordinate],
     data: &'a [Observation],
 }
 
 impl Problem<'_> {
     fn model_at(&self, p: &[f64]) -> Result<Model, ModelError> {
         let mut params = self.base.clone();
-        for (k, v) in self.free.iter().zip(p) {
-            params.set(k, RawValue::Number(*v))?;
+        let mut k = 0;
+        while k < self.coordinates.len() {
+            let c = &self.coordinates[k];
+            if c.channel.is_some() {
+                let rgb = (0..3).map(|i| RawValue::Number(p[k + i])).collect();
+                params.set(c.key, RawValue::List(rgb))?;
+                k += 3;
+            } else {
+                params.set(c.key, RawValue::Number(p[k]))?;
+                k += 1;
+            }
         }
         (self.spec.build)(&params)
     }
 
     fn residuals(&self, m: &Model) -> Vec<f64> {
         let near = m.properties().field == Field::Near;
+        // The channels of one direction pair follow each other: evaluate the model once for them.
+        let mut last: Option<(DVec3, DVec3, Rgb)> = None;
         self.data
             .iter()
             .map(|o| {
-                let f = if near {
-                    (0..8).map(|k| m.eval(o.wi, o.wo, -1.0 + (k as f64 + 0.5) / 4.0).luminance()).sum::<f64>() / 8.0
-                } else {
-                    m.eval(o.wi, o.wo, 0.0).luminance()
+                let f = match last {
+                    Some((wi, wo, f)) if wi == o.wi && wo == o.wo => f,
+                    _ => {
+                        let f = if near {
+                            (0..8)
+                                .map(|k| m.eval(o.wi, o.wo, -1.0 + (k as f64 + 0.5) / 4.0))
+                                .fold(Rgb::ZERO, |a, b| a + b)
+                                * 0.125
+                        } else {
+                            m.eval(o.wi, o.wo, 0.0)
+                        };
+                        last = Some((o.wi, o.wo, f));
+                        f
+                    }
                 };
-                (f - o.value) / o.sigma
+                (o.channel.of(f) - o.value) / o.sigma
             })
             .collect()
     }
@@ -103,49 +280,101 @@ impl CostFunction for Problem<'_> {
     }
 }
 
-/// Fits the `free` parameters (with starting values) of the model whose other parameters
-/// are `base` (validated; its model is `base.model()`). Free parameters are real numbers or
-/// colours; a colour is fitted as one grey value (all channels equal), since the values
-/// fitted are luminances.
+/// Reports each optimizer iteration to a callback.
+struct IterationObserver(Arc<dyn Fn(u64) + Send + Sync>);
+
+impl<I: State> Observe<I> for IterationObserver {
+    fn observe_iter(&mut self, state: &I, _kv: &KV) -> Result<(), Error> {
+        (self.0)(state.get_iter());
+        Ok(())
+    }
+}
+
+/// Fits the `free` parameters (with one starting value each) of the model whose other
+/// parameters are `base`, in at most `max_iters` iterations: [`fit_with`] without progress.
 pub fn fit(
     base: &ParamSet,
     free: &[(String, f64)],
     data: &[Observation],
     max_iters: u64,
 ) -> Result<FitResult, FitError> {
+    let free: Vec<FreeParam> = free.iter().map(|(k, v)| FreeParam { key: k.clone(), start: vec![*v] }).collect();
+    fit_with(base, &free, data, &FitOptions { max_iters, progress: None })
+}
+
+/// Fits the `free` parameters of the model whose other parameters are `base` (validated;
+/// its model is `base.model()`). Free parameters are real numbers or colours; a colour is
+/// fitted per channel when any observation is of a channel, else as one grey value.
+pub fn fit_with(
+    base: &ParamSet,
+    free: &[FreeParam],
+    data: &[Observation],
+    options: &FitOptions,
+) -> Result<FitResult, FitError> {
     let spec = find(base.model())?;
     if spec.data.is_some() {
         return Err(FitError::Setup(format!("model `{}` is a table; it has no parameters to fit", spec.name)));
     }
-    for (key, _) in free {
-        match spec.params.iter().find(|s| s.key == key) {
-            // A colour parameter is fitted as one grey value (all channels equal).
-            Some(s) if matches!(s.kind, ParamKind::Number(_) | ParamKind::Color(_)) => {}
-            Some(_) => {
-                return Err(FitError::Setup(format!("`{key}` is not a real-valued parameter of `{}`", spec.name)));
-            }
-            None => {
-                let known: Vec<&str> = spec.params.iter().map(|s| s.key).collect();
-                return Err(FitError::Setup(format!(
-                    "model `{}` has no parameter `{key}`; its parameters are: {}",
-                    spec.name,
-                    known.join(", ")
-                )));
-            }
-        }
-    }
     if free.is_empty() {
         return Err(FitError::Setup("no free parameters (give --init key=value)".into()));
     }
-    if data.len() <= free.len() {
-        return Err(FitError::Setup(format!("{} observations for {} free parameters", data.len(), free.len())));
+    let per_channel = data.iter().any(|o| o.channel != Channel::Luminance);
+    let mut coordinates = Vec::new();
+    let mut start = Vec::new();
+    for f in free {
+        let key = f.key.as_str();
+        let Some(s) = spec.params.iter().find(|s| s.key == key) else {
+            let known: Vec<&str> = spec.params.iter().map(|s| s.key).collect();
+            return Err(FitError::Setup(format!(
+                "model `{}` has no parameter `{key}`; its parameters are: {}",
+                spec.name,
+                known.join(", ")
+            )));
+        };
+        match (s.kind, f.start.as_slice()) {
+            (ParamKind::Number(range), [v]) => {
+                coordinates.push(Coordinate { key: s.key, channel: None, range });
+                start.push(*v);
+            }
+            (ParamKind::Color(range), [v]) if !per_channel => {
+                coordinates.push(Coordinate { key: s.key, channel: None, range });
+                start.push(*v);
+            }
+            (ParamKind::Color(range), [v] | [v, _, _]) if per_channel => {
+                let rgb = if f.start.len() == 3 { f.start.clone() } else { vec![*v; 3] };
+                for (c, x) in rgb.into_iter().enumerate() {
+                    coordinates.push(Coordinate { key: s.key, channel: Some(c), range });
+                    start.push(x);
+                }
+            }
+            (ParamKind::Color(_), [_, _, _]) => {
+                return Err(FitError::Setup(format!(
+                    "`{key}`: luminance-only data cannot tell the channels of a colour apart; give one starting \
+                     value (fitted as a grey value) or data with channels (f_r,f_g,f_b)"
+                )));
+            }
+            (ParamKind::Number(_) | ParamKind::Color(_), _) => {
+                return Err(FitError::Setup(format!(
+                    "`{key}`: give one starting value{}",
+                    if matches!(s.kind, ParamKind::Color(_)) { " or three (r,g,b)" } else { "" }
+                )));
+            }
+            _ => {
+                return Err(FitError::Setup(format!("`{key}` is not a real-valued parameter of `{}`", spec.name)));
+            }
+        }
+    }
+    if data.len() <= coordinates.len() {
+        return Err(FitError::Setup(format!(
+            "{} observations for {} free numbers: too few to fit and estimate uncertainties",
+            data.len(),
+            coordinates.len()
+        )));
     }
     if data.iter().any(|o| o.sigma.is_nan() || o.sigma <= 0.0 || !o.value.is_finite()) {
         return Err(FitError::Setup("every observation needs a finite value and σ > 0".into()));
     }
-    let keys: Vec<String> = free.iter().map(|(k, _)| k.clone()).collect();
-    let start: Vec<f64> = free.iter().map(|(_, v)| *v).collect();
-    let problem = Problem { spec, base, free: &keys, data };
+    let problem = Problem { spec, base, coordinates: &coordinates, data };
     problem.model_at(&start)?;
     let mut simplex = vec![start.clone()];
     for k in 0..start.len() {
@@ -154,26 +383,66 @@ pub fn fit(
         simplex.push(p);
     }
     let solver = NelderMead::new(simplex).with_sd_tolerance(1e-9).map_err(|e| FitError::Optimizer(e.to_string()))?;
-    let res = Executor::new(Problem { spec, base, free: &keys, data }, solver)
-        .configure(|s| s.max_iters(max_iters))
-        .run()
-        .map_err(|e| FitError::Optimizer(e.to_string()))?;
+    let mut executor = Executor::new(Problem { spec, base, coordinates: &coordinates, data }, solver)
+        .configure(|s| s.max_iters(options.max_iters));
+    if let Some(progress) = &options.progress {
+        executor = executor.add_observer(IterationObserver(progress.clone()), ObserverMode::Always);
+    }
+    let res = executor.run().map_err(|e| FitError::Optimizer(e.to_string()))?;
     let best = res.state().get_best_param().cloned().unwrap_or(start);
     let iterations = res.state().get_iter();
     let m = problem.model_at(&best)?;
     let residuals = problem.residuals(&m);
     let chi2: f64 = residuals.iter().map(|r| r * r).sum();
-    let dof = data.len() - free.len();
-    let uncertainties = covariance(&problem, &best, &residuals)
-        .map(|c| (0..best.len()).map(|k| (c[k][k] * chi2 / dof as f64).max(0.0).sqrt()).collect())
-        .unwrap_or_else(|| vec![f64::NAN; best.len()]);
-    Ok(FitResult { params: keys.into_iter().zip(best).collect(), uncertainties, chi2, dof, residuals, iterations })
+    let dof = data.len() - coordinates.len();
+    let at_bound: Vec<Option<AtBound>> = coordinates.iter().zip(&best).map(|(c, &v)| on_bound(v, c.range)).collect();
+    let uncertainties = uncertainties(&problem, &best, &residuals, &at_bound, chi2 / dof as f64);
+    let mut values: Vec<(String, Vec<f64>)> = Vec::new();
+    for (c, &v) in coordinates.iter().zip(&best) {
+        match values.last_mut() {
+            Some((k, vs)) if c.channel.is_some_and(|ch| ch > 0) && k == c.key => vs.push(v),
+            _ => values.push((c.key.to_string(), vec![v])),
+        }
+    }
+    Ok(FitResult {
+        params: coordinates.iter().map(Coordinate::name).zip(best).collect(),
+        uncertainties,
+        at_bound,
+        values,
+        chi2,
+        dof,
+        residuals,
+        iterations,
+    })
 }
 
-/// `(JᵀJ)⁻¹` from a central-difference Jacobian of the residuals; `None` if singular.
-fn covariance(problem: &Problem, p: &[f64], r0: &[f64]) -> Option<Vec<Vec<f64>>> {
+/// The end of `range` that `v` is within [`BOUND_TOLERANCE`] of, if any.
+fn on_bound(v: f64, range: Range) -> Option<AtBound> {
+    let width = range.max - range.min;
+    let tolerance = |bound: f64| BOUND_TOLERANCE * if width.is_finite() { width } else { bound.abs().max(1.0) };
+    if range.min.is_finite() && v - range.min <= tolerance(range.min) {
+        Some(AtBound { bound: range.min, lower: true, range })
+    } else if range.max.is_finite() && range.max - v <= tolerance(range.max) {
+        Some(AtBound { bound: range.max, lower: false, range })
+    } else {
+        None
+    }
+}
+
+/// The uncertainties from `(JᵀJ)⁻¹ · χ²/dof` (`scale`), with a central-difference Jacobian
+/// of the residuals. Coordinates on which the data do not depend, or on a bound, are held
+/// fixed (their uncertainty undefined, the others' conditional on them); the rest share one
+/// verdict when their scaled `JᵀJ` is ill-conditioned.
+fn uncertainties(
+    problem: &Problem,
+    p: &[f64],
+    r0: &[f64],
+    at_bound: &[Option<AtBound>],
+    scale: f64,
+) -> Vec<Uncertainty> {
     let n = p.len();
-    let mut jac = vec![vec![0.0; r0.len()]; n];
+    let mut out: Vec<Option<Uncertainty>> = vec![None; n];
+    let mut jac = vec![Vec::new(); n];
     for k in 0..n {
         let step = 1e-4 * p[k].abs().max(1.0);
         let (mut lo, mut hi) = (p.to_vec(), p.to_vec());
@@ -184,15 +453,44 @@ fn covariance(problem: &Problem, p: &[f64], r0: &[f64]) -> Option<Vec<Vec<f64>>>
             (Ok(a), Ok(b)) => (problem.residuals(&a), problem.residuals(&b), 2.0 * step),
             (Err(_), Ok(b)) => (r0.to_vec(), problem.residuals(&b), step),
             (Ok(a), Err(_)) => (problem.residuals(&a), r0.to_vec(), step),
-            _ => return None,
+            _ => {
+                out[k] = Some(Uncertainty::Undefined(Undefined::NoDerivative));
+                continue;
+            }
         };
-        for i in 0..r0.len() {
-            jac[k][i] = (rb[i] - ra[i]) / width;
+        jac[k] = ra.iter().zip(&rb).map(|(a, b)| (b - a) / width).collect();
+        // No effect is the deeper reason: such a parameter drifts, and may drift onto a bound.
+        if jac[k].iter().all(|x| *x == 0.0) {
+            out[k] = Some(Uncertainty::Undefined(Undefined::NoEffect));
+        } else if at_bound[k].is_some() {
+            out[k] = Some(Uncertainty::Undefined(Undefined::AtBound));
         }
     }
-    let jtj: Vec<Vec<f64>> =
-        (0..n).map(|a| (0..n).map(|b| jac[a].iter().zip(&jac[b]).map(|(x, y)| x * y).sum()).collect()).collect();
-    invert(jtj)
+    let kept: Vec<usize> = (0..n).filter(|&k| out[k].is_none()).collect();
+    let jtj: Vec<Vec<f64>> = kept
+        .iter()
+        .map(|&a| kept.iter().map(|&b| jac[a].iter().zip(&jac[b]).map(|(x, y)| x * y).sum()).collect())
+        .collect();
+    // Scaled to unit diagonal, so the condition number measures dependence, not units.
+    let d: Vec<f64> = (0..kept.len()).map(|i| jtj[i][i].sqrt()).collect();
+    let scaled: Vec<Vec<f64>> =
+        (0..kept.len()).map(|i| (0..kept.len()).map(|j| jtj[i][j] / (d[i] * d[j])).collect()).collect();
+    let verdict = match invert(scaled.clone()) {
+        Some(inv) => {
+            let norm =
+                |m: &[Vec<f64>]| m.iter().map(|row| row.iter().map(|x| x.abs()).sum::<f64>()).fold(0.0, f64::max);
+            let condition = norm(&scaled) * norm(&inv);
+            if condition.is_finite() && condition <= MAX_CONDITION { Ok(inv) } else { Err(condition) }
+        }
+        None => Err(f64::INFINITY),
+    };
+    for (i, &k) in kept.iter().enumerate() {
+        out[k] = Some(match &verdict {
+            Ok(inv) => Uncertainty::Sigma((inv[i][i] / (d[i] * d[i]) * scale).max(0.0).sqrt()),
+            Err(condition) => Uncertainty::Undefined(Undefined::IllConditioned(*condition)),
+        });
+    }
+    out.into_iter().map(|u| u.unwrap_or(Uncertainty::Undefined(Undefined::NoDerivative))).collect()
 }
 
 /// Gauss–Jordan inverse of a small symmetric matrix with partial pivoting.
@@ -252,21 +550,29 @@ mod tests {
                 let sigma = 0.02 * f + 1e-4;
                 // Sum of 4 uniforms: a bounded, nearly Gaussian deviate of unit variance.
                 let z = ((0..4).map(|_| uniform()).sum::<f64>() - 2.0) * 3f64.sqrt();
-                data.push(Observation { wi, wo, value: f + sigma * z, sigma });
+                data.push(Observation { wi, wo, value: f + sigma * z, sigma, channel: Channel::Luminance });
             }
         }
         let free = vec![("beta_m".to_string(), 0.25), ("beta_n".to_string(), 0.3), ("alpha".to_string(), 0.5)];
         let r = fit(&chiang(&[("sigma_a", "0.5")]), &free, &data, 400).unwrap();
         let expect = [0.35, 0.45, 3.0];
         for (k, ((key, v), u)) in r.params.iter().zip(&r.uncertainties).enumerate() {
+            let u = u.sigma().unwrap_or_else(|| panic!("{key}: {u:?}"));
             assert!((v - expect[k]).abs() < 5.0 * u + 1e-3, "{key} = {v} ± {u}, truth {}", expect[k]);
         }
+        assert!(r.at_bound.iter().all(Option::is_none), "{:?}", r.at_bound);
         assert!(r.chi2 / (r.dof as f64) < 2.0, "reduced χ² {}", r.chi2 / r.dof as f64);
     }
 
     #[test]
     fn bad_setups_are_errors() {
-        let o = Observation { wi: direction(0.0, 0.0), wo: direction(0.1, 1.0), value: 1.0, sigma: 0.0 };
+        let o = Observation {
+            wi: direction(0.0, 0.0),
+            wo: direction(0.1, 1.0),
+            value: 1.0,
+            sigma: 0.0,
+            channel: Channel::Luminance,
+        };
         let base = chiang(&[]);
         assert!(fit(&base, &[("beta_m".into(), 0.3)], &[o, o, o], 10).is_err());
         assert!(fit(&base, &[], &[o], 10).is_err());
@@ -293,5 +599,98 @@ mod tests {
             )
             .is_err()
         );
+    }
+
+    /// Directions of a small test grid (ω_i, ω_o).
+    fn grid() -> Vec<(DVec3, DVec3)> {
+        let mut pairs = Vec::new();
+        for i in 0..8 {
+            for j in 0..12 {
+                pairs.push((direction(-1.1 + 0.3 * i as f64, 0.0), direction(-1.2 + 0.2 * j as f64, 0.5 * j as f64)));
+            }
+        }
+        pairs
+    }
+
+    /// The ideal diffuse fiber is `f_s = ρ/π²` (closed form). Data of ρ = 1.3, beyond its valid
+    /// range [0, 1]: the fit ends on the upper bound, says so, and gives no σ for it.
+    #[test]
+    fn a_parameter_on_its_bound_is_flagged_and_has_no_sigma() {
+        let value = 1.3 / std::f64::consts::PI.powi(2);
+        let data: Vec<Observation> = grid()
+            .into_iter()
+            .map(|(wi, wo)| Observation { wi, wo, value, sigma: 0.01 * value, channel: Channel::Luminance })
+            .collect();
+        let spec = find("diffuse").unwrap();
+        let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
+        let r = fit(&base, &[("albedo".into(), 0.5)], &data, 400).unwrap();
+        let b = r.at_bound[0].expect("on its bound");
+        assert!(!b.lower && b.bound == 1.0, "{b:?}");
+        assert!((r.params[0].1 - 1.0).abs() <= BOUND_TOLERANCE, "{:?}", r.params);
+        assert_eq!(r.uncertainties[0], Uncertainty::Undefined(Undefined::AtBound));
+        assert!(b.to_string().contains("upper bound 1.0"), "{b}");
+        // Inside the range (ρ = 0.6), nothing is flagged and σ is defined.
+        let inside: Vec<Observation> =
+            data.iter().map(|o| Observation { value: o.value * 0.6 / 1.3, sigma: o.sigma * 0.6 / 1.3, ..*o }).collect();
+        let r = fit(&base, &[("albedo".into(), 0.5)], &inside, 400).unwrap();
+        assert!(r.at_bound[0].is_none() && r.uncertainties[0].sigma().is_some(), "{r:?}");
+        assert!((r.params[0].1 - 0.6).abs() < 1e-4, "{:?}", r.params);
+    }
+
+    /// With `k_s = 0` Kajiya–Kay does not depend on its exponent `p`: p's uncertainty is
+    /// undefined with that reason (never NaN), while `k_d`'s is still given.
+    #[test]
+    fn an_uncertainty_the_data_cannot_give_says_why() {
+        let spec = find("kajiya-kay").unwrap();
+        let base = ParamSet::parse(spec.name, spec.params, &[("k_s", "0")]).unwrap();
+        let truth = build("kajiya-kay", &[("k_d", "0.3"), ("k_s", "0")]).unwrap();
+        let data: Vec<Observation> = grid()
+            .into_iter()
+            .map(|(wi, wo)| {
+                let value = truth.eval(wi, wo, 0.0).luminance();
+                Observation { wi, wo, value, sigma: 0.01 * value + 1e-6, channel: Channel::Luminance }
+            })
+            .collect();
+        let r = fit(&base, &[("k_d".into(), 0.2), ("p".into(), 10.0)], &data, 400).unwrap();
+        assert!(r.uncertainties[0].sigma().is_some_and(f64::is_finite), "{:?}", r.uncertainties);
+        assert_eq!(r.uncertainties[1], Uncertainty::Undefined(Undefined::NoEffect));
+        assert!(Undefined::NoEffect.to_string().contains("do not depend"));
+    }
+
+    /// A colour fitted per channel from per-channel data of the model itself at a known
+    /// absorption: the three channels come back, and luminance-only data of the same model
+    /// cannot be fitted with three starting channels.
+    #[test]
+    fn a_colour_is_recovered_per_channel() {
+        let fixed = [("beta_m", "0.3"), ("beta_n", "0.4"), ("alpha", "2")];
+        let truth = build("chiang", &[fixed.as_slice(), &[("sigma_a", "0.2,0.6,1.4")]].concat()).unwrap();
+        let mut data = Vec::new();
+        for (wi, wo) in grid() {
+            let f =
+                (0..8).map(|k| truth.eval(wi, wo, -1.0 + (k as f64 + 0.5) / 4.0)).fold(Rgb::ZERO, |a, b| a + b) * 0.125;
+            for c in 0..3 {
+                data.push(Observation { wi, wo, value: f[c], sigma: 0.01 * f[c] + 1e-6, channel: Channel::Rgb(c) });
+            }
+        }
+        let free = [FreeParam { key: "sigma_a".into(), start: vec![0.5] }];
+        let calls = Arc::new(std::sync::atomic::AtomicU64::new(0));
+        let counter = calls.clone();
+        let progress: Arc<dyn Fn(u64) + Send + Sync> = Arc::new(move |_| {
+            counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        });
+        let options = FitOptions { max_iters: 400, progress: Some(progress) };
+        let r = fit_with(&chiang(&fixed), &free, &data, &options).unwrap();
+        let names: Vec<&str> = r.params.iter().map(|(k, _)| k.as_str()).collect();
+        assert_eq!(names, ["sigma_a[r]", "sigma_a[g]", "sigma_a[b]"]);
+        for (c, want) in [0.2, 0.6, 1.4].into_iter().enumerate() {
+            assert!((r.params[c].1 - want).abs() < 1e-3 * want, "{:?}", r.params);
+        }
+        assert_eq!(r.values, vec![("sigma_a".to_string(), r.params.iter().map(|p| p.1).collect())]);
+        assert_eq!(calls.load(std::sync::atomic::Ordering::Relaxed), r.iterations, "one report per iteration");
+        let luminance: Vec<Observation> =
+            data.iter().map(|o| Observation { channel: Channel::Luminance, ..*o }).collect();
+        let three = [FreeParam { key: "sigma_a".into(), start: vec![0.5, 0.5, 0.5] }];
+        let e = fit_with(&chiang(&fixed), &three, &luminance, &options).unwrap_err().to_string();
+        assert!(e.contains("cannot tell the channels"), "{e}");
     }
 }

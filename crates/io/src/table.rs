@@ -1,6 +1,8 @@
 //! Reading `fiberlab measure` tables back: CSV rows
-//! `lobe,theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b,std_r,std_g,std_b` (degrees at bin centres).
-//! Errors name the file and the line (and column).
+//! `lobe,theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b,std_r,std_g,std_b` (degrees at bin centres;
+//! inclinations θ in [−90°, 90°], azimuths φ in [−360°, 360°], one turn either way, so that
+//! both the (−180°, 180°] and the [0°, 360°) conventions are read). Errors name the file and
+//! the line (and column).
 
 use fiberlab_math::Rgb;
 use std::collections::BTreeMap;
@@ -72,6 +74,16 @@ pub fn parse(text: &str, name: &str) -> Result<BTreeMap<String, LobeSlices>, Tab
             })
         };
         let v: Vec<f64> = (1..11).map(num).collect::<Result<_, _>>()?;
+        for (k, limit) in [(1, 90.0), (2, 360.0), (3, 90.0), (4, 360.0)] {
+            if v[k - 1].abs() > limit {
+                bail!(
+                    "{name}: line {line}, column {} (`{}`): {} degrees is outside [-{limit}, {limit}]",
+                    idx[k] + 1,
+                    COLS[k],
+                    v[k - 1]
+                );
+            }
+        }
         let lobe = rec.get(idx[0]).unwrap_or("").to_string();
         // Key slices by θ_i, φ_i in millidegrees so that printed decimals group exactly.
         let key = ((v[0] * 1000.0).round() as i64, (v[1] * 1000.0).round() as i64);
@@ -136,6 +148,11 @@ mod tests {
         let bad = text.replace("all,30,0,45,90,1,2,3", "all,30,0,45,90,x,2,3");
         let e = parse(&bad, "t.csv").unwrap_err().to_string();
         assert!(e.contains("t.csv: line 9, column 6 (`f_r`)"), "{e}");
+        // Angles outside their ranges (θ beyond ±90°, φ beyond ±360°) name line and column.
+        let e = parse(&text.replace("all,30,0,45,90,1,2,3", "all,30,0,300,90,1,2,3"), "t.csv").unwrap_err();
+        assert!(e.to_string().contains("t.csv: line 9, column 4 (`theta_r`): 300 degrees is outside [-90, 90]"), "{e}");
+        let e = parse(&text.replace("all,30,0,45,90,1,2,3", "all,30,0,45,-400,1,2,3"), "t.csv").unwrap_err();
+        assert!(e.to_string().contains("line 9, column 5 (`phi_r`): -400 degrees"), "{e}");
         let missing: String = text.lines().take(8).collect::<Vec<_>>().join("\n");
         assert!(parse(&missing, "t.csv").unwrap_err().to_string().contains("grid"));
     }

@@ -12,6 +12,10 @@ pub struct Args {
     /// Print the rows as one JSON array instead of a table.
     #[arg(long)]
     json: bool,
+    /// No progress bar (it is drawn on stderr, and only on a terminal, so stdout is the same
+    /// either way).
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 /// Runs the harness; fails (non-zero exit) when any row fails.
@@ -21,13 +25,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let cases: Vec<CheckCase> =
         default_cases().into_iter().filter(|c| args.model.as_deref().is_none_or(|m| m == c.model)).collect();
-    let bar = ProgressBar::new(cases.len() as u64).with_style(
-        ProgressStyle::with_template("checking {pos}/{len} model configurations {wide_bar} {elapsed}")
+    // On stderr, drawn only on a terminal (indicatif's default target); ticking on its own so
+    // that the elapsed time moves while a slow configuration runs.
+    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(cases.len() as u64) };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} checking {pos}/{len} model configurations {wide_bar} {elapsed}")
             .expect("valid template"),
     );
-    if args.json {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    }
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
     let mut rows = check_cases_with_progress(&cases, &Effort::default(), || bar.inc(1));
     bar.finish_and_clear();
     // Keep the table in registry order, whatever order the threads finished in.

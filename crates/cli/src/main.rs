@@ -19,6 +19,7 @@ mod models;
 mod plot;
 mod render;
 mod sample;
+mod scene;
 
 use clap::{Parser, Subcommand};
 
@@ -52,6 +53,8 @@ enum Command {
     Merge(merge::Args),
     /// Generate or inspect .hair files.
     Hair(hair::Args),
+    /// Print the built-in default scene as a template (--default), or write it (--out FILE).
+    Scene(scene::Args),
     /// Compare a model with a measured table, per lobe (errors, peaks, difference figures).
     CompareModel(compare_model::Args),
     /// Fit model parameters to a measured table or CSV by weighted least squares.
@@ -84,6 +87,7 @@ fn main() {
         Command::Render(a) => render::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Hair(a) => hair::run(a),
+        Command::Scene(a) => scene::run(a),
         Command::CompareModel(a) => compare_model::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Compare(a) => compare::run(a),

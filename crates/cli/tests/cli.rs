@@ -485,3 +485,22 @@ radiance = [1.0, 1.0, 1.0]
     let err = String::from_utf8_lossy(&res.stderr);
     assert!(!res.status.success() && err.contains("nope.csv"), "{err}");
 }
+
+/// Every model `fiberlab models` lists has a row in README.md's model table (a row is a line
+/// `| `name` | …` in the "## Models" section).
+#[test]
+fn readme_model_table_lists_every_model() {
+    let out = stdout_of(fiberlab().arg("models"));
+    let names: Vec<&str> = out
+        .lines()
+        .filter(|l| !l.starts_with(' ') && l.contains(" — "))
+        .map(|l| l.split(" — ").next().unwrap().trim())
+        .collect();
+    assert!(names.len() >= 9 && names.contains(&"marschner"), "{names:?}");
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md")).unwrap();
+    let section = readme.split("\n## Models").nth(1).expect("a Models section").split("\n## ").next().unwrap();
+    for name in names {
+        let row = format!("| `{name}` |");
+        assert!(section.lines().any(|l| l.starts_with(&row)), "README's model table has no row {row}");
+    }
+}

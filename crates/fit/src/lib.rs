@@ -1,6 +1,7 @@
 //! Fitting scattering-model parameters to measured values by weighted least squares:
-//! Nelder–Mead (the `argmin` crate) on `χ² = Σ ((f_s(ω_i, ω_o) − value)/σ)²`, then
-//! uncertainties from the Gauss–Newton covariance `(JᵀJ)⁻¹·χ²/dof` at the optimum.
+//! Nelder–Mead (the `argmin` crate) on `χ² = Σ ((f_s(ω_i, ω_o) − value)/σ)²`, polished by
+//! Levenberg–Marquardt steps, then uncertainties from the Gauss–Newton covariance
+//! `(JᵀJ)⁻¹·χ²/dof` at the optimum.
 //!
 //! Each observation is one number: the luminance of `f_s` in sr⁻¹, or one of its channels
 //! ([`Channel`]); near-field models are averaged over h. A colour parameter is fitted **per
@@ -389,7 +390,7 @@ pub fn fit_with(
         executor = executor.add_observer(IterationObserver(progress.clone()), ObserverMode::Always);
     }
     let res = executor.run().map_err(|e| FitError::Optimizer(e.to_string()))?;
-    let best = res.state().get_best_param().cloned().unwrap_or(start);
+    let best = polish(&problem, res.state().get_best_param().cloned().unwrap_or(start));
     let iterations = res.state().get_iter();
     let m = problem.model_at(&best)?;
     let residuals = problem.residuals(&m);
@@ -414,6 +415,70 @@ pub fn fit_with(
         residuals,
         iterations,
     })
+}
+
+/// Columns of the residuals' Jacobian by central differences (one-sided at the edge of a
+/// parameter's valid range); `None` for a coordinate the model cannot be built on either side of.
+fn jacobian(problem: &Problem, p: &[f64], r0: &[f64]) -> Vec<Option<Vec<f64>>> {
+    (0..p.len())
+        .map(|k| {
+            let step = 1e-4 * p[k].abs().max(1.0);
+            let (mut lo, mut hi) = (p.to_vec(), p.to_vec());
+            lo[k] -= step;
+            hi[k] += step;
+            let (ra, rb, width) = match (problem.model_at(&lo), problem.model_at(&hi)) {
+                (Ok(a), Ok(b)) => (problem.residuals(&a), problem.residuals(&b), 2.0 * step),
+                (Err(_), Ok(b)) => (r0.to_vec(), problem.residuals(&b), step),
+                (Ok(a), Err(_)) => (problem.residuals(&a), r0.to_vec(), step),
+                _ => return None,
+            };
+            Some(ra.iter().zip(&rb).map(|(a, b)| (b - a) / width).collect())
+        })
+        .collect()
+}
+
+/// Levenberg–Marquardt steps from the simplex's best point (Nelder–Mead crawls in many
+/// dimensions, e.g. three channels of two colours): each solves
+/// `(JᵀJ + λ·diag JᵀJ) δ = −Jᵀr` and is kept only when it lowers χ² inside the valid ranges.
+fn polish(problem: &Problem, mut p: Vec<f64>) -> Vec<f64> {
+    let chi2 = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
+    let Ok(m) = problem.model_at(&p) else { return p };
+    let mut r = problem.residuals(&m);
+    let mut cost = chi2(&r);
+    let mut lambda = 1e-3;
+    for _ in 0..20 {
+        let Some(jac) = jacobian(problem, &p, &r).into_iter().collect::<Option<Vec<_>>>() else { break };
+        let n = p.len();
+        let jtj: Vec<Vec<f64>> =
+            (0..n).map(|a| (0..n).map(|b| jac[a].iter().zip(&jac[b]).map(|(x, y)| x * y).sum()).collect()).collect();
+        let jtr: Vec<f64> = (0..n).map(|a| jac[a].iter().zip(&r).map(|(x, y)| x * y).sum()).collect();
+        let mut improved = false;
+        while lambda < 1e12 {
+            let damped: Vec<Vec<f64>> = (0..n)
+                .map(|a| {
+                    (0..n).map(|b| jtj[a][b] + if a == b { lambda * jtj[a][a].max(1e-300) } else { 0.0 }).collect()
+                })
+                .collect();
+            let Some(inv) = invert(damped) else { break };
+            let trial: Vec<f64> = (0..n).map(|a| p[a] - (0..n).map(|b| inv[a][b] * jtr[b]).sum::<f64>()).collect();
+            if let Ok(m) = problem.model_at(&trial) {
+                let rt = problem.residuals(&m);
+                let ct = chi2(&rt);
+                if ct < cost {
+                    let relative = (cost - ct) / cost.max(1e-300);
+                    (p, r, cost) = (trial, rt, ct);
+                    lambda = (lambda * 0.3).max(1e-12);
+                    improved = relative > 1e-9;
+                    break;
+                }
+            }
+            lambda *= 10.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    p
 }
 
 /// The end of `range` that `v` is within [`BOUND_TOLERANCE`] of, if any.
@@ -442,30 +507,20 @@ fn uncertainties(
 ) -> Vec<Uncertainty> {
     let n = p.len();
     let mut out: Vec<Option<Uncertainty>> = vec![None; n];
-    let mut jac = vec![Vec::new(); n];
-    for k in 0..n {
-        let step = 1e-4 * p[k].abs().max(1.0);
-        let (mut lo, mut hi) = (p.to_vec(), p.to_vec());
-        lo[k] -= step;
-        hi[k] += step;
-        // Central difference, or one-sided at the edge of a parameter's valid range.
-        let (ra, rb, width) = match (problem.model_at(&lo), problem.model_at(&hi)) {
-            (Ok(a), Ok(b)) => (problem.residuals(&a), problem.residuals(&b), 2.0 * step),
-            (Err(_), Ok(b)) => (r0.to_vec(), problem.residuals(&b), step),
-            (Ok(a), Err(_)) => (problem.residuals(&a), r0.to_vec(), step),
-            _ => {
-                out[k] = Some(Uncertainty::Undefined(Undefined::NoDerivative));
-                continue;
+    let jac: Vec<Vec<f64>> = jacobian(problem, p, r0)
+        .into_iter()
+        .enumerate()
+        .map(|(k, column)| {
+            match &column {
+                None => out[k] = Some(Uncertainty::Undefined(Undefined::NoDerivative)),
+                // No effect is the deeper reason: such a parameter drifts, and may drift onto a bound.
+                Some(c) if c.iter().all(|x| *x == 0.0) => out[k] = Some(Uncertainty::Undefined(Undefined::NoEffect)),
+                Some(_) if at_bound[k].is_some() => out[k] = Some(Uncertainty::Undefined(Undefined::AtBound)),
+                Some(_) => {}
             }
-        };
-        jac[k] = ra.iter().zip(&rb).map(|(a, b)| (b - a) / width).collect();
-        // No effect is the deeper reason: such a parameter drifts, and may drift onto a bound.
-        if jac[k].iter().all(|x| *x == 0.0) {
-            out[k] = Some(Uncertainty::Undefined(Undefined::NoEffect));
-        } else if at_bound[k].is_some() {
-            out[k] = Some(Uncertainty::Undefined(Undefined::AtBound));
-        }
-    }
+            column.unwrap_or_default()
+        })
+        .collect();
     let kept: Vec<usize> = (0..n).filter(|&k| out[k].is_none()).collect();
     let jtj: Vec<Vec<f64>> = kept
         .iter()

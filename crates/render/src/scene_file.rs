@@ -201,7 +201,7 @@ enum LightDesc {
 struct SceneDesc {
     camera: Spanned<CameraDesc>,
     #[serde(default)]
-    render: RenderDesc,
+    render: Option<Spanned<RenderDesc>>,
     #[serde(default)]
     materials: BTreeMap<String, Spanned<MaterialDesc>>,
     #[serde(default)]
@@ -218,6 +218,8 @@ struct SceneDesc {
 #[derive(Debug)]
 pub struct SceneFile {
     desc: SceneDesc,
+    /// `[render]`, or its defaults when the file has none (checked when parsed).
+    render: RenderDesc,
     text: String,
     path: PathBuf,
     base: PathBuf,
@@ -246,12 +248,28 @@ impl SceneFile {
     /// Parses scene text; `path` names it in errors and anchors relative paths.
     pub fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        let mut file =
-            Self { desc: SceneDesc::empty(), text: text.to_string(), path: path.into(), base, hair_override: None };
+        let mut file = Self {
+            desc: SceneDesc::empty(),
+            render: RenderDesc::default(),
+            text: text.to_string(),
+            path: path.into(),
+            base,
+            hair_override: None,
+        };
         file.desc = toml::from_str(text).map_err(|e| {
             let span = e.span().unwrap_or(0..0);
             file.error(span, e.message().to_string())
         })?;
+        if let Some(r) = &file.desc.render {
+            let d = r.get_ref();
+            if d.spp == 0 {
+                return Err(file.error(r.span(), "render: spp = 0; give at least 1 sample per pixel".into()));
+            }
+            if !d.exposure.is_finite() {
+                return Err(file.error(r.span(), format!("render: exposure = {:?} stops must be finite", d.exposure)));
+            }
+            file.render = d.clone();
+        }
         Ok(file)
     }
 
@@ -300,12 +318,12 @@ impl SceneFile {
     /// The `[render]` section.
     #[must_use]
     pub fn render_settings(&self) -> &RenderDesc {
-        &self.desc.render
+        &self.render
     }
 
     /// Mutable `[render]` section (command-line overrides).
     pub fn render_settings_mut(&mut self) -> &mut RenderDesc {
-        &mut self.desc.render
+        &mut self.render
     }
 
     fn error(&self, span: std::ops::Range<usize>, message: String) -> SceneError {
@@ -370,7 +388,7 @@ impl SceneFile {
 
     /// `[render]`: the sampling settings.
     fn settings(&self) -> RenderSettings {
-        let r = &self.desc.render;
+        let r = &self.render;
         RenderSettings { spp: r.spp.max(1), max_depth: r.max_depth, seed: r.seed, ..RenderSettings::default() }
     }
 
@@ -610,7 +628,7 @@ impl SceneDesc {
                 0..0,
                 CameraDesc { eye: [0.0; 3], target: [0.0; 3], up: [0.0; 3], fov: 0.0, width: 0, height: 0 },
             ),
-            render: RenderDesc::default(),
+            render: None,
             materials: BTreeMap::new(),
             hair: Vec::new(),
             sphere: Vec::new(),
@@ -756,6 +774,16 @@ mod tests {
         let e = err(&format!("{CAMERA}[render]\nspp = \"many\"\n"));
         assert_eq!((e.line, e.path.to_str().unwrap()), (8, "s.toml"), "{e}");
         assert!(e.to_string().starts_with("s.toml:8:"), "{e}");
+    }
+
+    #[test]
+    fn render_section_numbers_are_checked() {
+        let e = err(&format!("{CAMERA}[render]\nspp = 0\n"));
+        assert!(e.line == 7 && e.to_string().contains("render: spp = 0; give at least 1"), "{e}");
+        let e = err(&format!("{CAMERA}[render]\nexposure = nan\n"));
+        assert!(e.line == 7 && e.to_string().contains("exposure = NaN stops must be finite"), "{e}");
+        let f = SceneFile::parse(&format!("{CAMERA}[render]\nspp = 3\n"), Path::new("s.toml")).unwrap();
+        assert_eq!((f.render_settings().spp, f.render_settings().max_depth), (3, 64));
     }
 
     #[test]

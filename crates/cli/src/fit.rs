@@ -180,7 +180,7 @@ fn from_csv(path: &Path, per_channel: bool) -> anyhow::Result<Vec<Observation>> 
             a[k] = num(i)?;
             if !(lo..=hi).contains(&a[k]) {
                 bail!(
-                    "{}: line {line}, column {} (`{name}`): {} degrees is outside [{lo}, {hi}]",
+                    "{}: line {line}, column {} (`{name}`): {:?} degrees is outside [{lo}, {hi}]",
                     path.display(),
                     i + 1,
                     a[k]

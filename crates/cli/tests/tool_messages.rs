@@ -111,12 +111,12 @@ fn fit_data_outside_the_angle_ranges_is_refused_at_its_place() {
     let out = fit_diffuse(dir.path(), &lines.join("\n"), "albedo=0.5");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{err}");
-    assert!(err.contains("data.csv: line 4, column 1 (`theta_i`): 300 degrees is outside [-90, 90]"), "{err}");
+    assert!(err.contains("data.csv: line 4, column 1 (`theta_i`): 300.0 degrees is outside [-90, 90]"), "{err}");
     assert!(!dir.path().join("fitted.toml").exists(), "nothing is written on error");
     let csv = diffuse_csv([0.5; 3]).replacen("\n-60,0,-70,-170,", "\n-60,0,-70,-400,", 1);
     let out = fit_diffuse(dir.path(), &csv, "albedo=0.5");
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("line 2, column 4 (`phi_r`): -400 degrees is outside [-360, 360]"), "{err}");
+    assert!(err.contains("line 2, column 4 (`phi_r`): -400.0 degrees is outside [-360, 360]"), "{err}");
 }
 
 /// `--quiet` hides the progress bar; without a terminal it is hidden anyway, and stdout (table

@@ -712,6 +712,35 @@ mod tests {
         assert!(Undefined::NoEffect.to_string().contains("do not depend"));
     }
 
+    /// Goldman's f_s is Kajiya–Kay's times `ρ_reflect·a + ρ_transmit·b` (Goldman 1997), so
+    /// scaling (k_d, k_s) by c and (ρ_reflect, ρ_transmit) by 1/c fits equally well: the
+    /// Jacobian is rank-deficient and every uncertainty is undefined for that reason, while
+    /// the identifiable ratio k_d/k_s is recovered.
+    #[test]
+    fn parameters_that_trade_off_are_reported_as_ill_conditioned() {
+        let truth =
+            build("goldman", &[("k_d", "0.04"), ("k_s", "0.2"), ("rho_reflect", "0.5"), ("rho_transmit", "0.3")])
+                .unwrap();
+        let data: Vec<Observation> = grid()
+            .into_iter()
+            .map(|(wi, wo)| {
+                let value = truth.eval(wi, wo, 0.0).luminance();
+                Observation { wi, wo, value, sigma: 0.01 * value + 1e-6, channel: Channel::Luminance }
+            })
+            .collect();
+        let spec = find("goldman").unwrap();
+        let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
+        let free: Vec<(String, f64)> = [("k_d", 0.02), ("k_s", 0.1), ("rho_reflect", 0.6), ("rho_transmit", 0.4)]
+            .map(|(k, v)| (k.into(), v))
+            .into();
+        let r = fit(&base, &free, &data, 400).unwrap();
+        for u in &r.uncertainties {
+            assert!(matches!(u, Uncertainty::Undefined(Undefined::IllConditioned(c)) if *c > MAX_CONDITION), "{u:?}");
+        }
+        assert!((r.params[0].1 / r.params[1].1 - 0.2).abs() < 1e-3, "{:?}", r.params);
+        assert!(Undefined::IllConditioned(1e16).to_string().contains("ill-conditioned"));
+    }
+
     /// A colour fitted per channel from per-channel data of the model itself at a known
     /// absorption: the three channels come back, and luminance-only data of the same model
     /// cannot be fitted with three starting channels.

@@ -77,7 +77,7 @@ pub fn parse(text: &str, name: &str) -> Result<BTreeMap<String, LobeSlices>, Tab
         for (k, limit) in [(1, 90.0), (2, 360.0), (3, 90.0), (4, 360.0)] {
             if v[k - 1].abs() > limit {
                 bail!(
-                    "{name}: line {line}, column {} (`{}`): {} degrees is outside [-{limit}, {limit}]",
+                    "{name}: line {line}, column {} (`{}`): {:?} degrees is outside [-{limit}, {limit}]",
                     idx[k] + 1,
                     COLS[k],
                     v[k - 1]
@@ -150,9 +150,14 @@ mod tests {
         assert!(e.contains("t.csv: line 9, column 6 (`f_r`)"), "{e}");
         // Angles outside their ranges (θ beyond ±90°, φ beyond ±360°) name line and column.
         let e = parse(&text.replace("all,30,0,45,90,1,2,3", "all,30,0,300,90,1,2,3"), "t.csv").unwrap_err();
-        assert!(e.to_string().contains("t.csv: line 9, column 4 (`theta_r`): 300 degrees is outside [-90, 90]"), "{e}");
+        assert!(
+            e.to_string().contains("t.csv: line 9, column 4 (`theta_r`): 300.0 degrees is outside [-90, 90]"),
+            "{e}"
+        );
         let e = parse(&text.replace("all,30,0,45,90,1,2,3", "all,30,0,45,-400,1,2,3"), "t.csv").unwrap_err();
-        assert!(e.to_string().contains("line 9, column 5 (`phi_r`): -400 degrees"), "{e}");
+        assert!(e.to_string().contains("line 9, column 5 (`phi_r`): -400.0 degrees"), "{e}");
+        let e = parse(&text.replace("all,30,0,45,90,1,2,3", "all,1e308,0,45,90,1,2,3"), "t.csv").unwrap_err();
+        assert!(e.to_string().contains("(`theta_i`): 1e308 degrees"), "{e}");
         let missing: String = text.lines().take(8).collect::<Vec<_>>().join("\n");
         assert!(parse(&missing, "t.csv").unwrap_err().to_string().contains("grid"));
     }

@@ -250,11 +250,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let fixed: Vec<(String, String)> =
         args.fix.iter().map(|p| split_key_value(p).map_err(anyhow::Error::from)).collect::<anyhow::Result<_>>()?;
     let base = ParamSet::parse(spec.name, spec.params, &fixed).with_context(|| format!("--fix for `{}`", spec.name))?;
-    let bar = if args.quiet { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(args.iterations) };
+    // On stderr, drawn only on a terminal: simplex iterations, then the polishing steps.
+    let steps = args.iterations + fiberlab_fit::POLISH_ITERATIONS;
+    let bar = if args.quiet { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(steps) };
     bar.set_style(
-        indicatif::ProgressStyle::with_template("fitting: iteration {pos}/{len} (at most) {wide_bar} {elapsed}")
-            .expect("valid template"),
+        indicatif::ProgressStyle::with_template(
+            "{spinner} fitting {msg}: step {pos}/{len} (at most) {wide_bar} {elapsed}",
+        )
+        .expect("valid template"),
     );
+    bar.set_message(format!("{} parameter(s) to {} observations", free.len(), data.len()));
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
     let progress = bar.clone();
     let options = FitOptions {
         max_iters: args.iterations,

@@ -28,7 +28,9 @@ pub struct Args {
     /// Lobe of the table to fit (r, tt, trt, higher, all).
     #[arg(long, default_value = "all")]
     lobe: String,
-    /// A user's measurements: CSV `theta_i,phi_i,theta_r,phi_r,value[,std]` (degrees, f_s in 1/sr).
+    /// A user's measurements: CSV `theta_i,phi_i,theta_r,phi_r,value[,std]` or
+    /// `theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b[,std_r,std_g,std_b]` (degrees: θ in [−90, 90],
+    /// φ in [−360, 360]; f_s in 1/sr; std defaults to 5 % of the value).
     #[arg(long)]
     data: Option<PathBuf>,
     /// Fit to another model instead of data (e.g. Kajiya–Kay to `chiang`), over a (θ_i, θ_r, φ)
@@ -55,7 +57,7 @@ pub struct Args {
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
-    /// Optimizer iterations.
+    /// Largest number of Nelder–Mead iterations (then at most 20 Levenberg–Marquardt steps).
     #[arg(long, default_value_t = 400)]
     iterations: u64,
     /// Output prefix (PREFIX.toml, PREFIX_residuals.png).

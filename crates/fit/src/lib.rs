@@ -323,8 +323,14 @@ pub fn fit_with(
     let per_channel = data.iter().any(|o| o.channel != Channel::Luminance);
     let mut coordinates = Vec::new();
     let mut start = Vec::new();
-    for f in free {
+    for (i, f) in free.iter().enumerate() {
         let key = f.key.as_str();
+        if free[..i].iter().any(|g| g.key == f.key) {
+            return Err(FitError::Setup(format!("`{key}` is given as free more than once")));
+        }
+        if base.is_given(key) {
+            return Err(FitError::Setup(format!("`{key}` is both fixed and free; give it once")));
+        }
         let Some(s) = spec.params.iter().find(|s| s.key == key) else {
             let known: Vec<&str> = spec.params.iter().map(|s| s.key).collect();
             return Err(FitError::Setup(format!(
@@ -652,6 +658,10 @@ mod tests {
         let marschner = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
         let e = fit(&marschner, &[("glints".into(), 0.3)], &ok, 10).unwrap_err().to_string();
         assert!(e.contains("`glints`") && e.contains("real-valued"), "{e}");
+        let e = fit(&base, &[("beta_m".into(), 0.3), ("beta_m".into(), 0.4)], &ok, 10).unwrap_err().to_string();
+        assert!(e.contains("more than once"), "{e}");
+        let e = fit(&chiang(&[("beta_m", "0.3")]), &[("beta_m".into(), 0.3)], &ok, 10).unwrap_err().to_string();
+        assert!(e.contains("both fixed and free"), "{e}");
         assert!(
             fit(
                 &base,

@@ -76,6 +76,12 @@ impl OutPrefix {
         s.push(suffix);
         s.into()
     }
+
+    /// The prefix of a render that stopped early: `PREFIX.partial`.
+    #[must_use]
+    pub fn partial(&self) -> OutPrefix {
+        OutPrefix(self.with(".partial"))
+    }
 }
 
 impl std::fmt::Display for OutPrefix {
@@ -258,6 +264,12 @@ pub fn tile(text: &str) -> Result<Tile, String> {
 pub struct PixelRect(Region);
 
 impl PixelRect {
+    /// The rectangle as given.
+    #[must_use]
+    pub fn region(self) -> Region {
+        self.0
+    }
+
     /// The rectangle, checked to lie inside a `width × height` image.
     pub fn within(self, width: u32, height: u32) -> Result<Region, String> {
         let r = self.0;

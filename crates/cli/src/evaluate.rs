@@ -135,7 +135,7 @@ fn to_image(l: &LinearImage) -> Image {
 
 fn render_with(scene: &Scene, settings: &RenderSettings, spp: u32) -> LinearImage {
     let s = RenderSettings { spp, ..settings.clone() };
-    render(scene, &s, &|_, _| {}, &AtomicBool::new(false)).image
+    render(scene, &s, &|_| {}, &AtomicBool::new(false)).image
 }
 
 /// Runs the evaluation.

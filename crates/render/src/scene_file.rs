@@ -328,7 +328,7 @@ impl SceneFile {
         self.lights(&mut scene)?;
         self.spheres(&mut scene, &names)?;
         self.meshes(&mut scene, &names)?;
-        Ok((scene.build(), self.settings()))
+        Ok((scene.build(), self.sampling()))
     }
 
     /// The camera's size (`width`, `height`) as written, before anything is built: what
@@ -353,8 +353,9 @@ impl SceneFile {
         })
     }
 
-    /// `[render]`: the sampling settings.
-    fn settings(&self) -> RenderSettings {
+    /// `[render]`: the sampling settings (what [`SceneFile::build`] returns beside the scene).
+    #[must_use]
+    pub fn sampling(&self) -> RenderSettings {
         let r = &self.desc.render;
         RenderSettings { spp: r.spp.max(1), max_depth: r.max_depth, seed: r.seed, ..RenderSettings::default() }
     }

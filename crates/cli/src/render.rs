@@ -50,6 +50,8 @@ pub struct Args {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    #[command(flatten)]
+    memory: crate::memory_budget::MemoryLimit,
 }
 
 /// Which pixels to render.
@@ -141,6 +143,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(h) = &args.hair {
         file.override_hair(h.clone())?;
     }
+    args.memory.check_scene(&file)?;
     let scene_hash = scene_hash(args)?;
     let (scene, scene_settings) = file.build()?;
     let build_seconds = t0.elapsed().as_secs_f64();

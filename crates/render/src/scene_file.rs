@@ -751,11 +751,11 @@ mod tests {
         // 512 × 512 pixels of 28 accumulator bytes and 15 of the written image.
         assert_eq!((e.width, e.height, e.image_bytes), (512, 512, Some(512 * 512 * (28 + 15))));
         // 20,000 generated strands of 24 segments: 25 points each of 40 bytes, 50 bytes per
-        // strand, 1150 bytes per segment for the tubes and BVH.
+        // strand, 1200 bytes per segment for the tubes and BVH.
         let h = &e.hair[0];
         assert_eq!((h.source.as_str(), h.strands, h.segments), ("generated", 20_000, 480_000));
         assert_eq!(h.hair_bytes, Some(20_000 * 25 * 40 + 20_000 * 50));
-        assert_eq!(h.bvh_bytes, Some(480_000 * 1150));
+        assert_eq!(h.bvh_bytes, Some(480_000 * 1200));
         // A 100000×100000 camera and 4e9 strands are counted without overflow.
         f.desc.camera.get_mut().width = 100_000;
         f.desc.camera.get_mut().height = 100_000;
@@ -763,7 +763,7 @@ mod tests {
         let e = f.memory_estimate().unwrap();
         assert_eq!(e.image_bytes, Some(10_000_000_000 * 43));
         assert_eq!(e.hair[0].segments, 96_000_000_000);
-        assert_eq!(e.hair[0].bvh_bytes, Some(96_000_000_000 * 1150));
+        assert_eq!(e.hair[0].bvh_bytes, Some(96_000_000_000 * 1200));
         // The largest camera still fits u64: (2³² − 1)² · 43 does not.
         f.desc.camera.get_mut().width = u32::MAX;
         f.desc.camera.get_mut().height = u32::MAX;
@@ -788,7 +788,7 @@ mod tests {
         assert_eq!((h.strands, h.segments), (1000, 8000));
         // Twice the file: 128 header bytes and 12 per point.
         assert_eq!(h.hair_bytes, Some(2 * (128 + 9000 * 12)));
-        assert_eq!(h.bvh_bytes, Some(8000 * 1150));
+        assert_eq!(h.bvh_bytes, Some(8000 * 1200));
         let f = SceneFile::parse(&scene.replace("h.hair", "missing.hair"), &dir.path().join("s.toml")).unwrap();
         let e = f.memory_estimate().unwrap_err().to_string();
         assert!(e.contains("missing.hair") && e.contains("s.toml:"), "{e}");

@@ -155,8 +155,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .collect::<Result<_, String>>()
         .map_err(|e| anyhow::anyhow!("--crop {e}"))?;
     crate::files::check_output_dir(&args.out)?;
-    let renders = 1 + args.models.split(',').filter(|n| !n.trim().is_empty()).count() as u64;
-    args.memory.check(&crate::memory_budget::evaluate_needs(&file.memory_estimate()?, renders))?;
+    args.memory.check_evaluate(&file, &args.models)?;
     let (mut scene, settings) = file.build()?;
     let target = scene_hair_model(&scene).context("the scene has no hair with a fiber model")?;
     let spp = args.spp.unwrap_or(settings.spp);

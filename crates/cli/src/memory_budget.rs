@@ -63,6 +63,13 @@ impl MemoryLimit {
     pub fn check_scene(&self, file: &SceneFile) -> anyhow::Result<()> {
         self.check(&scene_needs(&file.memory_estimate()?))
     }
+
+    /// Checks what `evaluate` of `file` with the comma-separated `models` takes
+    /// ([`evaluate_needs`]: a reference and one render per model).
+    pub fn check_evaluate(&self, file: &SceneFile, models: &str) -> anyhow::Result<()> {
+        let renders = 1 + models.split(',').filter(|n| !n.trim().is_empty()).count() as u64;
+        self.check(&evaluate_needs(&file.memory_estimate()?, renders))
+    }
 }
 
 /// What the estimate is compared with.

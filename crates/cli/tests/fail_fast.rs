@@ -75,6 +75,10 @@ fn an_absurd_image_is_refused_naming_its_size_and_estimate() {
     // Below a given limit the message names the limit instead.
     let err = refused(&run(dir.path(), &["render", "s.toml", "--out", "r", "--memory-limit", "64G"]));
     assert!(err.contains("image 100000×100000 needs ~ 400 GiB, above --memory-limit 64.0 GiB"), "{err}");
+    // evaluate keeps the reference and three renders: 4 · 10¹⁰ pixels of 24 + 3 bytes ≈ 1006 GiB.
+    let err = refused(&run(dir.path(), &["evaluate", "--scene", "s.toml", "--table", "t.csv", "--out", "ev"]));
+    assert!(err.contains("4 images 100000×100000 compared and in the grid needs ~ 1006 GiB"), "{err}");
+    assert!(err.contains("image 100000×100000 ~ 400 GiB"), "{err}");
     assert_eq!(files_in(dir.path()), before);
 }
 

@@ -108,13 +108,7 @@ pub fn out_prefix(text: &str) -> Result<OutPrefix, String> {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    if !dir.is_dir() {
-        return Err(format!("the directory `{}` does not exist", dir.display()));
-    }
-    tempfile::Builder::new()
-        .prefix(".fiberlab-write-check")
-        .tempfile_in(&dir)
-        .map_err(|e| format!("cannot write in `{}`: {}", dir.display(), e.kind()))?;
+    crate::files::check_writable_dir(&dir)?;
     Ok(OutPrefix(path))
 }
 

@@ -13,6 +13,7 @@ mod files;
 mod fit;
 mod hair;
 mod measure;
+mod memory_budget;
 mod merge;
 mod model_args;
 mod models;

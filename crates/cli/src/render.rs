@@ -68,6 +68,8 @@ pub struct Args {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    #[command(flatten)]
+    memory: crate::memory_budget::MemoryLimit,
 }
 
 /// Which pixels to render.
@@ -245,6 +247,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(h) = &args.hair {
         file.override_hair(h.clone())?;
     }
+    args.memory.check_scene(&file)?;
     let scene_hash = scene_hash(args)?;
     let start = match &config.resume {
         None => Accumulation::new(w, h),

@@ -81,6 +81,19 @@ pub struct LinearImage {
 pub const ATTRIBUTE_PREFIX: &str = "fiberlab.";
 
 impl LinearImage {
+    /// Bytes per pixel an RGB image holds while it is written as EXR and PNG: its pixels (3 ×
+    /// f32, 12), the per-channel planes [`LinearImage::write_exr`] hands the encoder (12) and the
+    /// 8-bit sRGB copy [`LinearImage::write_png`] encodes (3). Integer channels add 8 bytes each
+    /// (the channel and the encoder's copy), counted by their owner.
+    pub const BYTES_PER_PIXEL_WRITTEN: u64 = 27;
+
+    /// Bytes a `width × height` image takes, written ([`Self::BYTES_PER_PIXEL_WRITTEN`] per
+    /// pixel), counted in u64; `None` when that overflows.
+    #[must_use]
+    pub fn estimated_bytes(width: u64, height: u64) -> Option<u64> {
+        width.checked_mul(height)?.checked_mul(Self::BYTES_PER_PIXEL_WRITTEN)
+    }
+
     /// A black image.
     #[must_use]
     pub fn new(width: usize, height: usize) -> Self {
@@ -431,6 +444,15 @@ mod tests {
         assert_eq!(ToneMap::Filmic.apply(f64::INFINITY), 1.0);
         assert_eq!(ToneMap::Filmic.apply(f64::NAN), 0.0);
         assert!(ToneMap::Filmic.apply(0.18) > 0.1 && ToneMap::Filmic.apply(0.18) < 0.3);
+    }
+
+    #[test]
+    fn estimated_bytes_count_pixels_and_the_srgb_copy() {
+        // 12 bytes of f32 RGB, 12 of the encoder's planes and 3 of 8-bit sRGB per pixel.
+        assert_eq!(LinearImage::estimated_bytes(640, 480), Some(640 * 480 * 27));
+        assert_eq!(LinearImage::estimated_bytes(100_000, 100_000), Some(270_000_000_000));
+        assert_eq!(LinearImage::estimated_bytes(u64::MAX, 2), None);
+        assert_eq!(LinearImage::estimated_bytes(1 << 32, 1 << 32), None);
     }
 
     #[test]

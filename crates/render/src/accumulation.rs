@@ -18,6 +18,12 @@ use crate::region::Region;
 use fiberlab_io::LinearImage;
 use fiberlab_math::Rgb;
 
+/// Bytes per pixel a progressive render holds besides the RGB image: the accumulation's sum
+/// (3 × f64) and count (u32), 28, twice (the whole-image state and the per-tile copies the
+/// passes work on), and the seven state channels of the written image (7 × u32, 28) with the
+/// EXR encoder's copy of them (28).
+pub const BYTES_PER_PIXEL: u64 = 4 * 28;
+
 /// Names of the unsigned integer channels holding the state (without the file prefix).
 const SUM_HI: [&str; 3] = ["sum_hi.R", "sum_hi.G", "sum_hi.B"];
 const SUM_LO: [&str; 3] = ["sum_lo.R", "sum_lo.G", "sum_lo.B"];

@@ -77,12 +77,13 @@ impl TriangleMesh {
     /// `mtllib` lines are ignored, as materials come from the scene file).
     pub fn parse_obj(text: &str, path: &Path, scale: f64, translate: DVec3) -> Result<Self, MeshError> {
         // Vertex records are checked here, with their line numbers (the OBJ reader does not
-        // report lines, and would pass NaN coordinates on).
+        // report lines, and would pass NaN coordinates on), in the single precision the reader
+        // stores them in (where 1e39 is infinite).
         for (n, line) in text.lines().enumerate() {
             let mut words = line.split_whitespace();
             if matches!(words.next(), Some("v" | "vn")) {
                 let ok =
-                    words.take(3).map(|w| w.parse::<f64>()).filter(|x| matches!(x, Ok(v) if v.is_finite())).count();
+                    words.take(3).map(|w| w.parse::<f32>()).filter(|x| matches!(x, Ok(v) if v.is_finite())).count();
                 if ok != 3 {
                     return Err(MeshError {
                         path: path.into(),

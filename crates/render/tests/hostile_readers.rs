@@ -172,10 +172,20 @@ fn every_non_finite_scene_number_is_refused_at_its_line() {
     assert!(accepted.is_empty(), "accepted non-finite numbers:\n{}", accepted.join("\n"));
 }
 
+/// A coordinate finite in double but not in the single precision the OBJ reader stores
+/// (`v 1e39 0 0` loaded as an infinite vertex before).
+#[test]
+fn obj_coordinates_beyond_single_precision_name_their_line() {
+    let text = "v 0 0 0\nv 1e39 0 0\nv 1 1 0\nf 1 2 3\n";
+    let e = TriangleMesh::parse_obj(text, Path::new("big.obj"), 1.0, DVec3::ZERO).unwrap_err().to_string();
+    assert!(e.starts_with("big.obj: line 2:") && e.contains("`v 1e39 0 0`"), "{e}");
+    assert!(TriangleMesh::parse_obj(&text.replace("1e39", "3e38"), Path::new("big.obj"), 1.0, DVec3::ZERO).is_ok());
+}
+
 /// Values a hostile user might put in place of any number of the scene.
-const HOSTILE: [&str; 16] = [
-    "nan", "inf", "-inf", "-1", "0", "-0.0", "1e308", "-1e308", "1e-320", "3", "65536", "1e30", "\"x\"", "[1, 2]",
-    "true", "{}",
+const HOSTILE: [&str; 17] = [
+    "nan", "inf", "-inf", "-1", "0", "-0.0", "1e39", "1e308", "-1e308", "1e-320", "3", "65536", "1e30", "\"x\"",
+    "[1, 2]", "true", "{}",
 ];
 
 proptest! {

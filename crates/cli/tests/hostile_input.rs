@@ -274,6 +274,25 @@ fn non_finite_and_negative_scene_numbers_are_refused_at_their_place() {
     }
 }
 
+/// Numbers each finite but nonsense together: a mesh scale that takes the vertices to
+/// infinity, and a floor's `scale`/`translate`, which a floor does not use.
+#[test]
+#[ignore = "not implemented yet: scale = 1e308 gives infinite vertices, a floor ignores scale = nan (issue 15, deliverable 4)"]
+fn mesh_numbers_that_overflow_or_are_unused_are_refused() {
+    let dir = Dir::new();
+    dir.write("q.obj", "v -2 0 -2\nv 2 0 -2\nv 2 0 2\nf 1 2 3\n");
+    for (section, bad) in [
+        ("[[mesh]]\nfile = \"q.obj\"\nmaterial = \"skin\"\nscale = 1e308\n", "1e308"),
+        ("[[mesh]]\nfloor = 0.0\nmaterial = \"skin\"\nscale = nan\n", "nan"),
+        ("[[mesh]]\nfloor = 0.0\nmaterial = \"skin\"\ntranslate = [0, 1, 0]\n", "translate"),
+    ] {
+        let text = format!("{SCENE}\n{section}");
+        dir.write("bad.toml", &text);
+        let err = dir.refused(&["render", "bad.toml", "--quiet", "--out", "out"], &["bad.toml:", "mesh"]);
+        names_line_in_section(&err, "bad.toml", &text, bad);
+    }
+}
+
 #[test]
 fn envmap_pixels_must_be_finite_and_non_negative() {
     let dir = Dir::new();
@@ -466,6 +485,23 @@ fn phi_i_nan_is_refused() {
     for phi in ["nan", "inf"] {
         dir.refused(&["measure", "--theta-i", "0", "--phi-i", phi, "--rays", "10", "--out", "out"], &["--phi-i", phi]);
     }
+}
+
+/// Error texts: a missing file named once, a huge number in a few digits, the camera rule
+/// that failed (not every rule), the generator value that cannot be written.
+#[test]
+#[ignore = "not implemented yet: `hair info` repeats the path, -1e308 is printed with 309 digits, the camera error lists every rule, `hair generate --length 1e308` names no value (issue 15, deliverable 4)"]
+fn error_texts_say_each_thing_once_and_briefly() {
+    let dir = Dir::new();
+    let err = dir.refused(&["hair", "info", "none.hair"], &["none.hair"]);
+    assert_eq!(err.matches("none.hair").count(), 1, "{err}");
+    dir.write("r.toml", SCENE.replace("radius = 1.0", "radius = -1e308"));
+    let err = dir.refused(&["render", "r.toml", "--quiet", "--out", "out"], &["r.toml:", "radius"]);
+    assert!(!err.contains("0000000000"), "{err}");
+    dir.write("c.toml", SCENE.replace("fov = 40", "fov = 400"));
+    let err = dir.refused(&["render", "c.toml", "--quiet", "--out", "out"], &["c.toml:", "fov"]);
+    assert!(!err.contains("eye and target"), "{err}");
+    dir.refused(&["hair", "generate", "--strands", "3", "--length", "1e308", "--out", "out"], &["length"]);
 }
 
 // ---------------------------------------------------------------------------------------

@@ -68,15 +68,22 @@ impl TriangleMesh {
 
     /// Loads every object of a Wavefront OBJ file (triangulated), scaled and translated.
     pub fn load_obj(path: &Path, scale: f64, translate: DVec3) -> Result<Self, MeshError> {
-        // Vertex records are checked here, with their line numbers (the OBJ reader does not
-        // report lines, and would pass NaN coordinates on).
         let text =
             std::fs::read_to_string(path).map_err(|e| MeshError { path: path.into(), message: e.to_string() })?;
+        Self::parse_obj(&text, path, scale, translate)
+    }
+
+    /// Parses OBJ text (`path` names it in errors; nothing is read from the file system:
+    /// `mtllib` lines are ignored, as materials come from the scene file).
+    pub fn parse_obj(text: &str, path: &Path, scale: f64, translate: DVec3) -> Result<Self, MeshError> {
+        // Vertex records are checked here, with their line numbers (the OBJ reader does not
+        // report lines, and would pass NaN coordinates on), in the single precision the reader
+        // stores them in (where 1e39 is infinite).
         for (n, line) in text.lines().enumerate() {
             let mut words = line.split_whitespace();
             if matches!(words.next(), Some("v" | "vn")) {
                 let ok =
-                    words.take(3).map(|w| w.parse::<f64>()).filter(|x| matches!(x, Ok(v) if v.is_finite())).count();
+                    words.take(3).map(|w| w.parse::<f32>()).filter(|x| matches!(x, Ok(v) if v.is_finite())).count();
                 if ok != 3 {
                     return Err(MeshError {
                         path: path.into(),
@@ -86,8 +93,9 @@ impl TriangleMesh {
             }
         }
         let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
-        let (models, _) =
-            tobj::load_obj(path, &opts).map_err(|e| MeshError { path: path.into(), message: e.to_string() })?;
+        let no_materials = |_: &Path| Err(tobj::LoadError::OpenFileFailed);
+        let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, no_materials)
+            .map_err(|e| MeshError { path: path.into(), message: e.to_string() })?;
         let mut triangles = Vec::new();
         for m in models {
             let p = &m.mesh.positions;

@@ -98,7 +98,7 @@ impl Pixels {
     fn region(self, width: u32, height: u32) -> anyhow::Result<Option<Region>> {
         Ok(match self {
             Pixels::All => None,
-            Pixels::Tile(t) => Some(t.region(width, height)),
+            Pixels::Tile(t) => Some(t.region(width, height).map_err(|e| anyhow::anyhow!("--tile {e}"))?),
             Pixels::Crop(c) => Some(c.within(width, height).map_err(|e| anyhow::anyhow!("--crop {e}"))?),
         })
     }

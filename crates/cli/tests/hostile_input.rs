@@ -464,7 +464,6 @@ fn scene_spp_zero_and_non_finite_exposure_are_refused() {
 
 /// `--tile I/N` with more bands than the image has rows would render an empty part.
 #[test]
-#[ignore = "not implemented yet: --tile 0/100 on a 16-row image writes a black part and exits 0 (issue 15, deliverable 4)"]
 fn tile_count_above_the_image_rows_is_refused() {
     let dir = Dir::new();
     dir.write("s.toml", SCENE);

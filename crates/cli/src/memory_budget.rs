@@ -336,9 +336,9 @@ mod tests {
             what,
             ["image 512×512", "hair 20000 strands × 480000 segments (generated)", "BVH of 480000 segments"]
         );
-        // 512² · 43 + 20000 · (25 · 40 + 50) + 480000 · 1200 bytes.
+        // 512² · 139 + 20000 · (25 · 40 + 50) + 480000 · 1200 bytes.
         let sum: u64 = needs.iter().map(|n| n.bytes.unwrap()).sum();
-        assert_eq!(sum, 512 * 512 * 43 + 20_000 * 1050 + 480_000 * 1200);
+        assert_eq!(sum, 512 * 512 * 139 + 20_000 * 1050 + 480_000 * 1200);
         let eval = evaluate_needs(&e, 4);
         assert_eq!(eval.last().unwrap().bytes, Some(4 * 512 * 512 * 27));
         let setup = Setup { theta_i: 0.0, phi_i: 0.0, rays: 1, bins_theta: 10, bins_phi: 20, seed: 1 };

@@ -76,6 +76,12 @@ impl OutPrefix {
         s.push(suffix);
         s.into()
     }
+
+    /// The prefix of a render that stopped early: `PREFIX.partial`.
+    #[must_use]
+    pub fn partial(&self) -> OutPrefix {
+        OutPrefix(self.with(".partial"))
+    }
 }
 
 impl std::fmt::Display for OutPrefix {
@@ -102,13 +108,7 @@ pub fn out_prefix(text: &str) -> Result<OutPrefix, String> {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    if !dir.is_dir() {
-        return Err(format!("the directory `{}` does not exist", dir.display()));
-    }
-    tempfile::Builder::new()
-        .prefix(".fiberlab-write-check")
-        .tempfile_in(&dir)
-        .map_err(|e| format!("cannot write in `{}`: {}", dir.display(), e.kind()))?;
+    crate::files::check_writable_dir(&dir)?;
     Ok(OutPrefix(path))
 }
 
@@ -235,10 +235,16 @@ pub struct Tile {
 }
 
 impl Tile {
-    /// The band of a `width × height` image.
-    #[must_use]
-    pub fn region(self, width: u32, height: u32) -> Region {
-        Region::part(self.index, self.count, width, height)
+    /// The band of a `width × height` image; every band of the split must hold at least one
+    /// row, so `N` may not exceed the image's height.
+    pub fn region(self, width: u32, height: u32) -> Result<Region, String> {
+        if self.count > height {
+            return Err(format!(
+                "{}/{}: the image has only {height} rows, so it splits into at most {height} parts (N ≤ {height})",
+                self.index, self.count
+            ));
+        }
+        Ok(Region::part(self.index, self.count, width, height))
     }
 }
 
@@ -258,6 +264,12 @@ pub fn tile(text: &str) -> Result<Tile, String> {
 pub struct PixelRect(Region);
 
 impl PixelRect {
+    /// The rectangle as given.
+    #[must_use]
+    pub fn region(self) -> Region {
+        self.0
+    }
+
     /// The rectangle, checked to lie inside a `width × height` image.
     pub fn within(self, width: u32, height: u32) -> Result<Region, String> {
         let r = self.0;
@@ -349,7 +361,8 @@ mod tests {
     #[test]
     fn tiles_and_rectangles_say_what_was_expected() {
         assert_eq!(tile("1/3"), Ok(Tile { index: 1, count: 3 }));
-        assert_eq!(tile("2/3").unwrap().region(10, 9), Region { x0: 0, y0: 6, x1: 10, y1: 9 });
+        assert_eq!(tile("2/3").unwrap().region(10, 9), Ok(Region { x0: 0, y0: 6, x1: 10, y1: 9 }));
+        assert!(tile("0/10").unwrap().region(10, 9).unwrap_err().contains("only 9 rows"));
         for (bad, expected) in [("3/3", "0 ≤ I < N"), ("0/0", "0 ≤ I < N"), ("a/3", "I is not"), ("1", "I/N")] {
             assert!(tile(bad).unwrap_err().contains(expected), "{bad}");
         }

@@ -2,13 +2,15 @@
 //!
 //! Input columns (header required): `wi_x,wi_y,wi_z,wo_x,wo_y,wo_z` and optionally `h`;
 //! other columns are copied through. Output: the input columns plus `f_r,f_g,f_b,pdf`.
+//! Rows are read and written one at a time (constant memory for any input); the output
+//! appears only if every row is valid.
 
-use crate::files::{require_unit, write_output};
+use crate::files::{output_file_or_stdout, require_unit, stream_output};
 use crate::model_args::ModelArgs;
 use anyhow::{Context, bail};
 use fiberlab_math::DVec3;
 use fiberlab_scatter::ScatteringFunction;
-use std::io::Read;
+use std::io::{Read, Write};
 use std::path::PathBuf;
 
 /// Flags of `fiberlab eval`.
@@ -19,8 +21,9 @@ pub struct Args {
     /// Input CSV (default: standard input).
     #[arg(long)]
     input: Option<PathBuf>,
-    /// Output CSV (default: standard output); written only when every row is valid.
-    #[arg(long)]
+    /// Output CSV (default: standard output); written only when every row is valid. Its
+    /// directory is checked writable first.
+    #[arg(long, value_parser = output_file_or_stdout)]
     output: Option<PathBuf>,
 }
 
@@ -29,23 +32,20 @@ const COLUMNS: [&str; 6] = ["wi_x", "wi_y", "wi_z", "wo_x", "wo_y", "wo_z"];
 /// Evaluates every row; any malformed row is an error naming its line and column.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let model = args.model.build()?;
-    let (name, text) = match &args.input {
-        Some(p) if p.as_os_str() != "-" => {
-            (p.display().to_string(), std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?)
-        }
-        _ => {
-            let mut s = String::new();
-            std::io::stdin().read_to_string(&mut s).context("reading standard input")?;
-            ("<stdin>".to_string(), s)
-        }
+    let (name, input): (String, Box<dyn Read>) = match &args.input {
+        Some(p) if p.as_os_str() != "-" => (
+            p.display().to_string(),
+            Box::new(std::fs::File::open(p).with_context(|| format!("reading {}", p.display()))?),
+        ),
+        _ => ("<stdin>".to_string(), Box::new(std::io::stdin().lock())),
     };
-    let out = evaluate(&model, &name, &text)?;
-    write_output(args.output.as_deref(), &out)
+    stream_output(args.output.as_deref(), true, |out| evaluate(&model, &name, input, out))
 }
 
-/// Evaluates CSV `text` (named `name` in errors) and returns the output CSV.
-pub fn evaluate(model: &impl ScatteringFunction, name: &str, text: &str) -> anyhow::Result<Vec<u8>> {
-    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
+/// Evaluates the CSV read from `input` (named `name` in errors), writing the output CSV to
+/// `out` row by row.
+pub fn evaluate(model: &impl ScatteringFunction, name: &str, input: impl Read, out: impl Write) -> anyhow::Result<()> {
+    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(input);
     let header = reader.headers().with_context(|| format!("{name}: line 1: cannot read the header"))?.clone();
     let index = |col: &str| header.iter().position(|h| h == col);
     let mut idx = [0usize; 6];
@@ -55,15 +55,19 @@ pub fn evaluate(model: &impl ScatteringFunction, name: &str, text: &str) -> anyh
         })?;
     }
     let h_idx = index("h");
-    let mut writer = csv::Writer::from_writer(Vec::new());
+    let mut writer = csv::Writer::from_writer(out);
     let mut out_header: Vec<&str> = header.iter().collect();
     out_header.extend(["f_r", "f_g", "f_b", "pdf"]);
     writer.write_record(&out_header)?;
-    for record in reader.records() {
-        let record = record.map_err(|e| {
+    let mut record = csv::StringRecord::new();
+    loop {
+        let more = reader.read_record(&mut record).map_err(|e| {
             let line = e.position().map_or(0, |p| p.line());
             anyhow::anyhow!("{name}: line {line}: malformed CSV record: {e}")
         })?;
+        if !more {
+            break;
+        }
         let line = record.position().map_or(0, |p| p.line());
         let field = |i: usize| -> anyhow::Result<f64> {
             let text = record.get(i).unwrap_or("");
@@ -76,7 +80,10 @@ pub fn evaluate(model: &impl ScatteringFunction, name: &str, text: &str) -> anyh
                 ),
             }
         };
-        let v: Vec<f64> = idx.iter().map(|&i| field(i)).collect::<anyhow::Result<_>>()?;
+        let mut v = [0.0; 6];
+        for (k, &i) in idx.iter().enumerate() {
+            v[k] = field(i)?;
+        }
         let wi = require_unit(DVec3::new(v[0], v[1], v[2]), &format!("{name}: line {line}, columns wi_x..wi_z"))?;
         let wo = require_unit(DVec3::new(v[3], v[4], v[5]), &format!("{name}: line {line}, columns wo_x..wo_z"))?;
         let h = match h_idx {
@@ -91,16 +98,22 @@ pub fn evaluate(model: &impl ScatteringFunction, name: &str, text: &str) -> anyh
         };
         let f = model.eval(wi, wo, h);
         let pdf = model.pdf(wi, wo, h);
-        let mut out: Vec<String> = record.iter().map(str::to_string).collect();
-        out.extend([f[0], f[1], f[2], pdf].iter().map(|x| x.to_string()));
-        writer.write_record(&out)?;
+        let values = [f[0], f[1], f[2], pdf].map(|x| x.to_string());
+        writer.write_record(record.iter().chain(values.iter().map(String::as_str)))?;
     }
-    Ok(writer.into_inner()?)
+    writer.flush()?;
+    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn evaluate(model: &impl ScatteringFunction, name: &str, text: &str) -> anyhow::Result<Vec<u8>> {
+        let mut out = Vec::new();
+        super::evaluate(model, name, text.as_bytes(), &mut out)?;
+        Ok(out)
+    }
 
     #[test]
     fn errors_name_line_and_column() {

@@ -49,6 +49,8 @@ pub struct Args {
     /// Output directory (renders, grid.png, metrics.json).
     #[arg(long, default_value = "evaluation")]
     out: PathBuf,
+    #[command(flatten)]
+    memory: crate::memory_budget::MemoryLimit,
     /// A named region to crop from every image, NAME=X0,Y0,X1,Y1 in pixels (repeatable), e.g.
     /// the second highlight, glints, back-lit transmission: writes crop_NAME.png (all models,
     /// magnified).
@@ -135,7 +137,7 @@ fn to_image(l: &LinearImage) -> Image {
 
 fn render_with(scene: &Scene, settings: &RenderSettings, spp: u32) -> LinearImage {
     let s = RenderSettings { spp, ..settings.clone() };
-    render(scene, &s, &|_, _| {}, &AtomicBool::new(false)).image
+    render(scene, &s, &|_| {}, &AtomicBool::new(false)).image
 }
 
 /// Runs the evaluation.
@@ -152,6 +154,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .map(|c| c.rect.within(width, height).map(|r| (c.name.as_str(), r)))
         .collect::<Result<_, String>>()
         .map_err(|e| anyhow::anyhow!("--crop {e}"))?;
+    crate::files::check_output_dir(&args.out)?;
+    args.memory.check_evaluate(&file, &args.models)?;
     let (mut scene, settings) = file.build()?;
     let target = scene_hair_model(&scene).context("the scene has no hair with a fiber model")?;
     let spp = args.spp.unwrap_or(settings.spp);

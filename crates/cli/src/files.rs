@@ -1,29 +1,140 @@
 //! Output files are written to a temporary file beside the target and renamed into place,
-//! so a failed or interrupted command never leaves a partial file; TOML input files are read
-//! with errors naming the file, line and column.
+//! so a failed or interrupted command never leaves a partial file; long outputs (CSV rows)
+//! are streamed into it through a buffer rather than built in memory. Output places are
+//! checked before any work ([`check_output_file`], [`check_writable_dir`]). TOML input files
+//! are read with errors naming the file, line and column.
 
 use anyhow::Context;
-use std::io::Write;
-use std::path::Path;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// Checks that files can be created in `dir`: it exists, is a directory, and a probe file
+/// can be created in it (and is removed at once). Run before any work, so that a bad output
+/// place fails at once instead of after the work.
+pub fn check_writable_dir(dir: &Path) -> Result<(), String> {
+    if !dir.is_dir() {
+        return Err(if dir.exists() {
+            format!("`{}` is not a directory", dir.display())
+        } else {
+            format!("the directory `{}` does not exist", dir.display())
+        });
+    }
+    tempfile::Builder::new()
+        .prefix(".fiberlab-write-check")
+        .tempfile_in(dir)
+        .map(drop)
+        .map_err(|e| format!("cannot write in `{}`: {}", dir.display(), e.kind()))
+}
+
+/// Checks that an output file can be written at `path`: `path` is not a directory (nor ends
+/// with `/`), and its directory passes [`check_writable_dir`].
+pub fn check_output_file(path: &Path) -> Result<(), String> {
+    let text = path.as_os_str().to_string_lossy();
+    if text.is_empty() {
+        return Err("expected an output file name".into());
+    }
+    if text.ends_with('/') || path.is_dir() {
+        return Err(format!("`{}` is a directory; give a file name inside it", path.display()));
+    }
+    check_writable_dir(&directory_of(path))
+}
+
+/// Checks that `dir` can be used as an output directory: it is a writable directory, or it
+/// does not exist yet and its nearest existing ancestor is a writable directory (it is then
+/// created there).
+pub fn check_output_dir(dir: &Path) -> anyhow::Result<()> {
+    if dir.exists() {
+        return check_writable_dir(dir).map_err(|e| anyhow::anyhow!("--out {}: {e}", dir.display()));
+    }
+    let ancestor = dir.ancestors().skip(1).find(|a| a.as_os_str().is_empty() || a.exists()).unwrap_or(Path::new(""));
+    let ancestor = if ancestor.as_os_str().is_empty() { Path::new(".") } else { ancestor };
+    check_writable_dir(ancestor).map_err(|e| anyhow::anyhow!("--out {}: {e}", dir.display()))
+}
+
+/// The directory a file `path` goes to (`.` for a bare name).
+fn directory_of(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// An output file flag (`--out FILE`), checked by [`check_output_file`] while the command
+/// line is read.
+pub fn output_file(text: &str) -> Result<PathBuf, String> {
+    let path = PathBuf::from(text);
+    check_output_file(&path)?;
+    Ok(path)
+}
+
+/// An output file flag that may be `-` for standard output (`--output FILE`).
+pub fn output_file_or_stdout(text: &str) -> Result<PathBuf, String> {
+    if text == "-" { Ok(PathBuf::from(text)) } else { output_file(text) }
+}
+
+/// What a streamed output's rows are written to.
+pub type Sink<'a> = &'a mut dyn Write;
+
+/// Writes `path` atomically, streaming: `write` writes the contents through a buffer into the
+/// temporary file, which is renamed into place only if `write` succeeds (on error nothing is
+/// left).
+pub fn stream_atomically(path: &Path, write: impl FnOnce(Sink) -> anyhow::Result<()>) -> anyhow::Result<()> {
+    let mut failure = None;
+    let result = fiberlab_io::image_file::write_atomically(path, |file| {
+        let mut out = BufWriter::with_capacity(1 << 16, file);
+        match write(&mut out) {
+            Ok(()) => out.flush(),
+            Err(e) => {
+                failure = Some(e);
+                Err(std::io::Error::other("write failed"))
+            }
+        }
+    });
+    match failure {
+        Some(e) => Err(e),
+        None => result.with_context(|| format!("writing {}", path.display())),
+    }
+}
+
+/// Streams to `path` atomically ([`stream_atomically`]), or to standard output when `path` is
+/// `None` or `-`. With `all_or_nothing`, standard output receives nothing unless `write`
+/// succeeds: the rows are spooled to an anonymous temporary file and copied out at the end
+/// (disk, not memory); otherwise they go out as they are written.
+pub fn stream_output(
+    path: Option<&Path>,
+    all_or_nothing: bool,
+    write: impl FnOnce(Sink) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    match path {
+        Some(p) if p != Path::new("-") => stream_atomically(p, write),
+        _ if all_or_nothing => {
+            use std::io::Seek;
+            let mut spool = tempfile::tempfile().context("creating a temporary file for standard output")?;
+            {
+                let mut out = BufWriter::with_capacity(1 << 16, &mut spool);
+                write(&mut out)?;
+                out.flush()?;
+            }
+            spool.rewind()?;
+            let mut stdout = std::io::stdout().lock();
+            std::io::copy(&mut spool, &mut stdout)?;
+            stdout.flush()?;
+            Ok(())
+        }
+        _ => {
+            let mut out = BufWriter::with_capacity(1 << 16, std::io::stdout().lock());
+            write(&mut out)?;
+            out.flush()?;
+            Ok(())
+        }
+    }
+}
 
 /// Writes `bytes` to `path` atomically (temporary file in the same directory, then rename;
 /// [`fiberlab_io::image_file::write_atomically`]).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     fiberlab_io::image_file::write_atomically(path, |f| f.write_all(bytes))
         .with_context(|| format!("writing {}", path.display()))
-}
-
-/// Writes to `path`, or to standard output when `path` is `None` or `-`.
-pub fn write_output(path: Option<&Path>, bytes: &[u8]) -> anyhow::Result<()> {
-    match path {
-        Some(p) if p != Path::new("-") => write_atomically(p, bytes),
-        _ => {
-            let mut out = std::io::stdout().lock();
-            out.write_all(bytes)?;
-            out.flush()?;
-            Ok(())
-        }
-    }
 }
 
 /// Checks that `w` is a finite unit vector (|w| within 1e−3 of 1).

@@ -64,9 +64,11 @@ struct GenerateArgs {
     /// Random seed.
     #[arg(long, default_value_t = HairParams::default().seed)]
     seed: u64,
-    /// Output file.
-    #[arg(long)]
+    /// Output file (its directory is checked writable before the hair is grown).
+    #[arg(long, value_parser = crate::files::output_file)]
     out: PathBuf,
+    #[command(flatten)]
+    memory: crate::memory_budget::MemoryLimit,
 }
 
 /// Runs `fiberlab hair`.
@@ -89,6 +91,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 seed: g.seed,
                 ..HairParams::default()
             };
+            g.memory.check(&crate::memory_budget::hair_generate_needs(&params))?;
             let hair = params.generate()?;
             hair.write(&g.out)?;
             eprintln!("{} strands, {} points → {}", hair.strand_count(), hair.points.len(), g.out.display());

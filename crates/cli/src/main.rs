@@ -13,6 +13,7 @@ mod files;
 mod fit;
 mod hair;
 mod measure;
+mod memory_budget;
 mod merge;
 mod model_args;
 mod models;
@@ -94,6 +95,10 @@ fn main() {
         Command::Evaluate(a) => evaluate::run(a),
     };
     if let Err(e) = result {
+        if let Some(interrupted) = e.downcast_ref::<render::Interrupted>() {
+            eprintln!("fiberlab: {interrupted}");
+            std::process::exit(130);
+        }
         eprintln!("fiberlab: error: {e:#}");
         std::process::exit(1);
     }

@@ -1,9 +1,11 @@
 //! `fiberlab measure`: the virtual goniophotometer. Traces rays through an explicit fiber
-//! and writes `PREFIX.csv` (one row per bin and lobe) and `PREFIX.png` (the `all` lobe over
-//! (φ, θ_r), like the figures of Marschner et al. 2003).
+//! and writes `PREFIX.csv` (one row per bin and lobe, streamed to the file) and `PREFIX.png`
+//! (the `all` lobe over (φ, θ_r), like the figures of Marschner et al. 2003). The memory of
+//! the bins is checked before any ray is traced.
 
 use crate::arg_values::{self, Angle, Bins, KeyValue};
-use crate::files::{read_toml, write_atomically};
+use crate::files::{read_toml, stream_atomically};
+use crate::memory_budget::{MemoryLimit, measure_needs};
 use crate::plot::{Grids, Scale, write_figure};
 use anyhow::Context;
 use fiberlab_gonio::{Fiber, Measurement, Setup, measure};
@@ -46,6 +48,8 @@ pub struct Args {
     /// Output prefix: PREFIX.csv and PREFIX.png are written.
     #[arg(long, value_name = "PREFIX", value_parser = crate::arg_values::out_prefix)]
     out: crate::arg_values::OutPrefix,
+    #[command(flatten)]
+    memory: MemoryLimit,
 }
 
 /// The fiber: `--fiber FILE.toml` (through the shared TOML conversion), then `--param`
@@ -71,13 +75,25 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let fiber = fiber(args)?;
     let Bins { theta: nt, phi: np } = args.bins;
     let thetas = &args.theta_i;
+    let setup_at = |t: &Angle| Setup {
+        theta_i: t.radians,
+        phi_i: args.phi_i.radians,
+        rays: args.rays,
+        bins_theta: nt,
+        bins_phi: np,
+        seed: args.seed,
+    };
+    // Before any ray: the bins' memory, then their count against the 32-bit bin indices.
+    let first = setup_at(&thetas[0]);
+    args.memory.check(&measure_needs(&first, thetas.len(), rayon::current_num_threads()))?;
+    first.check_bins()?;
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = stop.clone();
         // A second Ctrl-C is not caught again: the handler only asks the loop to stop.
         let _ = ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed));
     }
-    let bar = ProgressBar::new((args.rays * thetas.len()) as u64).with_style(
+    let bar = ProgressBar::new((args.rays as u64).saturating_mul(thetas.len() as u64)).with_style(
         ProgressStyle::with_template("{wide_bar} {pos}/{len} rays {per_sec} eta {eta}").expect("valid template"),
     );
     let start = Instant::now();
@@ -86,15 +102,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         if stop.load(Ordering::Relaxed) {
             break;
         }
-        let setup = Setup {
-            theta_i: t.radians,
-            phi_i: args.phi_i.radians,
-            rays: args.rays,
-            bins_theta: nt,
-            bins_phi: np,
-            seed: args.seed,
-        };
-        measurements.push(measure(&fiber, &setup, &stop, |n| bar.inc(n as u64))?);
+        measurements.push(measure(&fiber, &setup_at(t), &stop, |n| bar.inc(n as u64))?);
     }
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
@@ -141,16 +149,22 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Streams the rows of every measurement into `path` (atomically).
 fn write_csv(measurements: &[Measurement], path: &Path) -> anyhow::Result<()> {
-    let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record(["lobe", "theta_i", "phi_i", "theta_r", "phi_r", "f_r", "f_g", "f_b", "std_r", "std_g", "std_b"])?;
-    for m in measurements {
-        write_rows(m, &mut w)?;
-    }
-    write_atomically(path, &w.into_inner()?)
+    stream_atomically(path, |out| {
+        let mut w = csv::Writer::from_writer(out);
+        w.write_record([
+            "lobe", "theta_i", "phi_i", "theta_r", "phi_r", "f_r", "f_g", "f_b", "std_r", "std_g", "std_b",
+        ])?;
+        for m in measurements {
+            write_rows(m, &mut w)?;
+        }
+        w.flush()?;
+        Ok(())
+    })
 }
 
-fn write_rows(m: &Measurement, w: &mut csv::Writer<Vec<u8>>) -> anyhow::Result<()> {
+fn write_rows(m: &Measurement, w: &mut csv::Writer<impl std::io::Write>) -> anyhow::Result<()> {
     let (ti, pi) = (m.setup.theta_i.to_degrees().to_string(), m.setup.phi_i.to_degrees().to_string());
     for (name, lobe) in Measurement::LOBE_NAMES.iter().zip(&m.lobes) {
         for i in 0..m.setup.bins_theta {
@@ -158,19 +172,9 @@ fn write_rows(m: &Measurement, w: &mut csv::Writer<Vec<u8>>) -> anyhow::Result<(
                 let (tr, p) = m.bin_centre(i, j);
                 let k = i * m.setup.bins_phi + j;
                 let (f, s) = (lobe.f[k], lobe.std[k]);
-                w.write_record([
-                    name.to_string(),
-                    ti.clone(),
-                    pi.clone(),
-                    tr.to_degrees().to_string(),
-                    p.to_degrees().to_string(),
-                    f[0].to_string(),
-                    f[1].to_string(),
-                    f[2].to_string(),
-                    s[0].to_string(),
-                    s[1].to_string(),
-                    s[2].to_string(),
-                ])?;
+                let fields =
+                    [tr.to_degrees(), p.to_degrees(), f[0], f[1], f[2], s[0], s[1], s[2]].map(|x| x.to_string());
+                w.write_record([*name, ti.as_str(), pi.as_str()].into_iter().chain(fields.iter().map(String::as_str)))?;
             }
         }
     }

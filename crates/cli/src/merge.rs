@@ -57,6 +57,14 @@ fn part_info(path: &Path, image: &LinearImage) -> anyhow::Result<PartInfo> {
             path.display()
         )
     };
+    if let Some(most) = image.attribute("spp_max") {
+        bail!(
+            "{}: an interrupted part (its pixels have {} to {most} spp); finish it with `fiberlab render … --resume {}` first",
+            path.display(),
+            image.attribute("spp").unwrap_or("?"),
+            path.display()
+        );
+    }
     let get = |key: &str| image.attribute(key).map(str::to_string).with_context(|| not_a_part(key));
     let [scene, seed, spp] = PART_ATTRIBUTES.map(get);
     let place = match (image.attribute("part"), image.attribute("crop")) {
@@ -161,12 +169,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         args.parts.iter().map(|p| Ok((p.clone(), LinearImage::read_exr(p)?))).collect::<anyhow::Result<_>>()?;
     check_parts(&parts)?;
     let images: Vec<LinearImage> = parts.into_iter().map(|(_, image)| image).collect();
-    let mut image = merge(&images)?;
-    for key in ["scene", "seed", "spp"] {
-        if let Some(v) = images[0].attribute(key) {
-            image.set_attribute(key, v);
-        }
-    }
+    // The attributes every part shares (scene, seed, spp) and the saved state travel on, so
+    // the merged image can be continued with `fiberlab render --resume`.
+    let image = merge(&images)?;
     image.write_exr(&args.out.with(".exr"))?;
     image.write_png(&args.out.with(".png"), args.exposure, ToneMap::Filmic)?;
     eprintln!("merged {} parts → {}.exr, {}.png", images.len(), args.out, args.out);
@@ -234,5 +239,12 @@ mod tests {
         let mut bad = part(0, 2, "7");
         bad.1.set_attribute("part", "2/2");
         assert!(error(&[bad]).contains("not I/N"));
+        let mut interrupted = part(1, 2, "7");
+        interrupted.1.set_attribute("spp_max", "17");
+        let e = error(&[part(0, 2, "7"), interrupted]);
+        assert!(
+            e.contains("p1_7.exr: an interrupted part") && e.contains("16 to 17 spp") && e.contains("--resume"),
+            "{e}"
+        );
     }
 }

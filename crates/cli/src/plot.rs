@@ -21,8 +21,9 @@ pub struct Args {
     /// toward the tip).
     #[arg(long, allow_hyphen_values = true, value_parser = arg_values::inclination)]
     theta_i: Angle,
-    /// Output file; the extension (.png or .svg) selects the format.
-    #[arg(long)]
+    /// Output file; the extension (.png or .svg) selects the format. Checked (extension,
+    /// writable directory) before anything is computed.
+    #[arg(long, value_parser = figure_file)]
     out: PathBuf,
     /// Colour scale of the image.
     #[arg(long, value_enum, default_value_t = Scale::Log)]
@@ -30,6 +31,15 @@ pub struct Args {
     /// Decades shown by the log scale (> 0).
     #[arg(long, default_value = "4", value_parser = arg_values::positive)]
     decades: f64,
+}
+
+/// `--out FILE.png|svg`: a figure file name in a writable directory.
+fn figure_file(text: &str) -> Result<PathBuf, String> {
+    let path = crate::files::output_file(text)?;
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("png" | "svg") => Ok(path),
+        _ => Err(format!("expected a .png or .svg file name, got `{text}`")),
+    }
 }
 
 /// Colour scale of the (φ, θ_r) image.

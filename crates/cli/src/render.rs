@@ -1,13 +1,26 @@
 //! `fiberlab render`: path-trace a scene (or the built-in default scene) to linear EXR and
-//! tone-mapped PNG, with a progress bar, a time limit, Ctrl-C (finishes the tiles in flight
-//! and writes what is done) and `--tile I/N` / `--crop` parts for `fiberlab merge`.
+//! tone-mapped PNG, progressively (passes over the whole image), with a progress bar, a time
+//! limit, Ctrl-C, `--resume` and `--tile I/N` / `--crop` parts for `fiberlab merge`.
+//!
+//! # Stopping and continuing
+//! Ctrl-C or `--time-limit` stops the render within one pixel's samples of the pass in flight
+//! and keeps every sample taken. A render that stopped before every pixel had its samples is
+//! written to `PREFIX.partial.exr` / `.png` (never over a finished `PREFIX.exr`); the exit
+//! status is 130 after Ctrl-C and 0 after the time limit. A second Ctrl-C quits at once,
+//! writing nothing. `--resume FILE.exr` continues the render saved in FILE (partial or
+//! finished: its per-pixel sums and counts travel in the EXR, `fiberlab_render::accumulation`)
+//! to `--spp`; the result is bit-identical to one uninterrupted render. When the continued
+//! render finishes, the `.partial` files it continued are removed.
 
 use crate::arg_values::{self, PixelRect, Tile};
+use anyhow::Context;
+use fiberlab_io::LinearImage;
 use fiberlab_io::ToneMap;
-use fiberlab_render::integrator::{Region, RenderSettings, render};
+use fiberlab_render::accumulation::Accumulation;
+use fiberlab_render::integrator::{Progress, Region, RenderSettings, render_continuing};
 use fiberlab_render::scene_file::SceneFile;
 use indicatif::{ProgressBar, ProgressStyle};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -23,7 +36,7 @@ pub struct Args {
     /// Samples per pixel, ≥ 1 (default: the scene's).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     spp: Option<u32>,
-    /// Stop starting new tiles after this many seconds; writes what is done.
+    /// Stop after this many seconds (within a pass); writes what is done to PREFIX.partial.exr.
     #[arg(long, value_name = "SECONDS", value_parser = arg_values::seconds)]
     time_limit: Option<f64>,
     /// Worker threads (0: all cores).
@@ -41,23 +54,43 @@ pub struct Args {
     /// Render only the pixels x0,y0,x1,y1 (half-open), for `fiberlab merge`.
     #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "tile", value_parser = arg_values::pixel_rect)]
     crop: Option<PixelRect>,
-    /// Output prefix: writes PREFIX.exr and PREFIX.png.
-    #[arg(long, value_name = "PREFIX", default_value = "render", value_parser = arg_values::out_prefix)]
-    out: arg_values::OutPrefix,
+    /// Continue the render saved in this EXR (written by `fiberlab render`, finished or
+    /// `.partial`) up to --spp: same scene, seed and part; bit-identical to one long render.
+    #[arg(long, value_name = "FILE.exr")]
+    resume: Option<PathBuf>,
+    /// Output prefix: writes PREFIX.exr and PREFIX.png (PREFIX.partial.* when stopped early).
+    /// Default: `render`, or the prefix of the --resume file.
+    #[arg(long, value_name = "PREFIX", value_parser = arg_values::out_prefix)]
+    out: Option<arg_values::OutPrefix>,
     /// Exposure for the PNG in stops (default: the scene's).
     #[arg(long, allow_hyphen_values = true, value_parser = arg_values::finite)]
     exposure: Option<f64>,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    #[command(flatten)]
+    memory: crate::memory_budget::MemoryLimit,
 }
 
 /// Which pixels to render.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Pixels {
     All,
     Tile(Tile),
     Crop(PixelRect),
+}
+
+impl std::fmt::Display for Pixels {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Pixels::All => write!(f, "the whole image"),
+            Pixels::Tile(t) => write!(f, "part {}/{}", t.index, t.count),
+            Pixels::Crop(c) => {
+                let r = c.region();
+                write!(f, "crop {},{},{},{}", r.x0, r.y0, r.x1, r.y1)
+            }
+        }
+    }
 }
 
 impl Pixels {
@@ -65,39 +98,100 @@ impl Pixels {
     fn region(self, width: u32, height: u32) -> anyhow::Result<Option<Region>> {
         Ok(match self {
             Pixels::All => None,
-            Pixels::Tile(t) => Some(t.region(width, height)),
+            Pixels::Tile(t) => Some(t.region(width, height).map_err(|e| anyhow::anyhow!("--tile {e}"))?),
             Pixels::Crop(c) => Some(c.within(width, height).map_err(|e| anyhow::anyhow!("--crop {e}"))?),
         })
     }
 }
 
-/// `fiberlab render`'s validated configuration: what the flags mean, before any file is read.
+/// `fiberlab render`'s validated configuration: what the flags mean, before the scene is read.
 struct Config<'a> {
     args: &'a Args,
     pixels: Pixels,
     time_limit: Option<Duration>,
+    out: arg_values::OutPrefix,
+    resume: Option<Resumed>,
+}
+
+/// The render `--resume` continues: its image and what its header says it is.
+struct Resumed {
+    path: PathBuf,
+    image: LinearImage,
+    scene: String,
+    seed: u64,
+    pixels: Pixels,
+}
+
+impl Resumed {
+    fn read(path: &Path) -> anyhow::Result<Self> {
+        let image = LinearImage::read_exr(path)?;
+        let get = |key: &str| {
+            image.attribute(key).map(str::to_string).with_context(|| {
+                format!(
+                    "--resume {}: its header has no `{key}`: not an image written by `fiberlab render`",
+                    path.display()
+                )
+            })
+        };
+        let (scene, seed) = (get("scene")?, get("seed")?);
+        let seed =
+            seed.parse().with_context(|| format!("--resume {}: its seed `{seed}` is not a number", path.display()))?;
+        let place = |e: String| anyhow::anyhow!("--resume {}: {e}", path.display());
+        let pixels = match (image.attribute("part"), image.attribute("crop")) {
+            (Some(part), _) => Pixels::Tile(arg_values::tile(part).map_err(place)?),
+            (None, Some(crop)) => Pixels::Crop(arg_values::pixel_rect(crop).map_err(place)?),
+            (None, None) => Pixels::All,
+        };
+        Ok(Self { path: path.to_path_buf(), image, scene, seed, pixels })
+    }
+}
+
+/// The output prefix of a `--resume` file: its path without `.partial.exr` or `.exr`.
+fn resumed_prefix(path: &Path) -> anyhow::Result<arg_values::OutPrefix> {
+    let text = path.to_string_lossy();
+    let stem = text.strip_suffix(".partial.exr").or_else(|| text.strip_suffix(".exr")).unwrap_or(&text);
+    arg_values::out_prefix(stem).map_err(|e| anyhow::anyhow!("--resume {}: {e}", path.display()))
 }
 
 impl<'a> Config<'a> {
-    fn new(args: &'a Args) -> Self {
-        let pixels = match (args.tile, args.crop) {
-            (Some(t), _) => Pixels::Tile(t),
-            (_, Some(c)) => Pixels::Crop(c),
-            _ => Pixels::All,
+    fn new(args: &'a Args) -> anyhow::Result<Self> {
+        let resume = args.resume.as_deref().map(Resumed::read).transpose()?;
+        let flagged = match (args.tile, args.crop) {
+            (Some(t), _) => Some(Pixels::Tile(t)),
+            (_, Some(c)) => Some(Pixels::Crop(c)),
+            _ => None,
         };
-        Self { args, pixels, time_limit: args.time_limit.map(Duration::from_secs_f64) }
+        let pixels = match (&resume, flagged) {
+            (Some(r), Some(p)) if p != r.pixels => {
+                anyhow::bail!("--resume {}: it renders {}, the flags ask for {}", r.path.display(), r.pixels, p)
+            }
+            (Some(r), _) => r.pixels,
+            (None, p) => p.unwrap_or(Pixels::All),
+        };
+        if let Some(r) = &resume
+            && let Some(seed) = args.seed
+            && seed != r.seed
+        {
+            anyhow::bail!("--resume {}: it was rendered with seed {}, not --seed {seed}", r.path.display(), r.seed);
+        }
+        let out = match (&args.out, &resume) {
+            (Some(out), _) => out.clone(),
+            (None, Some(r)) => resumed_prefix(&r.path)?,
+            (None, None) => arg_values::out_prefix("render").map_err(anyhow::Error::msg)?,
+        };
+        Ok(Self { args, pixels, time_limit: args.time_limit.map(Duration::from_secs_f64), out, resume })
     }
 
-    /// The render settings: the scene's, overridden by the flags; the time limit starts now.
+    /// The render settings: the scene's, overridden by the flags (the deadline is set when the
+    /// render starts).
     fn settings(&self, scene: RenderSettings, region: Option<Region>) -> RenderSettings {
         let a = self.args;
         RenderSettings {
             spp: a.spp.unwrap_or(scene.spp),
-            seed: a.seed.unwrap_or(scene.seed),
+            seed: a.seed.or(self.resume.as_ref().map(|r| r.seed)).unwrap_or(scene.seed),
             max_depth: a.max_depth.unwrap_or(scene.max_depth),
             threads: a.threads,
             region,
-            deadline: self.time_limit.map(|limit| Instant::now() + limit),
             ..scene
         }
     }
@@ -127,9 +221,21 @@ fn scene_hash(args: &Args) -> anyhow::Result<String> {
     Ok(format!("{h:016x}"))
 }
 
+/// A render stopped by Ctrl-C: what was written (the binary exits with status 130).
+#[derive(Debug)]
+pub struct Interrupted(pub String);
+
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "interrupted: {}", self.0)
+    }
+}
+
+impl std::error::Error for Interrupted {}
+
 /// Runs `fiberlab render`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let config = Config::new(args);
+    let config = Config::new(args)?;
     let t0 = Instant::now();
     let mut file = match &args.scene {
         Some(p) => SceneFile::read(p)?,
@@ -141,38 +247,81 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(h) = &args.hair {
         file.override_hair(h.clone())?;
     }
+    args.memory.check_scene(&file)?;
     let scene_hash = scene_hash(args)?;
-    let (scene, scene_settings) = file.build()?;
-    let build_seconds = t0.elapsed().as_secs_f64();
-    let settings = config.settings(scene_settings, region);
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = Arc::clone(&stop);
-        // Only one handler per process; if one is already set, Ctrl-C keeps its default.
-        let _ = ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed));
+    let start = match &config.resume {
+        None => Accumulation::new(w, h),
+        Some(r) => {
+            let context = || format!("--resume {}", r.path.display());
+            anyhow::ensure!(
+                r.scene == scene_hash,
+                "{}: it is a render of another scene (scene hash {} against {scene_hash}: the scene file, --hair or --max-depth differ)",
+                context(),
+                r.scene
+            );
+            Accumulation::from_image(&r.image, w, h).with_context(context)?
+        }
+    };
+    let settings = config.settings(file.sampling(), region);
+    if let Some(r) = &config.resume {
+        let (_, most) = start.count_range(region.unwrap_or(Region::full(w, h)));
+        anyhow::ensure!(
+            most <= settings.spp,
+            "--resume {}: it already has {most} spp, more than the {} asked for (--spp)",
+            r.path.display(),
+            settings.spp
+        );
     }
+    let (scene, _) = file.build()?;
+    let build_seconds = t0.elapsed().as_secs_f64();
+    let settings = RenderSettings { deadline: config.time_limit.map(|limit| Instant::now() + limit), ..settings };
+    let stop = Arc::new(AtomicBool::new(false));
+    let writing = Arc::new(AtomicBool::new(false));
+    {
+        let (stop, writing) = (Arc::clone(&stop), Arc::clone(&writing));
+        // Only one handler per process; if one is already set, Ctrl-C keeps its default.
+        let _ = ctrlc::set_handler(move || {
+            if stop.swap(true, Ordering::Relaxed) && !writing.load(Ordering::Relaxed) {
+                eprintln!("\nfiberlab: interrupted again: quitting without writing");
+                std::process::exit(130);
+            }
+        });
+    }
+    eprintln!(
+        "rendering {w}×{h}{} to {} spp (scene built in {build_seconds:.2} s; Ctrl-C stops and keeps what is done)",
+        match config.pixels {
+            Pixels::All => String::new(),
+            p => format!(", {p}"),
+        },
+        settings.spp
+    );
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(0) };
     bar.set_style(
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles, ETA {eta}")
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent}% pass {msg}, ETA {eta}")
             .expect("valid template"),
     );
-    let out = render(
+    let out = render_continuing(
         &scene,
         &settings,
-        &|done, total| {
-            bar.set_length(total as u64);
-            bar.set_position(done as u64);
+        start,
+        &|p: &Progress| {
+            bar.set_length(p.samples_total);
+            bar.set_position(p.samples_done);
+            bar.set_message(format!("{} to {}/{} spp", p.pass, p.pass_spp, settings.spp));
         },
         &stop,
-    );
+    )?;
+    writing.store(true, Ordering::Relaxed);
     bar.finish_and_clear();
     let s = &out.stats;
-    let (exr, png) = (args.out.with(".exr"), args.out.with(".png"));
+    let complete = !s.interrupted;
+    let target = if complete { config.out.clone() } else { config.out.partial() };
+    let (exr, png) = (target.with(".exr"), target.with(".png"));
     let mut image = out.image;
-    // What the image is, in its header, so that `fiberlab merge` can check its parts.
+    // What the image is, in its header, so that `fiberlab merge` and `--resume` can check it.
     image.set_attribute("scene", scene_hash);
     image.set_attribute("seed", settings.seed.to_string());
-    image.set_attribute("spp", settings.spp.to_string());
+    image.set_attribute("target_spp", settings.spp.to_string());
     match config.pixels {
         Pixels::All => {}
         Pixels::Tile(t) => image.set_attribute("part", format!("{}/{}", t.index, t.count)),
@@ -184,22 +333,43 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     image.write_exr(&exr)?;
     let exposure = args.exposure.unwrap_or(file.render_settings().exposure);
     image.write_png(&png, exposure, ToneMap::Filmic)?;
+    let samples = if s.spp_min == s.spp_max {
+        format!("{} spp", s.spp_min)
+    } else {
+        format!("{}–{} spp", s.spp_min, s.spp_max)
+    };
     eprintln!(
-        "{}×{} at {} spp: scene {:.2} s, render {:.2} s ({:.0} samples/s, {} rays, {:.3} Mrays/s), {}/{} tiles{}, {} non-finite samples dropped → {}, {}",
+        "{}×{} at {samples}{}: scene {:.2} s, render {:.2} s ({:.0} samples/s, {} rays, {:.3} Mrays/s), {} passes, {} non-finite samples dropped → {}, {}",
         w,
         h,
-        settings.spp,
+        if complete { String::new() } else { format!(" of {}", settings.spp) },
         build_seconds,
         s.seconds,
         s.samples as f64 / s.seconds.max(1e-9),
         s.rays,
         s.rays as f64 / s.seconds.max(1e-9) / 1e6,
-        s.tiles_done,
-        s.tiles_total,
-        if s.interrupted { " (stopped early)" } else { "" },
+        s.passes,
         s.nonfinite_samples,
         exr.display(),
         png.display()
     );
+    if complete {
+        // The partial render this one continued is superseded.
+        if let Some(r) = &config.resume
+            && r.path == config.out.partial().with(".exr")
+        {
+            for p in [r.path.clone(), config.out.partial().with(".png")] {
+                if p.exists() {
+                    std::fs::remove_file(&p).with_context(|| format!("removing {}", p.display()))?;
+                }
+            }
+        }
+        return Ok(());
+    }
+    let how = format!("continue with `fiberlab render … --resume {}`", exr.display());
+    if stop.load(Ordering::Relaxed) && settings.deadline.is_none_or(|d| Instant::now() < d) {
+        return Err(Interrupted(format!("wrote {} at {samples} of {}; {how}", exr.display(), settings.spp)).into());
+    }
+    eprintln!("stopped by --time-limit: {how}");
     Ok(())
 }

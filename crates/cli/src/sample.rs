@@ -1,9 +1,10 @@
 //! `fiberlab sample`: importance samples of ω_i given ω_o, as CSV
 //! `wi_x,wi_y,wi_z,weight_r,weight_g,weight_b,pdf` (weight = f_s cosθ_i/pdf; pdf 0 for
-//! delta lobes, whose weight is the lobe's throughput).
+//! delta lobes, whose weight is the lobe's throughput). Rows are streamed as they are drawn
+//! (constant memory for any `--count`).
 
 use crate::arg_values;
-use crate::files::write_output;
+use crate::files::{output_file_or_stdout, stream_output};
 use crate::model_args::ModelArgs;
 use fiberlab_math::DVec3;
 use fiberlab_scatter::ScatteringFunction;
@@ -28,24 +29,27 @@ pub struct Args {
     /// Seed of the random stream.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Output CSV (default: standard output).
-    #[arg(long)]
+    /// Output CSV (default: standard output); its directory is checked writable first.
+    #[arg(long, value_parser = output_file_or_stdout)]
     output: Option<PathBuf>,
 }
 
-/// Draws the samples.
+/// Draws the samples, writing each row as it is drawn.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let model = args.model.build()?;
     let wo = args.wo;
     let mut rng = Pcg64::seed_from_u64(args.seed);
-    let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record(["wi_x", "wi_y", "wi_z", "weight_r", "weight_g", "weight_b", "pdf"])?;
-    for _ in 0..args.count {
-        let u = [rng.random(), rng.random(), rng.random(), rng.random()];
-        if let Some(s) = model.sample(wo, args.h, u) {
-            let v = [s.wi.x, s.wi.y, s.wi.z, s.weight[0], s.weight[1], s.weight[2], s.pdf];
-            w.write_record(v.iter().map(|x| x.to_string()))?;
+    stream_output(args.output.as_deref(), false, |out| {
+        let mut w = csv::Writer::from_writer(out);
+        w.write_record(["wi_x", "wi_y", "wi_z", "weight_r", "weight_g", "weight_b", "pdf"])?;
+        for _ in 0..args.count {
+            let u = [rng.random(), rng.random(), rng.random(), rng.random()];
+            if let Some(s) = model.sample(wo, args.h, u) {
+                let v = [s.wi.x, s.wi.y, s.wi.z, s.weight[0], s.weight[1], s.weight[2], s.pdf];
+                w.write_record(v.iter().map(|x| x.to_string()))?;
+            }
         }
-    }
-    write_output(args.output.as_deref(), &w.into_inner()?)
+        w.flush()?;
+        Ok(())
+    })
 }

@@ -2,7 +2,7 @@
 //! renders without a scene file) as a TOML template to start a scene from — to standard output,
 //! or written to `FILE`.
 
-use crate::files::write_output;
+use crate::files::{output_file_or_stdout, stream_output};
 use fiberlab_render::scene_file::DEFAULT_SCENE;
 use std::path::PathBuf;
 
@@ -13,8 +13,9 @@ pub struct Args {
     /// crates/render/src/scene_file.rs), the one `fiberlab render` uses without SCENE.
     #[arg(long = "default", required = true)]
     default_scene: bool,
-    /// Write the scene to this file instead of standard output (`-`: standard output).
-    #[arg(long, value_name = "FILE")]
+    /// Write the scene to this file instead of standard output (`-`: standard output); its
+    /// directory is checked writable when the command line is read.
+    #[arg(long, value_name = "FILE", value_parser = output_file_or_stdout)]
     out: Option<PathBuf>,
 }
 
@@ -26,10 +27,7 @@ fn template() -> &'static str {
 /// Prints or writes the default scene.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     debug_assert!(args.default_scene);
-    if let Some(path) = &args.out {
-        anyhow::ensure!(!path.is_dir(), "--out {}: is a directory; give a file name", path.display());
-    }
-    write_output(args.out.as_deref(), template().as_bytes())?;
+    stream_output(args.out.as_deref(), false, |out| Ok(out.write_all(template().as_bytes())?))?;
     if let Some(path) = args.out.as_deref().filter(|p| *p != std::path::Path::new("-")) {
         eprintln!("wrote {}", path.display());
     }

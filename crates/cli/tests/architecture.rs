@@ -27,6 +27,7 @@ const LAYERS: &[(&str, u32)] = &[
     ("fiberlab-fit", 2),
     ("fiberlab-render", 3),
     ("fiberlab-cli", 4),
+    ("fiberlab-py", 4),
 ];
 
 fn layer(name: &str) -> u32 {

@@ -197,37 +197,6 @@ fn measure_writes_the_documented_csv_and_a_figure() {
     assert_eq!(std::fs::read_to_string(a).unwrap(), std::fs::read_to_string(b).unwrap());
 }
 
-/// Flag values are validated while the command line is parsed, before any file is read: a
-/// bad `--bins`, `--theta-i`, `--tile` or `--crop` is reported even when the scene or fiber
-/// file does not exist.
-#[test]
-fn bad_flag_values_are_reported_before_any_file_is_read() {
-    for (args, expected) in [
-        (
-            &["measure", "--theta-i", "0", "--rays", "10", "--bins", "0,4", "--fiber", "missing.toml", "--out", "x"][..],
-            "NT,NP",
-        ),
-        (&["measure", "--theta-i", "95", "--rays", "10", "--fiber", "missing.toml", "--out", "x"], "(-89.9, 89.9)"),
-        (&["measure", "--theta-i", "0", "--rays", "0", "--fiber", "missing.toml", "--out", "x"], "positive integer"),
-        (&["render", "missing.toml", "--tile", "3/3"], "0 ≤ I < N"),
-        (&["render", "missing.toml", "--crop", "4,0,2,2"], "x0 < x1"),
-        (&["render", "missing.toml", "--time-limit=-1"], "seconds ≥ 0"),
-        (&["render", "missing.toml", "--exposure", "nan"], "finite"),
-        (&["render", "missing.toml", "--spp", "0"], "--spp"),
-        (&["render", "missing.toml", "--out", "/nonexistent/dir/r"], "does not exist"),
-        (&["merge", "missing.exr", "--exposure", "inf"], "finite"),
-        (&["bench", "--calls", "0", "--params-file", "missing.toml"], "--calls"),
-        (
-            &["plot", "--model", "diffuse", "--theta-i", "90", "--out", "x.png", "--params-file", "missing.toml"],
-            "(-90, 90)",
-        ),
-    ] {
-        let res = fiberlab().args(args).output().unwrap();
-        let err = String::from_utf8_lossy(&res.stderr);
-        assert!(!res.status.success() && err.contains(expected) && !err.contains("missing.toml"), "{args:?}: {err}");
-    }
-}
-
 /// `--param lobes=r,tt --param glints=off` and a `--params-file` with `lobes = ["r", "tt"]`
 /// and `glints = false` give the same model: `eval` prints the same values.
 #[test]

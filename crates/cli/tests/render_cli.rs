@@ -92,18 +92,6 @@ fn generate_render_in_parts_and_merge_bit_for_bit() {
     let merged = fiberlab_io::LinearImage::read_exr(&d.join("merged.exr")).unwrap();
     assert_eq!(full, merged);
     assert!(d.join("full.png").exists() && d.join("merged.png").exists());
-    // The parts are checked: a duplicate, a missing part or a whole image is refused, naming
-    // the files, and nothing is written.
-    for (parts, says) in [
-        (&["p0.exr", "p0.exr", "p2.exr"][..], "both are part 0/3"),
-        (&["p0.exr", "p1.exr"][..], "missing part(s) 2/3"),
-        (&["p0.exr", "full.exr", "p2.exr"][..], "full.exr: not a part"),
-    ] {
-        let out = fiberlab(d).arg("merge").args(parts).args(["--out", "bad"]).output().unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success() && err.contains(says), "{parts:?}: {err}");
-        assert!(!d.join("bad.exr").exists());
-    }
 }
 
 #[test]
@@ -125,4 +113,88 @@ fn scene_errors_name_file_line_and_key() {
     let out = fiberlab(d).args(["render", "s.toml", "--tile", "3/3"]).output().unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("0 ≤ I < N"), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// Renders the test scene (with a generated `h.hair`) in a new directory.
+fn scene_dir() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(fiberlab(d).args(["hair", "generate", "--strands", "200", "--seed", "4", "--out", "h.hair"]));
+    std::fs::write(d.join("s.toml"), SCENE).unwrap();
+    dir
+}
+
+#[test]
+fn a_stopped_render_is_partial_and_resume_is_bit_identical_to_one_render() {
+    let dir = scene_dir();
+    let d = dir.path();
+    ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--spp", "6", "--out", "long"]));
+    // A 0-second time limit stops at once: the finished image of that name is not replaced,
+    // the partial one goes beside it, and the exit status is 0 (the limit was asked for).
+    std::fs::copy(d.join("long.exr"), d.join("r.exr")).unwrap();
+    let before = std::fs::read(d.join("r.exr")).unwrap();
+    let err = ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--spp", "6", "--time-limit", "0", "--out", "r"]));
+    assert!(err.contains("stopped by --time-limit") && err.contains("--resume r.partial.exr"), "{err}");
+    assert_eq!(std::fs::read(d.join("r.exr")).unwrap(), before);
+    let partial = fiberlab_io::LinearImage::read_exr(&d.join("r.partial.exr")).unwrap();
+    assert_eq!(partial.attribute("spp"), Some("0"));
+    // Continue it in two steps, to 2 spp and then to 6 (the prefix comes from the file): the
+    // finished image is the one-render image bit for bit, and the partial files are gone.
+    ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--spp", "2", "--resume", "r.partial.exr", "--out", "r2"]));
+    ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--spp", "6", "--resume", "r2.exr", "--out", "r"]));
+    let long = fiberlab_io::LinearImage::read_exr(&d.join("long.exr")).unwrap();
+    let resumed = fiberlab_io::LinearImage::read_exr(&d.join("r.exr")).unwrap();
+    assert_eq!(resumed, long);
+    let err = ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--spp", "7", "--time-limit", "0", "--out", "q"]));
+    assert!(err.contains("q.partial.exr"), "{err}");
+    ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--spp", "6", "--resume", "q.partial.exr"]));
+    assert_eq!(fiberlab_io::LinearImage::read_exr(&d.join("q.exr")).unwrap(), long);
+    assert!(!d.join("q.partial.exr").exists() && !d.join("q.partial.png").exists());
+    // What cannot be continued is refused before any work, naming the file and the reason.
+    std::fs::write(d.join("other.toml"), SCENE.replace("seed = 3", "seed = 3\nmax_depth = 5")).unwrap();
+    for (args, says) in [
+        (&["s.toml", "--spp", "2", "--resume", "long.exr"][..], "already has 6 spp"),
+        (&["other.toml", "--resume", "long.exr"][..], "another scene"),
+        (&["s.toml", "--seed", "9", "--resume", "long.exr"][..], "seed 3, not --seed 9"),
+        (&["s.toml", "--tile", "0/2", "--resume", "long.exr"][..], "it renders the whole image"),
+        (&["s.toml", "--resume", "missing.exr"][..], "missing.exr"),
+    ] {
+        let out = fiberlab(d).arg("render").args(args).args(["--quiet", "--out", "bad"]).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.code() == Some(1) && err.contains(says), "{args:?}: {err}");
+        assert!(!d.join("bad.exr").exists() && !d.join("bad.partial.exr").exists(), "{args:?}");
+    }
+}
+
+#[test]
+#[cfg(unix)]
+fn ctrl_c_stops_a_billion_spp_render_with_status_130_and_a_partial_image() {
+    use std::io::{BufRead, BufReader};
+    let dir = scene_dir();
+    let d = dir.path();
+    std::fs::write(d.join("r.exr"), b"a finished image").unwrap();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_fiberlab"))
+        .current_dir(d)
+        .args(["render", "s.toml", "--quiet", "--spp", "1000000000", "--out", "r"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    // The handler is installed before this line is printed.
+    while !line.contains("rendering") {
+        line.clear();
+        assert!(stderr.read_line(&mut line).unwrap() > 0, "render ended before it started");
+    }
+    let kill = std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut stderr, &mut rest).unwrap();
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "{rest}");
+    assert!(rest.contains("interrupted: wrote r.partial.exr"), "{rest}");
+    assert_eq!(std::fs::read(d.join("r.exr")).unwrap(), b"a finished image");
+    let partial = fiberlab_io::LinearImage::read_exr(&d.join("r.partial.exr")).unwrap();
+    assert_eq!(partial.attribute("target_spp"), Some("1000000000"));
+    assert!(d.join("r.partial.png").exists());
 }

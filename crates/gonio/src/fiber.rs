@@ -23,6 +23,16 @@ pub enum FiberError {
         /// Valid range, with its unit.
         range: &'static str,
     },
+    /// More bins than the measurement's 32-bit bin indices address.
+    #[error("bins: {bins_theta} × {bins_phi} = {bins} bins per table; at most 4294967295 (32-bit bin indices)")]
+    TooManyBins {
+        /// Bins in θ_r.
+        bins_theta: usize,
+        /// Bins in φ.
+        bins_phi: usize,
+        /// Their product.
+        bins: u128,
+    },
 }
 
 /// A number as a person reads it in an error: rounded to twelve significant digits (so that

@@ -45,6 +45,38 @@ pub struct Setup {
     pub seed: u64,
 }
 
+impl Setup {
+    /// Bins per table, `bins_theta × bins_phi`, counted in u64; `None` on overflow.
+    #[must_use]
+    pub fn bin_count(&self) -> Option<u64> {
+        (self.bins_theta as u64).checked_mul(self.bins_phi as u64)
+    }
+
+    /// Checks that the bins fit the measurement's 32-bit bin indices.
+    pub fn check_bins(&self) -> Result<(), FiberError> {
+        let bins = self.bins_theta as u128 * self.bins_phi as u128;
+        if bins > u128::from(u32::MAX) {
+            return Err(FiberError::TooManyBins { bins_theta: self.bins_theta, bins_phi: self.bins_phi, bins });
+        }
+        Ok(())
+    }
+
+    /// Peak bytes [`measure`] holds for this setup with `threads` worker threads: per bin the
+    /// running sums (Σw and Σw², RGB f64, for the 6 tables: 6 × 2 × 24 = 288 bytes) and the
+    /// result (`f` and `std` of the 6 tables: 288 more), and the ray records of one batch of
+    /// chunks in flight (2 chunks of 65,536 rays per thread, 32 bytes each). `None` on overflow.
+    #[must_use]
+    pub fn estimated_bytes(&self, threads: usize) -> Option<u64> {
+        let per_bin = 2 * RESULT_BYTES_PER_BIN;
+        let records = (2 * threads.max(1) as u64).checked_mul((CHUNK * std::mem::size_of::<Record>()) as u64)?;
+        self.bin_count()?.checked_mul(per_bin)?.checked_add(records)
+    }
+}
+
+/// Bytes per bin of a measurement's six tables of `f` and `std` (RGB f64 each), the same as
+/// of its running sums.
+pub const RESULT_BYTES_PER_BIN: u64 = 6 * 2 * std::mem::size_of::<Rgb>() as u64;
+
 /// One path class's table: per-bin `f_s` (sr⁻¹) and standard error, row-major `[θ][φ]`.
 #[derive(Clone, Debug)]
 pub struct LobeTable {
@@ -126,6 +158,7 @@ pub fn measure(
         let value = setup.theta_i.to_degrees();
         return Err(FiberError::OutOfRange { key: "theta_i", value, range: "(−89.9, 89.9) degrees" });
     }
+    setup.check_bins()?;
     let (nt, np) = (setup.bins_theta.max(1), setup.bins_phi.max(1));
     let wi = direction(setup.theta_i, setup.phi_i);
     let d = -wi;
@@ -219,6 +252,24 @@ pub fn measure(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn memory_estimate_and_bin_limit_in_u64() {
+        let setup = Setup { theta_i: 0.3, phi_i: 0.0, rays: 10, bins_theta: 180, bins_phi: 360, seed: 1 };
+        assert_eq!(setup.bin_count(), Some(64_800));
+        assert_eq!(std::mem::size_of::<Record>(), 32);
+        // 576 bytes per bin; 2 threads: 4 chunks of 65,536 records of 32 bytes.
+        assert_eq!(setup.estimated_bytes(2), Some(64_800 * 576 + 4 * 65_536 * 32));
+        let absurd = Setup { bins_theta: 100_000, bins_phi: 100_000, ..setup };
+        assert_eq!(absurd.estimated_bytes(1), Some(10_000_000_000 * 576 + 2 * 65_536 * 32));
+        let e = absurd.check_bins().unwrap_err().to_string();
+        assert!(e.contains("100000 × 100000 = 10000000000 bins"), "{e}");
+        let e = measure(&Fiber::default(), &absurd, &AtomicBool::new(false), |_| {}).unwrap_err();
+        assert!(matches!(e, FiberError::TooManyBins { .. }), "{e}");
+        assert!(Setup { bins_theta: 65_536, bins_phi: 65_535, ..setup }.check_bins().is_ok());
+        assert!(Setup { bins_theta: 65_536, bins_phi: 65_536, ..setup }.check_bins().is_err());
+        assert_eq!(Setup { bins_theta: usize::MAX, bins_phi: usize::MAX, ..setup }.estimated_bytes(1), None);
+    }
     use fiberlab_math::fresnel;
 
     fn run(fiber: &Fiber, theta_i: f64, rays: usize, bins: (usize, usize)) -> Measurement {

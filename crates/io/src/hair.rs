@@ -220,6 +220,70 @@ impl Default for HairFile {
     }
 }
 
+/// The counts a `.hair` header declares, read from its first 128 bytes without the arrays:
+/// what the memory a file will take is estimated from before it is loaded. The full
+/// [`HairFile::read`] still checks that the arrays agree with these counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HairHeader {
+    /// Strands (u32 at byte 4).
+    pub strand_count: u32,
+    /// Points of all strands (u32 at byte 8).
+    pub point_count: u32,
+    /// Array flags (u32 at byte 12).
+    pub flags: u32,
+}
+
+impl HairHeader {
+    /// Parses the header at the start of `bytes` (at least [`HEADER_BYTES`] of them): the
+    /// magic and the counts; the arrays are not looked at.
+    pub fn parse(bytes: &[u8]) -> Result<Self, HairError> {
+        if bytes.len() < HEADER_BYTES {
+            return Err(HairError::TruncatedHeader { len: bytes.len() });
+        }
+        let found: [u8; 4] = bytes[0..4].try_into().expect("4 bytes");
+        if found != MAGIC {
+            return Err(HairError::BadMagic { found });
+        }
+        let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+        Ok(Self { strand_count: u32_at(4), point_count: u32_at(8), flags: u32_at(12) })
+    }
+
+    /// Reads only the header of the file at `path`; errors carry the path.
+    pub fn read(path: &Path) -> Result<Self, HairError> {
+        use std::io::Read;
+        let io = |error| HairError::Io { path: path.into(), error };
+        let mut head = Vec::with_capacity(HEADER_BYTES);
+        std::fs::File::open(path).map_err(io)?.take(HEADER_BYTES as u64).read_to_end(&mut head).map_err(io)?;
+        Self::parse(&head).map_err(|e| HairError::InFile { path: path.into(), error: Box::new(e) })
+    }
+
+    /// Segments of all strands (a strand of `n` points has `n − 1`): points − strands.
+    #[must_use]
+    pub fn segment_count(&self) -> u64 {
+        u64::from(self.point_count).saturating_sub(u64::from(self.strand_count))
+    }
+
+    /// Bytes of the file these counts and flags describe: the header, then 2 per strand
+    /// (segments), 12 per point (points), 4 (thickness), 4 (transparency) and 12 (colours) per
+    /// point for each array whose flag is set. Exact, and at most about 137 GiB (32-bit counts).
+    #[must_use]
+    pub fn file_bytes(&self) -> u64 {
+        let per_point = 12
+            + if self.flags & FLAG_THICKNESS != 0 { 4 } else { 0 }
+            + if self.flags & FLAG_TRANSPARENCY != 0 { 4 } else { 0 }
+            + if self.flags & FLAG_COLORS != 0 { 12 } else { 0 };
+        let per_strand = if self.flags & FLAG_SEGMENTS != 0 { 2 } else { 0 };
+        HEADER_BYTES as u64 + per_strand * u64::from(self.strand_count) + per_point * u64::from(self.point_count)
+    }
+
+    /// Peak bytes [`HairFile::read`] holds: the whole file read into memory, and its arrays
+    /// parsed beside it (the same size as the file's arrays), i.e. about twice the file.
+    #[must_use]
+    pub fn read_bytes(&self) -> u64 {
+        2 * self.file_bytes()
+    }
+}
+
 /// A little-endian cursor over the file bytes that reports offsets.
 struct Reader<'a> {
     bytes: &'a [u8],
@@ -564,6 +628,35 @@ mod tests {
         assert_eq!(e.to_string(), "byte 0: expected the magic \"HAIR\", found \"XAIR\"");
         b[1] = 0;
         assert!(HairFile::parse(&b).unwrap_err().to_string().ends_with("found \"X\\x00IR\""));
+    }
+
+    #[test]
+    fn the_header_alone_gives_the_counts_and_the_file_size() {
+        let h = two_strands();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("two.hair");
+        h.write(&path).unwrap();
+        let header = HairHeader::read(&path).unwrap();
+        assert_eq!(header, HairHeader { strand_count: 2, point_count: 5, flags: h.flags() });
+        // Strands of 1 and 2 segments.
+        assert_eq!(header.segment_count(), 3);
+        // The exact size on disk: 128 + 2·2 (segments) + 5·(12 + 4) (points, thickness).
+        assert_eq!(header.file_bytes(), 128 + 4 + 5 * 16);
+        assert_eq!(header.file_bytes(), std::fs::metadata(&path).unwrap().len());
+        assert_eq!(header.read_bytes(), 2 * header.file_bytes());
+        // Every flag: 2 per strand, 12 + 4 + 4 + 12 per point.
+        let all = HairHeader { strand_count: 10, point_count: 100, flags: KNOWN_FLAGS };
+        assert_eq!(all.file_bytes(), 128 + 20 + 3200);
+        // u32::MAX points of every array: computed in u64, no overflow.
+        let big = HairHeader { strand_count: u32::MAX, point_count: u32::MAX, flags: KNOWN_FLAGS };
+        assert_eq!(big.file_bytes(), 128 + 34 * u64::from(u32::MAX));
+        assert_eq!(big.segment_count(), 0);
+        assert!(matches!(HairHeader::parse(b"HAIR"), Err(HairError::TruncatedHeader { len: 4 })));
+        let mut bytes = h.to_bytes().unwrap();
+        bytes[0] = b'X';
+        assert!(matches!(HairHeader::parse(&bytes), Err(HairError::BadMagic { .. })));
+        let e = HairHeader::read(&dir.path().join("missing.hair")).unwrap_err().to_string();
+        assert!(e.contains("missing.hair"), "{e}");
     }
 
     #[test]

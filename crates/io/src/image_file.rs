@@ -1,4 +1,5 @@
-//! Image files: linear OpenEXR (32-bit float RGB) and tone-mapped 8-bit sRGB PNG.
+//! Image files: linear OpenEXR (32-bit float RGB, optional 32-bit unsigned integer channels)
+//! and tone-mapped 8-bit sRGB PNG.
 //!
 //! Every writer goes through [`write_atomically`]: the bytes go to a temporary file in the
 //! destination's directory, which is renamed over the destination only when complete, so an
@@ -30,6 +31,16 @@ pub enum ImageError {
         /// Decoder message.
         message: String,
     },
+    /// An EXR file lacks a channel this reader needs.
+    #[error("{path}: EXR: no {channel:?} channel (channels present: {present})")]
+    MissingChannel {
+        /// File path.
+        path: PathBuf,
+        /// The channel looked for.
+        channel: String,
+        /// The channels the file has, comma-separated.
+        present: String,
+    },
     /// The PNG encoder failed.
     #[error("{path}: PNG: {message}")]
     Png {
@@ -54,23 +65,45 @@ pub enum ImageError {
 
 /// A linear-RGB floating-point image, row-major from the top-left pixel, with text
 /// attributes that travel in the EXR header (e.g. how it was rendered: samples per pixel,
-/// seed, the scene's hash, the part `I/N`), so that tools can check what they combine.
+/// seed, the scene's hash, the part `I/N`), so that tools can check what they combine, and
+/// named 32-bit unsigned integer channels stored losslessly beside R, G, B (e.g. a renderer's
+/// exact per-pixel state, so that a render can be continued).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LinearImage {
     width: usize,
     height: usize,
     pixels: Vec<[f32; 3]>,
     attributes: BTreeMap<String, String>,
+    uint_channels: BTreeMap<String, Vec<u32>>,
 }
 
 /// Prefix of fiberlab's attributes in an EXR header (other attributes are not read back).
 pub const ATTRIBUTE_PREFIX: &str = "fiberlab.";
 
 impl LinearImage {
+    /// Bytes per pixel an RGB image holds while it is written as EXR and PNG: its pixels (3 ×
+    /// f32, 12), the per-channel planes [`LinearImage::write_exr`] hands the encoder (12) and the
+    /// 8-bit sRGB copy [`LinearImage::write_png`] encodes (3). Integer channels add 8 bytes each
+    /// (the channel and the encoder's copy), counted by their owner.
+    pub const BYTES_PER_PIXEL_WRITTEN: u64 = 27;
+
+    /// Bytes a `width × height` image takes, written ([`Self::BYTES_PER_PIXEL_WRITTEN`] per
+    /// pixel), counted in u64; `None` when that overflows.
+    #[must_use]
+    pub fn estimated_bytes(width: u64, height: u64) -> Option<u64> {
+        width.checked_mul(height)?.checked_mul(Self::BYTES_PER_PIXEL_WRITTEN)
+    }
+
     /// A black image.
     #[must_use]
     pub fn new(width: usize, height: usize) -> Self {
-        Self { width, height, pixels: vec![[0.0; 3]; width * height], attributes: BTreeMap::new() }
+        Self {
+            width,
+            height,
+            pixels: vec![[0.0; 3]; width * height],
+            attributes: BTreeMap::new(),
+            uint_channels: BTreeMap::new(),
+        }
     }
 
     /// An image from its pixels (row-major, top row first).
@@ -78,7 +111,35 @@ impl LinearImage {
         if pixels.len() != width * height {
             return Err(ImageError::Size { width, height, expected: width * height, found: pixels.len() });
         }
-        Ok(Self { width, height, pixels, attributes: BTreeMap::new() })
+        Ok(Self { width, height, pixels, attributes: BTreeMap::new(), uint_channels: BTreeMap::new() })
+    }
+
+    /// The unsigned integer channel `name` (one value per pixel, row-major), if present.
+    #[must_use]
+    pub fn uint_channel(&self, name: &str) -> Option<&[u32]> {
+        self.uint_channels.get(name).map(Vec::as_slice)
+    }
+
+    /// Every unsigned integer channel, by name.
+    #[must_use]
+    pub fn uint_channels(&self) -> &BTreeMap<String, Vec<u32>> {
+        &self.uint_channels
+    }
+
+    /// Sets the unsigned integer channel `name` (a short ASCII name; written to the EXR file
+    /// as `fiberlab.NAME`), one value per pixel, row-major.
+    pub fn set_uint_channel(&mut self, name: &str, values: Vec<u32>) -> Result<(), ImageError> {
+        let expected = self.width * self.height;
+        if values.len() != expected {
+            return Err(ImageError::Size { width: self.width, height: self.height, expected, found: values.len() });
+        }
+        self.uint_channels.insert(name.into(), values);
+        Ok(())
+    }
+
+    /// Removes every unsigned integer channel.
+    pub fn clear_uint_channels(&mut self) {
+        self.uint_channels.clear();
     }
 
     /// The text attribute `key` (written to and read from the EXR header), if set.
@@ -132,15 +193,19 @@ impl LinearImage {
         self.pixels[y * self.width + x] = rgb;
     }
 
-    /// Writes a 32-bit float RGB OpenEXR file (lossless ZIP compression), atomically.
+    /// Writes a 32-bit float RGB OpenEXR file (lossless ZIP compression) with the attributes
+    /// and unsigned integer channels, atomically.
     pub fn write_exr(&self, path: &Path) -> Result<(), ImageError> {
         use exr::prelude::*;
-        let w = self.width;
-        let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
-            let p = self.pixels[y * w + x];
-            (p[0], p[1], p[2])
-        });
-        let mut image = Image::from_channels((self.width, self.height), channels);
+        let plane = |k: usize| FlatSamples::F32(self.pixels.iter().map(|p| p[k]).collect());
+        let mut list: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+        for (k, name) in ["R", "G", "B"].into_iter().enumerate() {
+            list.push(AnyChannel::new(name, plane(k)));
+        }
+        for (name, values) in &self.uint_channels {
+            list.push(AnyChannel::new(format!("{ATTRIBUTE_PREFIX}{name}").as_str(), FlatSamples::U32(values.clone())));
+        }
+        let mut image = Image::from_channels((self.width, self.height), AnyChannels::sort(list));
         for (k, v) in &self.attributes {
             image.attributes.other.insert(
                 Text::from(format!("{ATTRIBUTE_PREFIX}{k}").as_str()),
@@ -160,17 +225,40 @@ impl LinearImage {
         })
     }
 
-    /// Reads the first RGB(A) layer of an OpenEXR file (alpha ignored).
+    /// Reads the first layer of an OpenEXR file: its R, G, B channels (any sample type,
+    /// converted to 32-bit float), fiberlab's attributes and fiberlab's unsigned integer
+    /// channels (other channels, such as alpha, are ignored).
     pub fn read_exr(path: &Path) -> Result<Self, ImageError> {
         use exr::prelude::*;
-        let image = read_first_rgba_layer_from_file(
-            path,
-            |size, _| LinearImage::new(size.width(), size.height()),
-            |img: &mut LinearImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| img.set(pos.x(), pos.y(), [r, g, b]),
-        )
-        .map_err(|e| ImageError::Exr { path: path.into(), message: e.to_string() })?;
-        let mut out = image.layer_data.channel_data.pixels;
-        for (k, v) in image.attributes.other.iter().chain(&image.layer_data.attributes.other) {
+        let exr_error = |e: exr::error::Error| ImageError::Exr { path: path.into(), message: e.to_string() };
+        let image = read_first_flat_layer_from_file(path).map_err(exr_error)?;
+        let layer = &image.layer_data;
+        let (width, height) = (layer.size.width(), layer.size.height());
+        let channels = &layer.channel_data.list;
+        let find = |name: &str| {
+            channels.iter().find(|c| c.name.to_string() == name).ok_or_else(|| ImageError::MissingChannel {
+                path: path.into(),
+                channel: name.into(),
+                present: channels.iter().map(|c| c.name.to_string()).collect::<Vec<_>>().join(", "),
+            })
+        };
+        let (r, g, b) = (find("R")?, find("G")?, find("B")?);
+        let pixels = r
+            .sample_data
+            .values_as_f32()
+            .zip(g.sample_data.values_as_f32())
+            .zip(b.sample_data.values_as_f32())
+            .map(|((r, g), b)| [r, g, b])
+            .collect();
+        let mut out = LinearImage::from_pixels(width, height, pixels)?;
+        for c in channels {
+            if let (Some(name), FlatSamples::U32(values)) =
+                (c.name.to_string().strip_prefix(ATTRIBUTE_PREFIX), &c.sample_data)
+            {
+                out.set_uint_channel(name, values.clone())?;
+            }
+        }
+        for (k, v) in image.attributes.other.iter().chain(&layer.attributes.other) {
             if let (Some(key), AttributeValue::Text(text)) = (k.to_string().strip_prefix(ATTRIBUTE_PREFIX), v) {
                 out.attributes.insert(key.to_string(), text.to_string());
             }
@@ -314,6 +402,14 @@ mod tests {
             (Some("64"), Some("1/4"), None)
         );
         assert_eq!(back, img);
+        // Integer channels round-trip exactly, including values no f32 represents.
+        let values: Vec<u32> = (0..35).map(|i: u32| u32::MAX - i * 977).collect();
+        img.set_uint_channel("state", values.clone()).unwrap();
+        img.write_exr(&path).unwrap();
+        let back = LinearImage::read_exr(&path).unwrap();
+        assert_eq!(back.uint_channel("state"), Some(values.as_slice()));
+        assert_eq!(back, img);
+        assert!(matches!(img.set_uint_channel("short", vec![0; 3]), Err(ImageError::Size { .. })));
         // Only the final file remains in the directory.
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
@@ -348,6 +444,15 @@ mod tests {
         assert_eq!(ToneMap::Filmic.apply(f64::INFINITY), 1.0);
         assert_eq!(ToneMap::Filmic.apply(f64::NAN), 0.0);
         assert!(ToneMap::Filmic.apply(0.18) > 0.1 && ToneMap::Filmic.apply(0.18) < 0.3);
+    }
+
+    #[test]
+    fn estimated_bytes_count_pixels_and_the_srgb_copy() {
+        // 12 bytes of f32 RGB, 12 of the encoder's planes and 3 of 8-bit sRGB per pixel.
+        assert_eq!(LinearImage::estimated_bytes(640, 480), Some(640 * 480 * 27));
+        assert_eq!(LinearImage::estimated_bytes(100_000, 100_000), Some(270_000_000_000));
+        assert_eq!(LinearImage::estimated_bytes(u64::MAX, 2), None);
+        assert_eq!(LinearImage::estimated_bytes(1 << 32, 1 << 32), None);
     }
 
     #[test]

@@ -10,5 +10,5 @@ pub mod hair;
 pub mod image_file;
 pub mod table;
 
-pub use hair::{HairError, HairFile};
+pub use hair::{HairError, HairFile, HairHeader};
 pub use image_file::{ImageError, LinearImage, ToneMap};

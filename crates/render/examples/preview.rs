@@ -29,7 +29,7 @@ fn main() {
         settings.spp = spp;
     }
     settings.threads = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(0);
-    let out = fiberlab_render::integrator::render(&scene, &settings, &|_, _| {}, &AtomicBool::new(false));
+    let out = fiberlab_render::integrator::render(&scene, &settings, &|_| {}, &AtomicBool::new(false));
     println!("render: {:.2} s, {:?}", out.stats.seconds, out.stats);
     out.image.write_exr("preview.exr".as_ref()).unwrap();
     out.image.write_png("preview.png".as_ref(), file.render_settings().exposure, ToneMap::Filmic).unwrap();

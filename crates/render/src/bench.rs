@@ -103,6 +103,6 @@ pub fn samples_per_second(scene: &Scene, settings: &RenderSettings, side: u32, s
     let (x0, y0) = ((w.saturating_sub(side)) / 2, (h.saturating_sub(side)) / 2);
     let region = Region { x0, y0, x1: (x0 + side).min(w), y1: (y0 + side).min(h) };
     let s = RenderSettings { spp, threads, region: Some(region), ..settings.clone() };
-    let out = render(scene, &s, &|_, _| {}, &AtomicBool::new(false));
+    let out = render(scene, &s, &|_| {}, &AtomicBool::new(false));
     out.stats.samples as f64 / out.stats.seconds
 }

@@ -249,6 +249,32 @@ impl CurveSet {
         Self { segments, pieces: piece_segment.len(), bvh, strands }
     }
 
+    /// Peak bytes per segment of building a `CurveSet` from a `.hair` file's strands, the BVH
+    /// included: the strands as `f64` points and radii, the 64-byte segments, up to 8
+    /// (`MAX_PIECES`) boxes and build records per segment, and the tree. Measured once, on the
+    /// default scene's generated wavy hair (24 segments per strand; 3.1M pieces for 480k
+    /// segments, 6.5 of the 8 at most): the maximum RSS of `/usr/bin/time -v fiberlab render
+    /// S.toml` at 16×16 pixels and 1 spp, divided by the segments, was 1125, 1170, 1073 and
+    /// 1030 bytes with 10k, 40k, 80k and 160k strands (240k–3.84M segments), 1131 with 240k
+    /// strands of 8 segments, and 1190 on 1 thread instead of 2 (10k strands) — the whole
+    /// process, the generator's ~44 bytes per segment and the hair data included. This
+    /// constant is the largest of these, rounded up; the hair data is estimated apart
+    /// ([`fiberlab_io::HairHeader::read_bytes`], [`crate::generator::HairParams::estimated_bytes`])
+    /// and added, so the estimate stays above what was measured: the default render (512×512,
+    /// 1 spp) peaks at 597 MB against 608 MB estimated in all.
+    pub const BUILD_BYTES_PER_SEGMENT: u64 = 1200;
+
+    /// At most this many segments in one set: the BVH indexes its pieces (up to
+    /// 8 per segment) with u32.
+    pub const MAX_SEGMENTS: u64 = (u32::MAX as u64 - 1) / MAX_PIECES as u64;
+
+    /// Estimated peak bytes of building a set of `segments` segments
+    /// ([`Self::BUILD_BYTES_PER_SEGMENT`] each), in u64; `None` on overflow.
+    #[must_use]
+    pub fn estimated_bytes(segments: u64) -> Option<u64> {
+        segments.checked_mul(Self::BUILD_BYTES_PER_SEGMENT)
+    }
+
     /// Number of strands.
     #[must_use]
     pub fn strand_count(&self) -> usize {

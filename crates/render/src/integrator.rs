@@ -1,5 +1,6 @@
 //! Unidirectional path tracing with next-event estimation and multiple importance sampling
-//! (power heuristic, Veach 1997 §9.2), Russian roulette, tiles in parallel, parts and merging.
+//! (power heuristic, Veach 1997 §9.2), Russian roulette, progressive passes of tiles in
+//! parallel that can be stopped and continued, parts and merging.
 //!
 //! # Fiber hits (`docs/theory/conventions.md`, "Fiber scattering function versus renderer BSDF")
 //! At a fiber hit the frame `(u, v, w)` and `h` come from [`crate::curves`]; directions are
@@ -12,10 +13,13 @@
 //!
 //! # Determinism
 //! Sample values depend only on (pixel, sample index, seed) ([`crate::sampler`]), each pixel is
-//! computed by one thread from start to end, and the per-pixel sum is taken in sample order:
-//! the same seed gives the same image, bit for bit, for any thread count, tile order, or split
-//! into parts (rows bands or crops) that are then merged.
+//! computed by one thread at a time, and the per-pixel sum is taken in sample order across
+//! passes ([`crate::accumulation`]): the same seed gives the same image, bit for bit, for any
+//! thread count, tile order, pass schedule, split into parts (rows bands or crops) that are
+//! then merged, or stop and resume.
 
+use crate::accumulation::{Accumulation, ResumeError};
+pub use crate::region::Region;
 use crate::bvh::Ray;
 use crate::curves::CurveHit;
 use crate::sampler::PixelSampler;
@@ -26,42 +30,8 @@ use fiberlab_math::{DVec3, FiberFrame, Rgb};
 use fiberlab_scatter::{Lobes, Model, ScatteringFunction};
 use rayon::prelude::*;
 use std::f64::consts::PI;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
-
-/// A half-open pixel rectangle `[x0, x1) × [y0, y1)`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Region {
-    /// First column.
-    pub x0: u32,
-    /// First row.
-    pub y0: u32,
-    /// One past the last column.
-    pub x1: u32,
-    /// One past the last row.
-    pub y1: u32,
-}
-
-impl Region {
-    /// The whole image.
-    #[must_use]
-    pub fn full(width: u32, height: u32) -> Self {
-        Self { x0: 0, y0: 0, x1: width, y1: height }
-    }
-
-    /// Part `i` of `n` (0-based): a band of whole rows; the `n` parts tile the image.
-    #[must_use]
-    pub fn part(i: u32, n: u32, width: u32, height: u32) -> Self {
-        let row = |k: u32| (u64::from(height) * u64::from(k) / u64::from(n.max(1))) as u32;
-        Self { x0: 0, y0: row(i), x1: width, y1: row(i + 1) }
-    }
-
-    /// Number of pixels.
-    #[must_use]
-    pub fn area(&self) -> u64 {
-        u64::from(self.x1.saturating_sub(self.x0)) * u64::from(self.y1.saturating_sub(self.y0))
-    }
-}
 
 /// How to render.
 #[derive(Clone, Debug, PartialEq)]
@@ -80,7 +50,7 @@ pub struct RenderSettings {
     pub tile_size: u32,
     /// Worker threads (0: rayon's default).
     pub threads: usize,
-    /// Stop starting new tiles after this instant.
+    /// Stop after this instant (within one pixel's samples of the pass in flight).
     pub deadline: Option<Instant>,
 }
 
@@ -93,11 +63,14 @@ impl Default for RenderSettings {
 /// What happened during a render.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RenderStats {
-    /// Tiles finished.
-    pub tiles_done: usize,
-    /// Tiles requested.
-    pub tiles_total: usize,
-    /// Camera samples traced.
+    /// Passes started.
+    pub passes: u32,
+    /// Smallest samples per pixel over the region at the end.
+    pub spp_min: u32,
+    /// Largest samples per pixel over the region at the end (above `spp_min` only when
+    /// stopped within a pass).
+    pub spp_max: u32,
+    /// Camera samples traced by this render.
     pub samples: u64,
     /// Samples whose radiance was NaN or infinite (counted as black, never added).
     pub nonfinite_samples: u64,
@@ -105,15 +78,18 @@ pub struct RenderStats {
     pub rays: u64,
     /// Wall-clock seconds.
     pub seconds: f64,
-    /// True when stopped early (interrupt flag or deadline).
+    /// True when stopped (interrupt flag or deadline) before every pixel had its samples.
     pub interrupted: bool,
 }
 
-/// A rendered image and its statistics.
+/// A rendered image, the state it was computed from, and statistics.
 #[derive(Clone, Debug)]
 pub struct RenderOutput {
-    /// Linear RGB, full resolution (unrendered pixels black).
+    /// Linear RGB means, full resolution (unrendered pixels black), with the saved state
+    /// ([`Accumulation::image`]).
     pub image: LinearImage,
+    /// Per-pixel sums and counts.
+    pub accumulation: Accumulation,
     /// Statistics.
     pub stats: RenderStats,
 }
@@ -296,38 +272,64 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
     l
 }
 
-/// Result of one tile: its rectangle, pixels, and non-finite count.
-struct TileResult {
+/// One tile's share of the accumulation, rendered by one thread at a time.
+struct TileState {
     region: Region,
-    pixels: Vec<[f32; 3]>,
-    nonfinite: u64,
-    rays: u64,
+    sums: Vec<Rgb>,
+    counts: Vec<u32>,
 }
 
-fn render_tile(scene: &Scene, settings: &RenderSettings, t: Region) -> TileResult {
-    let mut pixels = Vec::with_capacity(t.area() as usize);
-    let mut nonfinite = 0;
-    let mut rays = 0;
+/// What one job (a tile brought to a pass's sample count) did.
+#[derive(Default)]
+struct JobStats {
+    samples: u64,
+    nonfinite: u64,
+    rays: u64,
+    seconds: f64,
+}
+
+/// Brings every pixel of `tile` to `target` samples, in sample order, unless `stop` says
+/// otherwise (checked before each pixel, so a job ends within one pixel's samples).
+fn render_tile(
+    scene: &Scene,
+    settings: &RenderSettings,
+    tile: &mut TileState,
+    target: u32,
+    stop: &dyn Fn() -> bool,
+) -> JobStats {
+    let start = Instant::now();
+    let mut job = JobStats::default();
+    let t = tile.region;
+    let mut k = 0;
     for y in t.y0..t.y1 {
         for x in t.x0..t.x1 {
+            let (sum, count) = (&mut tile.sums[k], &mut tile.counts[k]);
+            k += 1;
+            if *count >= target {
+                continue;
+            }
+            if stop() {
+                job.seconds = start.elapsed().as_secs_f64();
+                return job;
+            }
             let mut sampler = PixelSampler::new(x, y, settings.seed);
-            let mut sum = Rgb::ZERO;
-            for i in 0..settings.spp {
+            for i in *count..target {
                 sampler.start(u64::from(i));
                 let [jx, jy] = sampler.next_2d();
                 let ray = scene.camera().ray(f64::from(x) + jx, f64::from(y) + jy);
-                let l = radiance(scene, ray, &mut sampler, settings, &mut rays);
+                let l = radiance(scene, ray, &mut sampler, settings, &mut job.rays);
                 if l.is_finite() {
-                    sum += l;
+                    *sum += l;
                 } else {
-                    nonfinite += 1;
+                    job.nonfinite += 1;
                 }
             }
-            let v = sum / f64::from(settings.spp.max(1));
-            pixels.push([v[0] as f32, v[1] as f32, v[2] as f32]);
+            job.samples += u64::from(target - *count);
+            *count = target;
         }
     }
-    TileResult { region: t, pixels, nonfinite, rays }
+    job.seconds = start.elapsed().as_secs_f64();
+    job
 }
 
 /// Splits a region into tiles, row-major.
@@ -347,58 +349,145 @@ pub fn tiles(region: Region, size: u32) -> Vec<Region> {
     out
 }
 
-/// Renders the scene. `progress(done, total)` is called after every tile; setting `stop`
-/// (e.g. from a Ctrl-C handler) or passing the deadline makes the render return after the
-/// tiles in flight, with the finished tiles in the image.
+/// Where a render is, reported after every job (a tile brought to the pass's sample count).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    /// Pixel samples taken so far by this render.
+    pub samples_done: u64,
+    /// Pixel samples this render takes to bring every pixel to the target.
+    pub samples_total: u64,
+    /// The current pass, from 1.
+    pub pass: u32,
+    /// Samples per pixel every pixel has when this pass ends.
+    pub pass_spp: u32,
+}
+
+/// A job (one tile through one pass) is sized to take about this long, so that passes
+/// interleave the whole image often and the pass schedule adapts to the scene.
+const JOB_SECONDS: f64 = 0.25;
+
+/// Samples per pixel added by the next pass: about [`JOB_SECONDS`] per job judged from the
+/// slowest job of the last pass (`seconds_per_spp`: its seconds per sample per pixel), at most
+/// four times the last pass, at least one.
+fn next_pass_spp(last: u32, seconds_per_spp: f64) -> u32 {
+    let fit = if seconds_per_spp > 0.0 { JOB_SECONDS / seconds_per_spp } else { f64::INFINITY };
+    (fit.floor().min(f64::from(last.saturating_mul(4)))).max(1.0) as u32
+}
+
+/// Renders the scene from scratch; see [`render_continuing`].
 pub fn render(
     scene: &Scene,
     settings: &RenderSettings,
-    progress: &(dyn Fn(usize, usize) + Sync),
+    progress: &(dyn Fn(&Progress) + Sync),
     stop: &AtomicBool,
 ) -> RenderOutput {
-    let start = Instant::now();
     let (w, h) = (scene.camera().width, scene.camera().height);
+    render_continuing(scene, settings, Accumulation::new(w, h), progress, stop)
+        .expect("a new accumulation has the camera's size")
+}
+
+/// Renders progressively, continuing `start` (e.g. the state saved in an earlier render's
+/// image): passes over the whole region, each bringing every pixel to more samples, until
+/// every pixel has `settings.spp`. Setting `stop` (e.g. from a Ctrl-C handler) or passing the
+/// deadline ends the render within one pixel's samples of the pass in flight, keeping every
+/// sample taken; the image then records each pixel's count ([`crate::accumulation`]).
+///
+/// A pixel's samples are added in index order whatever the passes, tiles, threads or
+/// sessions, so the image depends only on the seed and each pixel's count.
+pub fn render_continuing(
+    scene: &Scene,
+    settings: &RenderSettings,
+    start: Accumulation,
+    progress: &(dyn Fn(&Progress) + Sync),
+    stop: &AtomicBool,
+) -> Result<RenderOutput, ResumeError> {
+    let t0 = Instant::now();
+    let (w, h) = (scene.camera().width, scene.camera().height);
+    if (start.width(), start.height()) != (w, h) {
+        return Err(ResumeError::Size { found_w: start.width() as usize, found_h: start.height() as usize, w, h });
+    }
     let full = Region::full(w, h);
     let region =
         settings.region.map_or(full, |r| Region { x0: r.x0.min(w), y0: r.y0.min(h), x1: r.x1.min(w), y1: r.y1.min(h) });
-    let list = tiles(region, settings.tile_size);
-    let total = list.len();
-    let done = AtomicUsize::new(0);
-    let work = || -> Vec<TileResult> {
-        list.par_iter()
-            .filter_map(|&t| {
-                if stop.load(Ordering::Relaxed) || settings.deadline.is_some_and(|d| Instant::now() >= d) {
-                    stop.store(true, Ordering::Relaxed);
-                    return None;
+    let mut state: Vec<TileState> = tiles(region, settings.tile_size)
+        .into_iter()
+        .map(|t| {
+            let (mut sums, mut counts) = (Vec::new(), Vec::new());
+            for y in t.y0..t.y1 {
+                for x in t.x0..t.x1 {
+                    let (s, c) = start.pixel(x, y);
+                    sums.push(s);
+                    counts.push(c);
                 }
-                let r = render_tile(scene, settings, t);
-                progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
-                Some(r)
-            })
-            .collect()
+            }
+            TileState { region: t, sums, counts }
+        })
+        .collect();
+    let target = settings.spp;
+    let samples_total = start.samples_missing(region, target);
+    let stopped = || {
+        if stop.load(Ordering::Relaxed) {
+            return true;
+        }
+        let late = settings.deadline.is_some_and(|d| Instant::now() >= d);
+        if late {
+            stop.store(true, Ordering::Relaxed);
+        }
+        late
     };
-    let results = match rayon::ThreadPoolBuilder::new().num_threads(settings.threads).build() {
-        Ok(pool) => pool.install(work),
-        Err(_) => work(),
+    let done = AtomicU64::new(0);
+    let mut stats = RenderStats::default();
+    let (mut reached, _) = start.count_range(region);
+    let mut pass_size = 1;
+    let mut run_passes = || {
+        while reached < target && !stopped() {
+            let pass_spp = reached.saturating_add(pass_size).min(target);
+            stats.passes += 1;
+            let pass = stats.passes;
+            let jobs: Vec<JobStats> = state
+                .par_iter_mut()
+                .map(|tile| {
+                    let job = render_tile(scene, settings, tile, pass_spp, &stopped);
+                    let samples_done = done.fetch_add(job.samples, Ordering::Relaxed) + job.samples;
+                    progress(&Progress { samples_done, samples_total, pass, pass_spp });
+                    job
+                })
+                .collect();
+            let mut slowest: f64 = 0.0;
+            for (job, tile) in jobs.iter().zip(&state) {
+                stats.samples += job.samples;
+                stats.nonfinite_samples += job.nonfinite;
+                stats.rays += job.rays;
+                let pixels = tile.region.area().max(1) as f64;
+                if job.samples > 0 {
+                    slowest = slowest.max(job.seconds * pixels / job.samples as f64);
+                }
+            }
+            if stop.load(Ordering::Relaxed) {
+                break;
+            }
+            reached = pass_spp;
+            pass_size = next_pass_spp(pass_size, slowest);
+        }
     };
-    let mut image = LinearImage::new(w as usize, h as usize);
-    let mut stats = RenderStats { tiles_total: total, ..RenderStats::default() };
-    for r in &results {
+    match rayon::ThreadPoolBuilder::new().num_threads(settings.threads).build() {
+        Ok(pool) => pool.install(run_passes),
+        Err(_) => run_passes(),
+    }
+    let mut accumulation = start;
+    for tile in &state {
         let mut k = 0;
-        for y in r.region.y0..r.region.y1 {
-            for x in r.region.x0..r.region.x1 {
-                image.set(x as usize, y as usize, r.pixels[k]);
+        for y in tile.region.y0..tile.region.y1 {
+            for x in tile.region.x0..tile.region.x1 {
+                accumulation.set_pixel(x, y, tile.sums[k], tile.counts[k]);
                 k += 1;
             }
         }
-        stats.tiles_done += 1;
-        stats.samples += r.region.area() * u64::from(settings.spp);
-        stats.nonfinite_samples += r.nonfinite;
-        stats.rays += r.rays;
     }
-    stats.interrupted = stats.tiles_done < total;
-    stats.seconds = start.elapsed().as_secs_f64();
-    RenderOutput { image, stats }
+    (stats.spp_min, stats.spp_max) = accumulation.count_range(region);
+    stats.interrupted = stats.spp_min < target;
+    stats.seconds = t0.elapsed().as_secs_f64();
+    Ok(RenderOutput { image: accumulation.image(region), accumulation, stats })
 }
 
 /// Why parts could not be merged.
@@ -421,11 +510,23 @@ pub enum MergeError {
         /// Expected height.
         h: usize,
     },
+    /// Two parts both rendered a pixel.
+    #[error("part {index} rendered pixel x = {x}, y = {y}, which an earlier part rendered too")]
+    Overlap {
+        /// Index of the part.
+        index: usize,
+        /// Column.
+        x: usize,
+        /// Row.
+        y: usize,
+    },
 }
 
 /// Merges parts rendered with disjoint regions (e.g. [`Region::part`]) and the same seed:
 /// every pixel is black in all parts but the one that rendered it, so the sum reproduces the
-/// one-machine render bit for bit (`x + 0 = x` exactly).
+/// one-machine render bit for bit (`x + 0 = x` exactly). The saved state channels are merged
+/// the same way (each pixel's from the one part that has it, so the merged image can be
+/// continued), and the attributes on which every part agrees are kept.
 pub fn merge(parts: &[LinearImage]) -> Result<LinearImage, MergeError> {
     let first = parts.first().ok_or(MergeError::Empty)?;
     let (w, h) = (first.width(), first.height());
@@ -439,6 +540,26 @@ pub fn merge(parts: &[LinearImage]) -> Result<LinearImage, MergeError> {
                 o[k] += q[k];
             }
         }
+    }
+    for (key, value) in first.attributes() {
+        if parts.iter().all(|p| p.attribute(key) == Some(value.as_str())) {
+            out.set_attribute(key, value.clone());
+        }
+    }
+    for name in first.uint_channels().keys() {
+        let Some(channels) = parts.iter().map(|p| p.uint_channel(name)).collect::<Option<Vec<_>>>() else {
+            continue;
+        };
+        let mut merged = vec![0u32; w * h];
+        for (index, channel) in channels.iter().enumerate() {
+            for (i, (m, &v)) in merged.iter_mut().zip(channel.iter()).enumerate() {
+                if v != 0 && *m != 0 {
+                    return Err(MergeError::Overlap { index, x: i % w, y: i / w });
+                }
+                *m |= v;
+            }
+        }
+        out.set_uint_channel(name, merged).expect("one value per pixel");
     }
     Ok(out)
 }
@@ -462,7 +583,7 @@ mod tests {
             let mut scene = furnace_scene(1.0, false).build();
             let model = fiberlab_scatter::build(name, &params).unwrap();
             scene.fiber_models_mut().for_each(|m| *m = model.clone());
-            let out = render(&scene, &settings(32), &|_, _| {}, &AtomicBool::new(false));
+            let out = render(&scene, &settings(32), &|_| {}, &AtomicBool::new(false));
             assert_eq!(out.stats.nonfinite_samples, 0);
             let (mean, n) = fiber_pixel_mean(&scene, &out.image);
             eprintln!("{name} furnace: {n} fiber pixels, mean {mean}");
@@ -527,7 +648,7 @@ mod tests {
         let (mut b, _) = floor_scene(0.5, 3.0, 30.0, 8);
         b.light(Light::Constant { radiance: Rgb::splat(0.3) }).light(Light::sun(sun_dir, 0.1, Rgb::splat(2.0)));
         let scene = b.build();
-        let out = render(&scene, &settings(256), &|_, _| {}, &AtomicBool::new(false));
+        let out = render(&scene, &settings(256), &|_| {}, &AtomicBool::new(false));
         let px = out.image.pixels();
         let mean: f64 = px.iter().map(|p| f64::from(p[0])).sum::<f64>() / px.len() as f64;
         let expected = 0.5 * (0.3 + 2.0 * sun_dir.y / PI);
@@ -545,7 +666,7 @@ mod tests {
         let scene = b.build();
         // Depth 1: direct light only (the lit sphere's diffuse bounce would add more).
         let s = RenderSettings { max_depth: 1, ..settings(256) };
-        let out = render(&scene, &s, &|_, _| {}, &AtomicBool::new(false));
+        let out = render(&scene, &s, &|_| {}, &AtomicBool::new(false));
         let px = out.image.pixels();
         let mean: f64 = px.iter().map(|p| f64::from(p[0])).sum::<f64>() / px.len() as f64;
         let expected = 0.5 * l * r * r / (d * d);
@@ -563,7 +684,7 @@ mod tests {
         b.light(Light::Distant { direction, irradiance: Rgb::splat(e) });
         let scene = b.build();
         let s = RenderSettings { max_depth: 1, ..settings(2) };
-        let out = render(&scene, &s, &|_, _| {}, &AtomicBool::new(false));
+        let out = render(&scene, &s, &|_| {}, &AtomicBool::new(false));
         let expected = rho * e * theta.cos() / PI;
         for p in out.image.pixels() {
             assert!((f64::from(p[0]) / expected - 1.0).abs() < 1e-5, "{p:?} vs {expected}");
@@ -578,7 +699,7 @@ mod tests {
     #[test]
     fn white_furnace_lossless_fibers_and_head_render_one() {
         let scene = furnace_scene(1.0, true).build();
-        let out = render(&scene, &settings(64), &|_, _| {}, &AtomicBool::new(false));
+        let out = render(&scene, &settings(64), &|_| {}, &AtomicBool::new(false));
         assert_eq!(out.stats.nonfinite_samples, 0);
         let px = out.image.pixels();
         let mean: f64 = px.iter().map(|p| f64::from(p[0] + p[1] + p[2]) / 3.0).sum::<f64>() / px.len() as f64;
@@ -588,14 +709,14 @@ mod tests {
         }
         // Pixels that see hair (not the head): hair-only scene.
         let hair_scene = furnace_scene(1.0, false).build();
-        let hair_only = render(&hair_scene, &settings(64), &|_, _| {}, &AtomicBool::new(false));
+        let hair_only = render(&hair_scene, &settings(64), &|_| {}, &AtomicBool::new(false));
         let (m, n) = fiber_pixel_mean(&hair_scene, &hair_only.image);
         eprintln!("diffuse furnace: {n} fiber pixels, mean {m}");
         assert!(n > 100, "only {n} fiber pixels");
         assert!((m - 1.0).abs() < 0.01, "hair-only mean over {n} fiber pixels {m}");
         // A lossy assembly is darker: the test can fail.
         let lossy_scene = furnace_scene(0.5, false).build();
-        let lossy = render(&lossy_scene, &settings(16), &|_, _| {}, &AtomicBool::new(false));
+        let lossy = render(&lossy_scene, &settings(16), &|_| {}, &AtomicBool::new(false));
         let (m, _) = fiber_pixel_mean(&lossy_scene, &lossy.image);
         assert!(m < 0.9, "lossy mean {m}");
     }
@@ -607,13 +728,13 @@ mod tests {
         let scene = b.build();
         let s1 = RenderSettings { threads: 1, max_depth: 16, ..settings(4) };
         let s2 = RenderSettings { threads: 2, tile_size: 7, ..s1.clone() };
-        let a = render(&scene, &s1, &|_, _| {}, &AtomicBool::new(false)).image;
-        let b = render(&scene, &s2, &|_, _| {}, &AtomicBool::new(false)).image;
+        let a = render(&scene, &s1, &|_| {}, &AtomicBool::new(false)).image;
+        let b = render(&scene, &s2, &|_| {}, &AtomicBool::new(false)).image;
         assert_eq!(a, b);
         let parts: Vec<LinearImage> = (0..3)
             .map(|i| {
                 let s = RenderSettings { region: Some(Region::part(i, 3, 24, 24)), ..s2.clone() };
-                render(&scene, &s, &|_, _| {}, &AtomicBool::new(false)).image
+                render(&scene, &s, &|_| {}, &AtomicBool::new(false)).image
             })
             .collect();
         assert_eq!(merge(&parts).unwrap(), a);
@@ -621,22 +742,75 @@ mod tests {
     }
 
     #[test]
-    fn interrupt_returns_what_is_done() {
-        let scene = furnace_scene(0.7, true).build();
-        let out = render(&scene, &settings(1), &|_, _| {}, &AtomicBool::new(true));
-        assert!(out.stats.interrupted && out.stats.tiles_done == 0);
+    fn interrupt_keeps_every_sample_and_resume_is_bit_identical_to_one_render() {
+        let mut b = furnace_scene(0.7, true);
+        b.light(Light::sun(DVec3::new(1.0, 1.0, 1.0), 0.05, Rgb::splat(2.0)));
+        let scene = b.build();
+        let s = RenderSettings { threads: 2, tile_size: 5, max_depth: 16, ..settings(9) };
+        let whole = render(&scene, &s, &|_| {}, &AtomicBool::new(false));
+        assert!(!whole.stats.interrupted);
+        assert_eq!((whole.stats.spp_min, whole.stats.spp_max), (9, 9));
+        assert_eq!(whole.image.attribute("spp"), Some("9"));
+        assert!(whole.stats.passes >= 2, "the first pass takes one sample per pixel");
+
+        // Stopped before anything: nothing rendered, reported as interrupted.
+        let none = render(&scene, &s, &|_| {}, &AtomicBool::new(true));
+        assert!(none.stats.interrupted && none.stats.samples == 0 && none.stats.passes == 0);
+
+        // Stopped in the middle of the first pass (after the 4th job): some pixels have a
+        // sample, the rest none; every sample taken is kept.
         let stop = AtomicBool::new(false);
-        let out = render(
+        let jobs = AtomicU64::new(0);
+        let one_thread = RenderSettings { threads: 1, ..s.clone() };
+        let cut = render(
             &scene,
-            &RenderSettings { threads: 1, tile_size: 4, ..settings(1) },
-            &|done, _| {
-                if done == 3 {
+            &one_thread,
+            &|_| {
+                if jobs.fetch_add(1, Ordering::Relaxed) == 3 {
                     stop.store(true, Ordering::Relaxed);
                 }
             },
             &stop,
         );
-        assert_eq!(out.stats.tiles_done, 3);
+        assert!(cut.stats.interrupted);
+        assert_eq!((cut.stats.spp_min, cut.stats.spp_max), (0, 1));
+        assert_eq!(cut.stats.samples, 4 * 25, "four 5×5 tiles, one sample each");
+        assert_eq!(cut.image.attribute("spp_max"), Some("1"));
+
+        // Continue it through its image (as `--resume` does: via the EXR channels) in two
+        // more sessions, each with a different thread count and tile size: the same bits.
+        let mut state = Accumulation::from_image(&cut.image, 24, 24).unwrap();
+        for (spp, threads, tile_size) in [(4, 1, 7), (9, 2, 16)] {
+            let s2 = RenderSettings { spp, threads, tile_size, ..s.clone() };
+            let out = render_continuing(&scene, &s2, state, &|_| {}, &AtomicBool::new(false)).unwrap();
+            assert_eq!((out.stats.spp_min, out.stats.spp_max), (spp, spp));
+            state = Accumulation::from_image(&out.image, 24, 24).unwrap();
+            if spp == 9 {
+                assert_eq!(out.image, whole.image);
+                assert_eq!(out.stats.samples, 24 * 24 * 5);
+            }
+        }
+        let wrong = Accumulation::new(8, 8);
+        assert!(matches!(
+            render_continuing(&scene, &s, wrong, &|_| {}, &AtomicBool::new(false)),
+            Err(ResumeError::Size { .. })
+        ));
+    }
+
+    #[test]
+    fn a_deadline_stops_the_render_within_a_pass() {
+        let scene = furnace_scene(0.7, true).build();
+        let s = RenderSettings { deadline: Some(Instant::now()), ..settings(1_000_000_000) };
+        let out = render(&scene, &s, &|_| {}, &AtomicBool::new(false));
         assert!(out.stats.interrupted);
+        assert!(out.stats.spp_max <= 1, "{:?}", out.stats);
+    }
+
+    #[test]
+    fn pass_sizes_follow_the_job_time_and_grow_at_most_fourfold() {
+        assert_eq!(next_pass_spp(1, 0.0), 4);
+        assert_eq!(next_pass_spp(8, JOB_SECONDS / 10.0), 10);
+        assert_eq!(next_pass_spp(8, JOB_SECONDS * 3.0), 1);
+        assert_eq!(next_pass_spp(u32::MAX, 1e-12), u32::MAX);
     }
 }

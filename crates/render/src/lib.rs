@@ -10,6 +10,7 @@
 //! and calls the model.
 #![forbid(unsafe_code)]
 
+pub mod accumulation;
 pub mod bench;
 pub mod bvh;
 pub mod camera;
@@ -19,6 +20,7 @@ pub mod integrator;
 pub mod light;
 pub mod measured_table;
 pub mod model_loader;
+pub mod region;
 pub mod sampler;
 pub mod scene;
 pub mod scene_file;

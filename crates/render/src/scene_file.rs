@@ -177,14 +177,10 @@ struct MeshDesc {
     file: Option<Spanned<String>>,
     floor: Option<f64>,
     material: Spanned<String>,
-    #[serde(default = "one")]
-    scale: f64,
-    #[serde(default)]
-    translate: [f64; 3],
-}
-
-fn one() -> f64 {
-    1.0
+    /// For `file` only (default 1).
+    scale: Option<f64>,
+    /// For `file` only (default 0).
+    translate: Option<[f64; 3]>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -243,6 +239,41 @@ enum MaterialRef {
 
 /// The `[materials]` names.
 type MaterialNames = BTreeMap<String, MaterialRef>;
+
+/// Bytes per pixel of the renderer's state ([`crate::accumulation::BYTES_PER_PIXEL`]). The RGB
+/// image it writes is counted apart ([`LinearImage::estimated_bytes`]).
+pub const ACCUMULATOR_BYTES_PER_PIXEL: u64 = crate::accumulation::BYTES_PER_PIXEL;
+
+/// What a scene will hold in memory once built, estimated from the file alone (of a `.hair`
+/// file only its header is read): see [`SceneFile::memory_estimate`]. Byte counts are u64,
+/// `None` where they overflow it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MemoryEstimate {
+    /// The camera's image width, pixels.
+    pub width: u32,
+    /// The camera's image height, pixels.
+    pub height: u32,
+    /// The image: accumulators ([`ACCUMULATOR_BYTES_PER_PIXEL`]) and the written image.
+    pub image_bytes: Option<u64>,
+    /// One per `[[hair]]` entry, in file order.
+    pub hair: Vec<HairEstimate>,
+}
+
+/// The strands of one `[[hair]]` entry and what they take.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct HairEstimate {
+    /// Where they come from: `generated`, or the `.hair` file's path.
+    pub source: String,
+    /// Strands.
+    pub strands: u64,
+    /// Segments of all strands.
+    pub segments: u64,
+    /// The strands as generated or read ([`HairParams::estimated_bytes`],
+    /// [`fiberlab_io::HairHeader::read_bytes`]).
+    pub hair_bytes: Option<u64>,
+    /// Their tubes and BVH at the build's peak ([`CurveSet::estimated_bytes`]).
+    pub bvh_bytes: Option<u64>,
+}
 
 impl SceneFile {
     /// Parses scene text; `path` names it in errors and anchors relative paths.
@@ -348,7 +379,7 @@ impl SceneFile {
         self.lights(&mut scene)?;
         self.spheres(&mut scene, &names)?;
         self.meshes(&mut scene, &names)?;
-        Ok((scene.build(), self.settings()))
+        Ok((scene.build(), self.sampling()))
     }
 
     /// The camera's size (`width`, `height`) as written, before anything is built: what
@@ -357,6 +388,53 @@ impl SceneFile {
     pub fn image_size(&self) -> (u32, u32) {
         let c = self.desc.camera.get_ref();
         (c.width, c.height)
+    }
+
+    /// The memory [`SceneFile::build`] and a render of the scene will take, estimated before
+    /// anything is built: the image from the camera's size, the strands of each `[[hair]]`
+    /// from its generator's counts or its `.hair` file's header (the `--hair` override's
+    /// when set), and their BVH. A `.hair` header that cannot be read is an error at the entry.
+    pub fn memory_estimate(&self) -> Result<MemoryEstimate, SceneError> {
+        let (width, height) = self.image_size();
+        let pixels = u64::from(width) * u64::from(height);
+        let image_bytes = pixels
+            .checked_mul(ACCUMULATOR_BYTES_PER_PIXEL)
+            .zip(LinearImage::estimated_bytes(width.into(), height.into()))
+            .and_then(|(a, b)| a.checked_add(b));
+        let mut hair = Vec::new();
+        for h in &self.desc.hair {
+            let hd = h.get_ref();
+            let from_file = |path: &Path, span| {
+                let header = fiberlab_io::HairHeader::read(path).map_err(|e| self.error(span, e.to_string()))?;
+                Ok::<_, SceneError>(HairEstimate {
+                    source: path.display().to_string(),
+                    strands: header.strand_count.into(),
+                    segments: header.segment_count(),
+                    hair_bytes: Some(header.read_bytes()),
+                    bvh_bytes: CurveSet::estimated_bytes(header.segment_count()),
+                })
+            };
+            let estimate = match (&self.hair_override, &hd.file, &hd.generator) {
+                (Some(p), _, _) => from_file(p, h.span())?,
+                (None, Some(f), None) => from_file(&self.resolve(f.get_ref()), f.span())?,
+                (None, None, Some(g)) => {
+                    let g = g.get_ref();
+                    // Overflow (`None`) shows as u64::MAX segments, whose BVH overflows too.
+                    let segments = g.segment_count().unwrap_or(u64::MAX);
+                    HairEstimate {
+                        source: "generated".into(),
+                        strands: g.strands as u64,
+                        segments,
+                        hair_bytes: g.estimated_bytes(),
+                        bvh_bytes: g.segment_count().and_then(CurveSet::estimated_bytes),
+                    }
+                }
+                // Neither or both: `build` reports it.
+                _ => continue,
+            };
+            hair.push(estimate);
+        }
+        Ok(MemoryEstimate { width, height, image_bytes, hair })
     }
 
     /// `[camera]`: each rule checked on its own, so that the error names the one that failed.
@@ -386,8 +464,9 @@ impl SceneFile {
             .map_or_else(|| fail("eye, target and up do not make a camera frame".into()), Ok)
     }
 
-    /// `[render]`: the sampling settings.
-    fn settings(&self) -> RenderSettings {
+    /// `[render]`: the sampling settings (what [`SceneFile::build`] returns beside the scene).
+    #[must_use]
+    pub fn sampling(&self) -> RenderSettings {
         let r = &self.render;
         RenderSettings { spp: r.spp.max(1), max_depth: r.max_depth, seed: r.seed, ..RenderSettings::default() }
     }
@@ -501,6 +580,17 @@ impl SceneFile {
                     _ => return Err(self.error(h.span(), "hair: give exactly one of file, generator".into())),
                 }
             };
+            let segments = (hair.points.len() as u64).saturating_sub(hair.strand_count.into());
+            if segments > CurveSet::MAX_SEGMENTS {
+                return Err(self.error(
+                    h.span(),
+                    format!(
+                        "hair: {} strands with {segments} segments; one [[hair]] entry holds at most {} (the BVH's 32-bit piece indices)",
+                        hair.strand_count,
+                        CurveSet::MAX_SEGMENTS
+                    ),
+                ));
+            }
             strand_diameters::check(&hair).map_err(|e| self.error(span, format!("{source}: {e}")))?;
             scene.fibers(CurveSet::from_hair(&hair), material);
         }
@@ -602,14 +692,26 @@ impl SceneFile {
             let material = self.surface_material(names, &md.material)?;
             let mesh = match (&md.file, md.floor) {
                 (Some(f), None) => {
-                    if !(md.scale.is_finite() && md.scale > 0.0) {
-                        return Err(
-                            self.error(m.span(), format!("mesh: scale = {:?} must be finite and > 0", md.scale))
-                        );
+                    let scale = md.scale.unwrap_or(1.0);
+                    if !(scale.is_finite() && scale > 0.0) {
+                        return Err(self.error(m.span(), format!("mesh: scale = {scale:?} must be finite and > 0")));
                     }
-                    let translate = self.point(m.span(), "mesh: translate", md.translate)?;
-                    TriangleMesh::load_obj(&self.resolve(f.get_ref()), md.scale, translate)
-                        .map_err(|e| self.error(f.span(), e.to_string()))?
+                    let translate = self.point(m.span(), "mesh: translate", md.translate.unwrap_or_default())?;
+                    // Vertices that the scale or translation makes infinite are refused there.
+                    TriangleMesh::load_obj(&self.resolve(f.get_ref()), scale, translate)
+                        .map_err(|e| self.error(f.span(), format!("mesh: {e}")))?
+                }
+                (None, Some(_)) if md.scale.is_some() || md.translate.is_some() => {
+                    let (key, value) = match (md.scale, md.translate) {
+                        (Some(v), _) => ("scale", format!("{v:?}")),
+                        (None, t) => ("translate", format!("{:?}", t.unwrap_or_default())),
+                    };
+                    return Err(self.error(
+                        m.span(),
+                        format!(
+                            "mesh: {key} = {value} is for OBJ files; a floor is the plane y = floor, give only floor"
+                        ),
+                    ));
                 }
                 (None, Some(y)) if y.is_finite() => TriangleMesh::floor(y, 100.0),
                 (None, Some(y)) => return Err(self.error(m.span(), format!("mesh: floor = {y:?} must be finite"))),
@@ -667,6 +769,11 @@ mod tests {
                 "sphere: emission",
             ),
             ("[[mesh]]\nfloor = nan\nmaterial = \"m\"\n", "mesh: floor"),
+            ("[[mesh]]\nfloor = 0\nmaterial = \"m\"\nscale = nan\n", "mesh: scale = NaN is for OBJ files"),
+            (
+                "[[mesh]]\nfloor = 0\nmaterial = \"m\"\ntranslate = [0, 1, 0]\n",
+                "mesh: translate = [0.0, 1.0, 0.0] is for",
+            ),
             ("[[sphere]]\ncenter = [0, 0, 0]\nradius = -1e308\nmaterial = \"m\"\n", "sphere: radius = -1e308 must"),
             ("[[light]]\ntype = \"environment\"\nradiance = [1e308, -1, 0]\n", "= [1e308, -1.0, 0.0] must"),
             (
@@ -738,6 +845,56 @@ mod tests {
         assert!(e.to_string().contains("byte 15: not UTF-8"), "{e}");
         let e = SceneFile::read(&dir.path().join("none.toml")).unwrap_err().to_string();
         assert!(!e.contains(":0:0"), "{e}");
+    }
+
+    #[test]
+    fn memory_estimate_counts_the_image_the_strands_and_their_bvh() {
+        let mut f = SceneFile::default_scene();
+        let e = f.memory_estimate().unwrap();
+        // 512 × 512 pixels of 28 accumulator bytes and 15 of the written image.
+        assert_eq!((e.width, e.height, e.image_bytes), (512, 512, Some(512 * 512 * (112 + 27))));
+        // 20,000 generated strands of 24 segments: 25 points each of 40 bytes, 50 bytes per
+        // strand, 1200 bytes per segment for the tubes and BVH.
+        let h = &e.hair[0];
+        assert_eq!((h.source.as_str(), h.strands, h.segments), ("generated", 20_000, 480_000));
+        assert_eq!(h.hair_bytes, Some(20_000 * 25 * 40 + 20_000 * 50));
+        assert_eq!(h.bvh_bytes, Some(480_000 * 1200));
+        // A 100000×100000 camera and 4e9 strands are counted without overflow.
+        f.desc.camera.get_mut().width = 100_000;
+        f.desc.camera.get_mut().height = 100_000;
+        f.desc.hair[0].get_mut().generator.as_mut().unwrap().get_mut().strands = 4_000_000_000;
+        let e = f.memory_estimate().unwrap();
+        assert_eq!(e.image_bytes, Some(10_000_000_000 * (112 + 27)));
+        assert_eq!(e.hair[0].segments, 96_000_000_000);
+        assert_eq!(e.hair[0].bvh_bytes, Some(96_000_000_000 * 1200));
+        // The largest camera still fits u64: (2³² − 1)² · 139 does not.
+        f.desc.camera.get_mut().width = u32::MAX;
+        f.desc.camera.get_mut().height = u32::MAX;
+        assert_eq!(f.memory_estimate().unwrap().image_bytes, None);
+    }
+
+    #[test]
+    fn memory_estimate_of_a_hair_file_reads_its_header_only() {
+        let dir = tempfile::tempdir().unwrap();
+        // A header claiming 1000 strands of 9 points, and no arrays: the estimate needs only
+        // the header (the build would refuse the truncated file).
+        let mut bytes = Vec::from(fiberlab_io::hair::MAGIC);
+        for v in [1000u32, 9000, fiberlab_io::hair::FLAG_POINTS, 8] {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        bytes.resize(fiberlab_io::hair::HEADER_BYTES, 0);
+        std::fs::write(dir.path().join("h.hair"), &bytes).unwrap();
+        let scene =
+            format!("{CAMERA}[materials.h]\nmodel = \"diffuse\"\n[[hair]]\nmaterial = \"h\"\nfile = \"h.hair\"\n");
+        let f = SceneFile::parse(&scene, &dir.path().join("s.toml")).unwrap();
+        let h = &f.memory_estimate().unwrap().hair[0];
+        assert_eq!((h.strands, h.segments), (1000, 8000));
+        // Twice the file: 128 header bytes and 12 per point.
+        assert_eq!(h.hair_bytes, Some(2 * (128 + 9000 * 12)));
+        assert_eq!(h.bvh_bytes, Some(8000 * 1200));
+        let f = SceneFile::parse(&scene.replace("h.hair", "missing.hair"), &dir.path().join("s.toml")).unwrap();
+        let e = f.memory_estimate().unwrap_err().to_string();
+        assert!(e.contains("missing.hair") && e.contains("s.toml:"), "{e}");
     }
 
     #[test]

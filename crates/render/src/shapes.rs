@@ -68,36 +68,34 @@ impl TriangleMesh {
 
     /// Loads every object of a Wavefront OBJ file (triangulated), scaled and translated.
     pub fn load_obj(path: &Path, scale: f64, translate: DVec3) -> Result<Self, MeshError> {
-        // Vertex and normal records are checked here, with their line numbers (the OBJ reader
-        // does not report lines, would pass NaN coordinates on, and reads them as `f32`, so a
-        // coordinate beyond `f32::MAX` would become infinite).
         let text =
             std::fs::read_to_string(path).map_err(|e| MeshError { path: path.into(), message: e.to_string() })?;
+        Self::parse_obj(&text, path, scale, translate)
+    }
+
+    /// Parses OBJ text (`path` names it in errors; nothing is read from the file system:
+    /// `mtllib` lines are ignored, as materials come from the scene file).
+    pub fn parse_obj(text: &str, path: &Path, scale: f64, translate: DVec3) -> Result<Self, MeshError> {
+        // Vertex and normal records are checked here, with their line numbers (the OBJ reader
+        // does not report lines, and would pass NaN coordinates on), in the single precision the
+        // reader stores them in (where 1e39 is infinite).
         for (n, line) in text.lines().enumerate() {
             let mut words = line.split_whitespace();
-            if let Some(kind @ ("v" | "vn")) = words.next() {
-                let what = if kind == "v" { "vertex" } else { "normal" };
-                let ok = words
-                    .take(3)
-                    .map(|w| w.parse::<f64>())
-                    .filter(|x| matches!(x, Ok(v) if v.is_finite() && v.abs() <= f64::from(f32::MAX)))
-                    .count();
+            if matches!(words.next(), Some("v" | "vn")) {
+                let ok =
+                    words.take(3).map(|w| w.parse::<f32>()).filter(|x| matches!(x, Ok(v) if v.is_finite())).count();
                 if ok != 3 {
                     return Err(MeshError {
                         path: path.into(),
-                        message: format!(
-                            "line {}: expected three finite {what} coordinates (|x| ≤ {:e}), got `{}`",
-                            n + 1,
-                            f32::MAX,
-                            line.trim()
-                        ),
+                        message: format!("line {}: expected three finite coordinates, got `{}`", n + 1, line.trim()),
                     });
                 }
             }
         }
         let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
-        let (models, _) =
-            tobj::load_obj(path, &opts).map_err(|e| MeshError { path: path.into(), message: e.to_string() })?;
+        let no_materials = |_: &Path| Err(tobj::LoadError::OpenFileFailed);
+        let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, no_materials)
+            .map_err(|e| MeshError { path: path.into(), message: e.to_string() })?;
         let mut triangles = Vec::new();
         for m in models {
             let p = &m.mesh.positions;
@@ -210,16 +208,13 @@ mod tests {
         // A NaN or missing coordinate is an error naming its line.
         std::fs::write(&path, "v 0 0 0\nv 1 nan 0\nv 1 1 0\nf 1 2 3\n").unwrap();
         let e = TriangleMesh::load_obj(&path, 1.0, DVec3::ZERO).unwrap_err().to_string();
-        assert!(
-            e.contains("line 2: expected three finite vertex coordinates") && e.ends_with("got `v 1 nan 0`"),
-            "{e}"
-        );
+        assert!(e.ends_with("line 2: expected three finite coordinates, got `v 1 nan 0`"), "{e}");
         std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 1 1\nf 1 2 3\n").unwrap();
         assert!(TriangleMesh::load_obj(&path, 1.0, DVec3::ZERO).unwrap_err().to_string().contains("line 3"));
         // Normals the same way; a coordinate beyond f32 (which the reader would make ∞) too.
         std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 1 1 0\nvn 0 0 1\nvn 0 inf 1\nf 1//1 2//1 3//2\n").unwrap();
         let e = TriangleMesh::load_obj(&path, 1.0, DVec3::ZERO).unwrap_err().to_string();
-        assert!(e.contains("line 5: expected three finite normal coordinates") && e.ends_with("`vn 0 inf 1`"), "{e}");
+        assert!(e.ends_with("line 5: expected three finite coordinates, got `vn 0 inf 1`"), "{e}");
         std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 1e39 1 0\nf 1 2 3\n").unwrap();
         let e = TriangleMesh::load_obj(&path, 1.0, DVec3::ZERO).unwrap_err().to_string();
         assert!(e.contains("line 3:"), "{e}");

@@ -1,0 +1,297 @@
+"""fiberlab: light scattering by fibers (hair, fur, cloth) from Python, on NumPy arrays.
+
+Every scattering model of the command line (``fiberlab models``) is reachable:
+
+>>> import numpy as np, fiberlab as fl
+>>> m = fl.load_dict({"type": "chiang", "eumelanin": 1.3, "beta_m": 0.3})
+>>> m = fl.Chiang(eumelanin=1.3, beta_m=0.3)          # the same model
+>>> wi = np.array([0.0, 1.0, 0.0]); wo = np.array([0.0, 0.0, 1.0])
+>>> m.eval_fs(wi, wo).shape
+(3,)
+
+Conventions (``docs/theory/conventions.md`` in the repository):
+
+* Directions are float64 arrays of shape ``(..., 3)`` in the **fiber frame**: x is the fiber
+  tangent (root → tip), y and z span the normal plane; ``h`` in [-1, 1] is the offset across the
+  fiber along +y. ``wi`` points toward the light, ``wo`` toward the viewer. Leading dimensions
+  broadcast against each other and against ``h``.
+* Angles are radians: θ is the inclination from the normal plane (sin θ = ω.x) and
+  φ = atan2(ω.z, ω.y).
+* ``eval_fs`` is fiberlab's scattering function f_s in sr⁻¹ (no cosine); ``eval`` is
+  f_s · cos θ_i, the cosine of the *light* direction measured from the normal plane — the
+  quantity a renderer multiplies by incident radiance, and what Mitsuba 3's ``BSDF.eval``
+  returns (Mitsuba names the light direction ``wo``). Spectra are RGB: shape ``(..., 3)``.
+* Bad input raises ``ValueError``: wrong shapes, NaN or infinite values, directions whose
+  length is not within 1e-3 of 1, ``h`` outside [-1, 1], unknown models or parameters, values
+  outside their range (the same messages as the command line).
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any, Mapping, NamedTuple, Optional
+
+import numpy as np
+
+from . import _native
+
+__version__ = _native.__version__
+
+__all__ = ["Model", "Sample", "load_dict", "models", "directions_from_angles", "render", "read_exr", "scene_toml"]
+
+
+class Sample(NamedTuple):
+    """Importance samples drawn by :meth:`Model.sample`."""
+
+    wi: np.ndarray
+    """Sampled light directions, ``(..., 3)`` (zero where sampling failed)."""
+    weight: np.ndarray
+    """``f_s · cos θ_i / pdf``, ``(..., 3)`` (zero where sampling failed)."""
+    pdf: np.ndarray
+    """Density of ``wi`` in sr⁻¹, ``(...)`` (zero for a failed sample)."""
+    delta: np.ndarray
+    """True where the sample comes from a delta lobe (its pdf is not a density)."""
+
+
+def models() -> list:
+    """Every registered model: dicts ``{name, summary, citation, params}``; each parameter
+    ``{key, kind, unit, default, doc, valid, range | choices}`` (what ``fiberlab models``
+    prints)."""
+    return _native.models()
+
+
+def _as_directions(name: str, a: Any) -> np.ndarray:
+    arr = np.asarray(a, dtype=np.float64)
+    if arr.ndim == 0 or arr.shape[-1] != 3:
+        raise ValueError(f"{name}: expected an array of shape (..., 3), got shape {arr.shape}")
+    return arr
+
+
+def _flatten(batch: tuple, arr: np.ndarray, width: Optional[int]) -> np.ndarray:
+    shape = batch if width is None else batch + (width,)
+    flat = np.ascontiguousarray(np.broadcast_to(arr, shape))
+    return flat.reshape((-1,) if width is None else (-1, width))
+
+
+def _batch(name_shapes: list) -> tuple:
+    try:
+        return np.broadcast_shapes(*(s for _, s in name_shapes))
+    except ValueError:
+        shapes = ", ".join(f"{n} {s}" for n, s in name_shapes)
+        raise ValueError(f"shapes do not broadcast: {shapes}") from None
+
+
+_INDEXED = re.compile(r"^(\w+)\[(\d+)\]")
+
+
+def _call(batch: tuple, f, *args):
+    """Calls the native ``f``; a flat index in its error becomes an index into ``batch``."""
+    try:
+        return f(*args)
+    except ValueError as e:
+        text = str(e)
+        m = _INDEXED.match(text)
+        if m and not batch:
+            text = m.group(1) + text[m.end():]
+        elif m and len(batch) > 1:
+            index = np.unravel_index(int(m.group(2)), batch)
+            where = ", ".join(str(int(i)) for i in index)
+            text = f"{m.group(1)}[{where}]" + text[m.end():]
+        raise ValueError(text) from None
+
+
+class Model:
+    """A scattering model of the registry: ``Model("chiang", eumelanin=1.3)`` or
+    :func:`load_dict`. See the module docs for frames, units and shapes."""
+
+    def __init__(self, type: str, **params: Any) -> None:
+        self._native = _native.Model(type, params)
+        self._type = type
+        self._given = dict(params)
+
+    @property
+    def name(self) -> str:
+        """The registry name (``"chiang"``, ``"kajiya-kay"``, …)."""
+        return self._type
+
+    @property
+    def params(self) -> dict:
+        """The model's parameters: key → ``{value, unit, default, valid, doc, kind}``
+        (``value`` is what was given, else ``None``: the default applies)."""
+        spec = next(m for m in models() if m["name"] == self._type)
+        return {
+            p["key"]: {**p, "value": self._given.get(p["key"])}
+            for p in spec["params"]
+        }
+
+    @property
+    def flags(self) -> dict:
+        """What the model claims: ``reciprocal``, ``energy_conserving``, ``field``
+        (``"near"`` when f_s depends on h) and ``lobes`` (``"smooth"`` or ``"delta"``)."""
+        return self._native.flags
+
+    def __repr__(self) -> str:
+        return repr(self._native)
+
+    __str__ = __repr__
+
+    def _pairs(self, wi, wo, h):
+        wi, wo = _as_directions("wi", wi), _as_directions("wo", wo)
+        hh = np.zeros(()) if h is None else np.asarray(h, dtype=np.float64)
+        batch = _batch([("wi", wi.shape[:-1]), ("wo", wo.shape[:-1]), ("h", hh.shape)])
+        return batch, _flatten(batch, wi, 3), _flatten(batch, wo, 3), _flatten(batch, hh, None)
+
+    def eval_fs(self, wi, wo, h=None) -> np.ndarray:
+        """f_s(ω_i, ω_o; h) in sr⁻¹ (no cosine): shape ``batch + (3,)``."""
+        batch, a, b, c = self._pairs(wi, wo, h)
+        return _call(batch, self._native.eval_fs, a, b, c).reshape(batch + (3,))
+
+    def eval(self, wi, wo, h=None) -> np.ndarray:
+        """f_s · cos θ_i (cosine of the light direction from the normal plane; Mitsuba's
+        ``eval``): shape ``batch + (3,)``."""
+        batch, a, b, c = self._pairs(wi, wo, h)
+        return _call(batch, self._native.eval_fs_cos, a, b, c).reshape(batch + (3,))
+
+    def pdf(self, wi, wo, h=None) -> np.ndarray:
+        """Density in sr⁻¹ with which :meth:`sample` draws ``wi`` given ``wo``: shape ``batch``."""
+        batch, a, b, c = self._pairs(wi, wo, h)
+        return _call(batch, self._native.pdf, a, b, c).reshape(batch)
+
+    def eval_pdf(self, wi, wo, h=None):
+        """``(eval(wi, wo, h), pdf(wi, wo, h))``."""
+        return self.eval(wi, wo, h), self.pdf(wi, wo, h)
+
+    def eval_angles(self, theta_i, phi_i, theta_r, phi_r, h=None) -> np.ndarray:
+        """:meth:`eval_fs` at directions given by angles in radians (θ from the normal plane,
+        φ = atan2(ω.z, ω.y)); the arguments broadcast."""
+        return self.eval_fs(directions_from_angles(theta_i, phi_i), directions_from_angles(theta_r, phi_r), h)
+
+    def sample(self, wo, u, h=None) -> Sample:
+        """Importance-samples ω_i given ``wo``: ``u`` has shape ``(..., 4)``, uniforms in
+        [0, 1) (two 2D pairs, as the renderer uses them). Returns a :class:`Sample`."""
+        wo = _as_directions("wo", wo)
+        uu = np.asarray(u, dtype=np.float64)
+        if uu.ndim == 0 or uu.shape[-1] != 4:
+            raise ValueError(f"u: expected an array of shape (..., 4), got shape {uu.shape}")
+        hh = np.zeros(()) if h is None else np.asarray(h, dtype=np.float64)
+        batch = _batch([("wo", wo.shape[:-1]), ("u", uu.shape[:-1]), ("h", hh.shape)])
+        wi, weight, pdf, delta = _call(
+            batch, self._native.sample, _flatten(batch, wo, 3), _flatten(batch, uu, 4), _flatten(batch, hh, None)
+        )
+        return Sample(wi.reshape(batch + (3,)), weight.reshape(batch + (3,)), pdf.reshape(batch), delta.reshape(batch))
+
+
+def directions_from_angles(theta, phi) -> np.ndarray:
+    """Unit vectors ``(sin θ, cos θ cos φ, cos θ sin φ)`` of angles in radians (θ from the normal
+    plane); the arguments broadcast: shape ``broadcast(θ, φ) + (3,)``."""
+    t, p = np.broadcast_arrays(np.asarray(theta, dtype=np.float64), np.asarray(phi, dtype=np.float64))
+    return np.stack([np.sin(t), np.cos(t) * np.cos(p), np.cos(t) * np.sin(p)], axis=-1)
+
+
+def load_dict(d: Mapping[str, Any]) -> Model:
+    """A model from a dict in Mitsuba's style: ``{"type": "chiang", "beta_m": 0.3, …}``
+    (values: numbers, strings, booleans, lists — as in a scene file)."""
+    if "type" not in d:
+        raise ValueError("load_dict: the dict needs a 'type' key naming the model (see fiberlab.models())")
+    params = {k: v for k, v in d.items() if k != "type"}
+    return Model(d["type"], **params)
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float, np.integer, np.floating)):
+        x = float(v) if isinstance(v, (float, np.floating)) else int(v)
+        if isinstance(x, float) and not np.isfinite(x):
+            return "nan" if np.isnan(x) else ("inf" if x > 0 else "-inf")
+        return repr(x)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, Mapping):
+        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise ValueError(f"scene: cannot write {type(v).__name__} {v!r} as TOML")
+
+
+def scene_toml(scene: Mapping[str, Any]) -> str:
+    """The TOML text of a scene given as a dict with the scene file's structure
+    (``{"camera": {...}, "materials": {"hair": {...}}, "hair": [{...}], "light": [{...}]}``):
+    dicts of dicts become tables, lists of dicts arrays of tables (``[[hair]]``)."""
+    lines = []
+
+    def table(prefix: str, d: Mapping[str, Any]) -> None:
+        scalars = {k: v for k, v in d.items() if not _is_table(v) and not _is_table_list(v)}
+        if prefix and (scalars or not d):
+            lines.append(f"[{prefix}]")
+        for k, v in scalars.items():
+            lines.append(f"{k} = {_toml_value(v)}")
+        for k, v in d.items():
+            name = f"{prefix}.{k}" if prefix else k
+            if _is_table(v):
+                table(name, v)
+            elif _is_table_list(v):
+                for item in v:
+                    lines.append(f"[[{name}]]")
+                    for ik, iv in item.items():
+                        lines.append(f"{ik} = {_toml_value(iv)}")
+
+    table("", scene)
+    return "\n".join(lines) + "\n"
+
+
+def _is_table(v: Any) -> bool:
+    return isinstance(v, Mapping)
+
+
+def _is_table_list(v: Any) -> bool:
+    return isinstance(v, (list, tuple)) and len(v) > 0 and all(isinstance(x, Mapping) for x in v)
+
+
+def render(scene=None, *, text: Optional[str] = None, spp: Optional[int] = None, seed: Optional[int] = None,
+           max_depth: Optional[int] = None, threads: int = 0, progress=None) -> np.ndarray:
+    """Path-traces a scene like ``fiberlab render`` and returns ``(H, W, 3)`` float32 linear RGB.
+
+    ``scene``: a TOML file path, a dict with the scene file's structure (see
+    :func:`scene_toml`), or ``None`` with ``text=None`` for the built-in default scene.
+    ``spp``, ``seed``, ``max_depth`` override the scene's. ``progress(done, total)`` is called
+    about every 50 ms with the pixel samples done (e.g. to drive tqdm); Ctrl-C raises
+    KeyboardInterrupt after stopping the render. The same scene and seed give the same image
+    as the command line, bit for bit.
+    """
+    path = None
+    if isinstance(scene, Mapping):
+        if text is not None:
+            raise ValueError("render: give a scene dict or its text, not both")
+        text = scene_toml(scene)
+    elif scene is not None:
+        path = str(scene)
+    return _native.render(path, text, spp, seed, max_depth, threads, progress)
+
+
+def read_exr(path) -> np.ndarray:
+    """The R, G, B channels of an OpenEXR file as an ``(H, W, 3)`` float32 array."""
+    return _native.read_exr(str(path))
+
+
+def _constructor(name: str):
+    spec = next(m for m in models() if m["name"] == name)
+
+    def make(**params: Any) -> Model:
+        return Model(name, **params)
+
+    lines = [f"{spec['summary']} ({spec['citation']}).", "", "Parameters (keyword arguments):"]
+    for p in spec["params"]:
+        unit = f" [{p['unit']}]" if p["unit"] else ""
+        default = f", default {p['default']}" if p["default"] else ""
+        lines.append(f"    {p['key']}{unit}: {p['doc']} ({p['valid']}{default})")
+    make.__doc__ = "\n".join(lines)
+    make.__name__ = make.__qualname__ = "".join(part.capitalize() for part in name.split("-"))
+    return make
+
+
+for _spec in models():
+    _make = _constructor(_spec["name"])
+    globals()[_make.__name__] = _make
+    __all__.append(_make.__name__)
+del _spec, _make

@@ -1,0 +1,454 @@
+//! `fiberlab._native`: the compiled core of the `fiberlab` Python package (the Python layer,
+//! `crates/py/python/fiberlab/__init__.py`, adds broadcasting, typed constructors and docs).
+//!
+//! Everything here works on flat, C-contiguous float64 arrays: directions `(N, 3)`, offsets
+//! `h` `(N,)`, uniforms `(N, 4)`. Inputs are borrowed without copying; loops run on rayon
+//! threads with the GIL released; each output is allocated once. Directions follow the
+//! convention of `docs/theory/conventions.md` (fiber frame, x = tangent root → tip) and are
+//! checked like the command line checks them: finite, length within 1e−3 of 1 (then
+//! normalized), `h` in [−1, 1]; a bad value raises `ValueError` naming the array and the
+//! flat index of the first bad element.
+
+use fiberlab_math::DVec3;
+use fiberlab_scatter::params::{ParamKind, RawValue};
+use fiberlab_scatter::{Field, Lobes, Model, ScatteringFunction};
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use rayon::prelude::*;
+use std::path::Path;
+
+/// Largest deviation of a direction's length from 1 that is accepted (then normalized), as
+/// on the command line.
+const UNIT_TOLERANCE: f64 = 1e-3;
+
+/// A Python value as a parameter value of any edge ([`RawValue`]): str → text, bool →
+/// boolean, int/float → number, list/tuple → list.
+fn raw_value(key: &str, value: &Bound<'_, PyAny>) -> PyResult<RawValue> {
+    if value.is_instance_of::<PyBool>() {
+        return Ok(RawValue::Bool(value.extract()?));
+    }
+    if value.is_instance_of::<PyString>() {
+        return Ok(RawValue::Text(value.extract()?));
+    }
+    if value.is_instance_of::<PyInt>() || value.is_instance_of::<PyFloat>() {
+        return Ok(RawValue::Number(value.extract()?));
+    }
+    if value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>() {
+        let items: Vec<Bound<'_, PyAny>> = value.try_iter()?.collect::<PyResult<_>>()?;
+        return Ok(RawValue::List(items.iter().map(|v| raw_value(key, v)).collect::<PyResult<_>>()?));
+    }
+    // NumPy scalars and arrays: numbers or lists of numbers.
+    if let Ok(x) = value.extract::<f64>() {
+        return Ok(RawValue::Number(x));
+    }
+    if let Ok(v) = value.extract::<Vec<f64>>() {
+        return Ok(RawValue::List(v.into_iter().map(RawValue::Number).collect()));
+    }
+    Err(PyValueError::new_err(format!(
+        "parameter `{key}`: expected a number, a string, a boolean or a list, got {}",
+        value.get_type().name()?
+    )))
+}
+
+/// What `sample` returns: `(wi, weight, pdf, delta)`.
+type Samples<'py> =
+    (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<bool>>);
+
+/// A scattering model of the registry, built from its name and parameters.
+#[pyclass(name = "Model", module = "fiberlab._native", frozen)]
+struct PyModel {
+    model: Model,
+    name: String,
+    given: Vec<(String, String)>,
+}
+
+/// Checks direction `k` of a flat `(N, 3)` array; returns it normalized.
+#[inline]
+fn direction(v: &[f64], k: usize) -> Option<DVec3> {
+    let w = DVec3::new(v[3 * k], v[3 * k + 1], v[3 * k + 2]);
+    let len = w.length();
+    (w.is_finite() && (len - 1.0).abs() <= UNIT_TOLERANCE).then(|| w / len)
+}
+
+/// The first index at which `ok` fails, searched in parallel.
+fn first_bad(n: usize, ok: impl Fn(usize) -> bool + Sync) -> Option<usize> {
+    (0..n).into_par_iter().find_first(|&k| !ok(k))
+}
+
+fn bad_direction(name: &str, v: &[f64], k: usize) -> PyErr {
+    PyValueError::new_err(format!(
+        "{name}[{k}] = ({}, {}, {}): expected a finite unit vector (length within {UNIT_TOLERANCE} of 1)",
+        v[3 * k],
+        v[3 * k + 1],
+        v[3 * k + 2]
+    ))
+}
+
+/// Checks the arrays of one call: directions finite and unit, `h` in [−1, 1], sizes equal.
+fn check_inputs(dirs: &[(&str, &[f64])], h: &[f64], n: usize) -> PyResult<()> {
+    for (name, v) in dirs {
+        if v.len() != 3 * n {
+            return Err(PyValueError::new_err(format!("{name}: expected {n} directions, got {}", v.len() / 3)));
+        }
+        if let Some(k) = first_bad(n, |k| direction(v, k).is_some()) {
+            return Err(bad_direction(name, v, k));
+        }
+    }
+    if h.len() != n {
+        return Err(PyValueError::new_err(format!("h: expected {n} values, got {}", h.len())));
+    }
+    if let Some(k) = first_bad(n, |k| (-1.0..=1.0).contains(&h[k])) {
+        return Err(PyValueError::new_err(format!("h[{k}] = {}: expected a value in [-1, 1]", h[k])));
+    }
+    Ok(())
+}
+
+fn slice<'a, D: numpy::ndarray::Dimension>(
+    name: &str,
+    a: &'a numpy::PyReadonlyArray<'_, f64, D>,
+) -> PyResult<&'a [f64]> {
+    a.as_slice().map_err(|_| PyValueError::new_err(format!("{name}: expected a C-contiguous float64 array")))
+}
+
+/// Rows `(N, 3)` from a flat vector.
+fn rows(py: Python<'_>, v: Vec<f64>) -> Bound<'_, PyArray2<f64>> {
+    let n = v.len() / 3;
+    Array2::from_shape_vec((n, 3), v).expect("three values per row").into_pyarray(py)
+}
+
+/// What `eval_pdf`-like calls compute per direction pair.
+#[derive(Clone, Copy)]
+enum Quantity {
+    /// f_s (sr⁻¹), three channels.
+    Fs,
+    /// f_s · cosθ_i, three channels.
+    FsCos,
+    /// The pdf of `sample`, one value.
+    Pdf,
+}
+
+impl PyModel {
+    /// Evaluates `what` for every pair, in parallel without the GIL.
+    fn map_pairs(&self, py: Python<'_>, wi: &[f64], wo: &[f64], h: &[f64], what: Quantity) -> PyResult<Vec<f64>> {
+        let n = h.len();
+        check_inputs(&[("wi", wi), ("wo", wo)], h, n)?;
+        let width = if matches!(what, Quantity::Pdf) { 1 } else { 3 };
+        let model = &self.model;
+        Ok(py.detach(|| {
+            let mut out = vec![0.0; width * n];
+            out.par_chunks_mut(width).enumerate().for_each(|(k, o)| {
+                let (a, b) = (direction(wi, k).expect("checked"), direction(wo, k).expect("checked"));
+                match what {
+                    Quantity::Pdf => o[0] = model.pdf(a, b, h[k]),
+                    Quantity::Fs | Quantity::FsCos => {
+                        let f = model.eval(a, b, h[k]);
+                        let c = if matches!(what, Quantity::FsCos) { fiberlab_math::frame::cos_theta(a) } else { 1.0 };
+                        o.copy_from_slice(&[f[0] * c, f[1] * c, f[2] * c]);
+                    }
+                }
+            });
+            out
+        }))
+    }
+}
+
+#[pymethods]
+impl PyModel {
+    /// `Model(name, params)`: the registered model `name` with `params` (a dict of key →
+    /// number, string, bool or list, as in a scene file); invalid keys or values raise
+    /// `ValueError` with the command line's message. Relative data paths (the `measured`
+    /// model's `table`) are read from the working directory.
+    #[new]
+    #[pyo3(signature = (name, params = None))]
+    fn new(name: &str, params: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let mut pairs = Vec::new();
+        let mut given = Vec::new();
+        if let Some(d) = params {
+            for (k, v) in d.iter() {
+                let key: String = k.extract().map_err(|_| PyValueError::new_err("parameter names must be strings"))?;
+                let raw = raw_value(&key, &v)?;
+                given.push((key.clone(), raw.to_string()));
+                pairs.push((key, raw));
+            }
+        }
+        let model = fiberlab_render::model_loader::load_model(name, &pairs, Path::new(""))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok(Self { model, name: name.to_string(), given })
+    }
+
+    /// The model's registry name.
+    #[getter]
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// What the model claims: a dict with `reciprocal`, `energy_conserving`, `field`
+    /// (`"far"` or `"near"`: whether f_s depends on h) and `lobes` (`"smooth"` or `"delta"`).
+    #[getter]
+    fn flags<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let p = self.model.properties();
+        let d = PyDict::new(py);
+        d.set_item("reciprocal", p.reciprocal)?;
+        d.set_item("energy_conserving", p.energy_conserving)?;
+        d.set_item("field", if p.field == Field::Near { "near" } else { "far" })?;
+        d.set_item("lobes", if p.lobes == Lobes::Delta { "delta" } else { "smooth" })?;
+        Ok(d)
+    }
+
+    fn __repr__(&self) -> String {
+        let params: Vec<String> = self.given.iter().map(|(k, v)| format!("{k}={v}")).collect();
+        format!("fiberlab.Model({:?}{}{})", self.name, if params.is_empty() { "" } else { ", " }, params.join(", "))
+    }
+
+    /// f_s(ω_i, ω_o; h) in sr⁻¹ for `(N, 3)` float64 arrays, `h` `(N,)`: `(N, 3)`.
+    fn eval_fs<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray2<'py, f64>,
+        wo: PyReadonlyArray2<'py, f64>,
+        h: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v = self.map_pairs(py, slice("wi", &wi)?, slice("wo", &wo)?, slice("h", &h)?, Quantity::Fs)?;
+        Ok(rows(py, v))
+    }
+
+    /// f_s · cosθ_i (the cosine of the light direction ω_i, from the normal plane): `(N, 3)`.
+    fn eval_fs_cos<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray2<'py, f64>,
+        wo: PyReadonlyArray2<'py, f64>,
+        h: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v = self.map_pairs(py, slice("wi", &wi)?, slice("wo", &wo)?, slice("h", &h)?, Quantity::FsCos)?;
+        Ok(rows(py, v))
+    }
+
+    /// The density (sr⁻¹) with which `sample(wo)` draws ω_i: `(N,)`.
+    fn pdf<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyReadonlyArray2<'py, f64>,
+        wo: PyReadonlyArray2<'py, f64>,
+        h: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let v = self.map_pairs(py, slice("wi", &wi)?, slice("wo", &wo)?, slice("h", &h)?, Quantity::Pdf)?;
+        Ok(Array1::from_vec(v).into_pyarray(py))
+    }
+
+    /// Importance samples of ω_i for `wo` `(N, 3)`, `u` `(N, 4)` uniforms in [0, 1), `h`
+    /// `(N,)`: `(wi (N, 3), weight (N, 3) = f_s·cosθ_i/pdf, pdf (N,), delta (N,) bool)`; a
+    /// failed sample has wi = weight = 0, pdf = 0.
+    fn sample<'py>(
+        &self,
+        py: Python<'py>,
+        wo: PyReadonlyArray2<'py, f64>,
+        u: PyReadonlyArray2<'py, f64>,
+        h: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Samples<'py>> {
+        let (wo, u, h) = (slice("wo", &wo)?, slice("u", &u)?, slice("h", &h)?);
+        let n = h.len();
+        check_inputs(&[("wo", wo)], h, n)?;
+        if u.len() != 4 * n {
+            return Err(PyValueError::new_err(format!("u: expected {n} rows of 4 uniforms, got {} values", u.len())));
+        }
+        if let Some(k) = first_bad(4 * n, |k| (0.0..1.0).contains(&u[k])) {
+            return Err(PyValueError::new_err(format!(
+                "u[{}, {}] = {}: expected a uniform in [0, 1)",
+                k / 4,
+                k % 4,
+                u[k]
+            )));
+        }
+        let model = &self.model;
+        let (wi, weight, pdf, delta) = py.detach(|| {
+            let samples: Vec<Option<fiberlab_scatter::Sample>> = (0..n)
+                .into_par_iter()
+                .map(|k| {
+                    let w = direction(wo, k).expect("checked");
+                    model.sample(w, h[k], [u[4 * k], u[4 * k + 1], u[4 * k + 2], u[4 * k + 3]])
+                })
+                .collect();
+            let mut wi = Vec::with_capacity(3 * n);
+            let mut weight = Vec::with_capacity(3 * n);
+            let mut pdf = Vec::with_capacity(n);
+            let mut delta = Vec::with_capacity(n);
+            for s in &samples {
+                match s {
+                    Some(s) => {
+                        wi.extend([s.wi.x, s.wi.y, s.wi.z]);
+                        weight.extend([s.weight[0], s.weight[1], s.weight[2]]);
+                        pdf.push(s.pdf);
+                        delta.push(s.delta);
+                    }
+                    None => {
+                        wi.extend([0.0; 3]);
+                        weight.extend([0.0; 3]);
+                        pdf.push(0.0);
+                        delta.push(false);
+                    }
+                }
+            }
+            (wi, weight, pdf, delta)
+        });
+        Ok((
+            rows(py, wi),
+            rows(py, weight),
+            Array1::from_vec(pdf).into_pyarray(py),
+            Array1::from_vec(delta).into_pyarray(py),
+        ))
+    }
+}
+
+/// Every registered model: a list of dicts `{name, summary, citation, params}`, each
+/// parameter `{key, kind, unit, default, doc, range | choices}` — what `fiberlab models` lists.
+#[pyfunction]
+fn models(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
+    let list = PyList::empty(py);
+    for spec in fiberlab_scatter::ALL_MODELS {
+        let d = PyDict::new(py);
+        d.set_item("name", spec.name)?;
+        d.set_item("summary", spec.summary)?;
+        d.set_item("citation", spec.citation)?;
+        let params = PyList::empty(py);
+        for p in spec.params {
+            let q = PyDict::new(py);
+            q.set_item("key", p.key)?;
+            q.set_item("unit", p.unit)?;
+            q.set_item("default", p.default)?;
+            q.set_item("doc", p.doc)?;
+            q.set_item("valid", p.valid())?;
+            let (kind, range, choices) = match p.kind {
+                ParamKind::Number(r) => ("number", Some(r), None),
+                ParamKind::Integer(r) => ("integer", Some(r), None),
+                ParamKind::Color(r) => ("color", Some(r), None),
+                ParamKind::Choice(c) => ("choice", None, Some(c)),
+                ParamKind::Subset(c) => ("subset", None, Some(c)),
+                ParamKind::Text => ("text", None, None),
+            };
+            q.set_item("kind", kind)?;
+            if let Some(r) = range {
+                q.set_item("range", (r.min, r.max))?;
+            }
+            if let Some(c) = choices {
+                q.set_item("choices", c.to_vec())?;
+            }
+            params.append(q)?;
+        }
+        d.set_item("params", params)?;
+        list.append(d)?;
+    }
+    Ok(list)
+}
+
+/// An `(H, W, 3)` float32 array of a linear image.
+fn image_array<'py>(py: Python<'py>, image: &fiberlab_io::LinearImage) -> Bound<'py, numpy::PyArray3<f32>> {
+    let (w, h) = (image.width(), image.height());
+    let flat: Vec<f32> = image.pixels().iter().flatten().copied().collect();
+    numpy::ndarray::Array3::from_shape_vec((h, w, 3), flat).expect("three channels per pixel").into_pyarray(py)
+}
+
+/// Reads the R, G, B channels of an OpenEXR file as an `(H, W, 3)` float32 array.
+#[pyfunction]
+fn read_exr<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, numpy::PyArray3<f32>>> {
+    let image = fiberlab_io::LinearImage::read_exr(&path).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    Ok(image_array(py, &image))
+}
+
+/// Renders a scene (a TOML file `path`, TOML `text`, or the built-in default scene when both
+/// are `None`) like `fiberlab render`, returning `(H, W, 3)` float32 linear RGB. `spp`,
+/// `seed`, `max_depth` override the scene's; `threads` 0 uses every core. `progress(done,
+/// total)` (pixel samples) is called as tiles finish; Ctrl-C (KeyboardInterrupt) stops the
+/// render and raises it.
+#[pyfunction]
+#[pyo3(signature = (path = None, text = None, spp = None, seed = None, max_depth = None, threads = 0, progress = None))]
+#[allow(clippy::too_many_arguments)]
+fn render<'py>(
+    py: Python<'py>,
+    path: Option<std::path::PathBuf>,
+    text: Option<String>,
+    spp: Option<u32>,
+    seed: Option<u64>,
+    max_depth: Option<u32>,
+    threads: usize,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, numpy::PyArray3<f32>>> {
+    use fiberlab_render::scene_file::SceneFile;
+    use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+    let scene_error = |e: fiberlab_render::scene_file::SceneError| PyValueError::new_err(e.to_string());
+    let file = match (&path, &text) {
+        (Some(_), Some(_)) => return Err(PyValueError::new_err("render: give a scene path or its text, not both")),
+        (Some(p), None) => SceneFile::read(p).map_err(scene_error)?,
+        (None, Some(t)) => SceneFile::parse(t, Path::new("<text>")).map_err(scene_error)?,
+        (None, None) => SceneFile::default_scene(),
+    };
+    if spp == Some(0) {
+        return Err(PyValueError::new_err("render: spp must be at least 1"));
+    }
+    let scene_settings = file.sampling();
+    let settings = fiberlab_render::integrator::RenderSettings {
+        spp: spp.unwrap_or(scene_settings.spp),
+        seed: seed.unwrap_or(scene_settings.seed),
+        max_depth: max_depth.unwrap_or(scene_settings.max_depth),
+        threads,
+        ..scene_settings
+    };
+    let stop = AtomicBool::new(false);
+    let (done, total, finished) = (AtomicU64::new(0), AtomicU64::new(0), AtomicBool::new(false));
+    let mut interrupt: Option<PyErr> = None;
+    let out = py.detach(|| -> Result<_, PyErr> {
+        let (scene, _) = file.build().map_err(scene_error)?;
+        let report = |p: &fiberlab_render::integrator::Progress| {
+            done.store(p.samples_done, Ordering::Relaxed);
+            total.store(p.samples_total, Ordering::Relaxed);
+        };
+        // The render runs on its own threads; this (the calling) thread reports progress and
+        // watches for Ctrl-C, which Python only delivers to its main thread.
+        Ok(std::thread::scope(|threads| {
+            let worker = threads.spawn(|| {
+                let out = fiberlab_render::integrator::render(&scene, &settings, &report, &stop);
+                finished.store(true, Ordering::Release);
+                out
+            });
+            while !finished.load(Ordering::Acquire) {
+                std::thread::sleep(std::time::Duration::from_millis(50));
+                Python::attach(|py| {
+                    let result = py.check_signals().and_then(|()| match &progress {
+                        Some(cb) => cb
+                            .call1(py, (done.load(Ordering::Relaxed), total.load(Ordering::Relaxed)))
+                            .map(drop),
+                        None => Ok(()),
+                    });
+                    if let Err(e) = result
+                        && interrupt.is_none()
+                    {
+                        stop.store(true, Ordering::Relaxed);
+                        interrupt = Some(e);
+                    }
+                });
+            }
+            worker.join().expect("the render thread does not panic")
+        }))
+    })?;
+    if let Some(e) = interrupt {
+        return Err(e);
+    }
+    if let Some(cb) = &progress {
+        cb.call1(py, (out.stats.samples, out.stats.samples))?;
+    }
+    Ok(image_array(py, &out.image))
+}
+
+/// The compiled core of `fiberlab`.
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyModel>()?;
+    m.add_function(wrap_pyfunction!(models, m)?)?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(read_exr, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,6 +1,5 @@
 //! `fiberlab hair`: generate procedural hair as a `.hair` file, or describe one.
 
-use anyhow::Context;
 use fiberlab_io::HairFile;
 use fiberlab_render::generator::{HairParams, Style};
 use std::path::PathBuf;
@@ -97,7 +96,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             eprintln!("{} strands, {} points → {}", hair.strand_count(), hair.points.len(), g.out.display());
         }
         HairCommand::Info { file } => {
-            let hair = HairFile::read(file).with_context(|| format!("reading {}", file.display()))?;
+            // The reader's errors name the file already.
+            let hair = HairFile::read(file)?;
             let mut lo = [f32::INFINITY; 3];
             let mut hi = [f32::NEG_INFINITY; 3];
             for p in &hair.points {

@@ -864,10 +864,10 @@ mod tests {
         f.desc.camera.get_mut().height = 100_000;
         f.desc.hair[0].get_mut().generator.as_mut().unwrap().get_mut().strands = 4_000_000_000;
         let e = f.memory_estimate().unwrap();
-        assert_eq!(e.image_bytes, Some(10_000_000_000 * (112 + 27)));
+        assert_eq!(e.image_bytes, Some(10_000_000_000 * 139));
         assert_eq!(e.hair[0].segments, 96_000_000_000);
         assert_eq!(e.hair[0].bvh_bytes, Some(96_000_000_000 * 1200));
-        // The largest camera still fits u64: (2³² − 1)² · 139 does not.
+        // The largest camera does not fit u64: (2³² − 1)² · 139.
         f.desc.camera.get_mut().width = u32::MAX;
         f.desc.camera.get_mut().height = u32::MAX;
         assert_eq!(f.memory_estimate().unwrap().image_bytes, None);

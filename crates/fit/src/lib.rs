@@ -63,6 +63,7 @@ struct Problem<'a> {
     base: &'a ParamSet,
     free: &'a [String],
     data: &'a [Observation],
+    constraint: Option<Constraint<'a>>,
 }
 
 impl Problem<'_> {
@@ -95,10 +96,13 @@ impl CostFunction for Problem<'_> {
     type Output = f64;
 
     fn cost(&self, p: &Self::Param) -> Result<f64, Error> {
-        // Parameters outside a model's valid range cost "infinitely" much.
+        // Parameters outside a model's valid range, or models the constraint rejects, cost
+        // "infinitely" much (an extreme barrier: the simplex never steps outside).
         Ok(match self.model_at(p) {
-            Ok(m) => self.residuals(&m).iter().map(|r| r * r).sum(),
-            Err(_) => 1e300,
+            Ok(m) if self.constraint.is_none_or(|admissible| admissible(&m)) => {
+                self.residuals(&m).iter().map(|r| r * r).sum()
+            }
+            _ => 1e300,
         })
     }
 }
@@ -112,6 +116,26 @@ pub fn fit(
     free: &[(String, f64)],
     data: &[Observation],
     max_iters: u64,
+) -> Result<FitResult, FitError> {
+    fit_constrained(base, free, data, max_iters, None)
+}
+
+/// A condition every trial model of a constrained fit must meet (e.g. an energy bound):
+/// `true` when the model is admissible.
+pub type Constraint<'a> = &'a (dyn Fn(&Model) -> bool + Sync);
+
+/// [`fit`] with the trial models restricted to those `constraint` admits: inadmissible
+/// parameters cost as much as parameters outside the model's valid range (Nelder–Mead with
+/// an extreme barrier), so the result is admissible whenever the starting point is (a
+/// starting point the constraint rejects is [`FitError::Setup`]). The uncertainties are
+/// those of the unconstrained problem at the optimum (meaningless for a parameter the
+/// constraint holds on its boundary).
+pub fn fit_constrained(
+    base: &ParamSet,
+    free: &[(String, f64)],
+    data: &[Observation],
+    max_iters: u64,
+    constraint: Option<Constraint>,
 ) -> Result<FitResult, FitError> {
     let spec = find(base.model())?;
     if spec.data.is_some() {
@@ -145,8 +169,11 @@ pub fn fit(
     }
     let keys: Vec<String> = free.iter().map(|(k, _)| k.clone()).collect();
     let start: Vec<f64> = free.iter().map(|(_, v)| *v).collect();
-    let problem = Problem { spec, base, free: &keys, data };
-    problem.model_at(&start)?;
+    let problem = Problem { spec, base, free: &keys, data, constraint };
+    let start_model = problem.model_at(&start)?;
+    if constraint.is_some_and(|admissible| !admissible(&start_model)) {
+        return Err(FitError::Setup("the starting point does not satisfy the fit's constraint".into()));
+    }
     let mut simplex = vec![start.clone()];
     for k in 0..start.len() {
         let mut p = start.clone();
@@ -154,7 +181,7 @@ pub fn fit(
         simplex.push(p);
     }
     let solver = NelderMead::new(simplex).with_sd_tolerance(1e-9).map_err(|e| FitError::Optimizer(e.to_string()))?;
-    let res = Executor::new(Problem { spec, base, free: &keys, data }, solver)
+    let res = Executor::new(Problem { spec, base, free: &keys, data, constraint }, solver)
         .configure(|s| s.max_iters(max_iters))
         .run()
         .map_err(|e| FitError::Optimizer(e.to_string()))?;
@@ -262,6 +289,36 @@ mod tests {
             assert!((v - expect[k]).abs() < 5.0 * u + 1e-3, "{key} = {v} ± {u}, truth {}", expect[k]);
         }
         assert!(r.chi2 / (r.dof as f64) < 2.0, "reduced χ² {}", r.chi2 / r.dof as f64);
+    }
+
+    /// Exact Kajiya–Kay data (p = 30): the unconstrained fit recovers p, a fit constrained
+    /// to p ≥ 40 ends admissible, on the boundary, and a rejected start is an error.
+    #[test]
+    fn a_constraint_keeps_every_trial_model_admissible() {
+        let spec = find("kajiya-kay").unwrap();
+        let truth = build("kajiya-kay", &[("k_d", "0.05"), ("k_s", "0.1"), ("p", "30")]).unwrap();
+        let mut data = Vec::new();
+        for i in 0..9 {
+            for j in 0..9 {
+                let (wi, wo) = (direction(-0.8 + 0.2 * i as f64, 0.0), direction(-0.8 + 0.2 * j as f64, 1.0));
+                data.push(Observation { wi, wo, value: truth.eval(wi, wo, 0.0).luminance(), sigma: 0.01 });
+            }
+        }
+        let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
+        let free = [("k_d".to_string(), 0.04), ("k_s".to_string(), 0.12), ("p".to_string(), 45.0)];
+        let p_of = |m: &Model| match m {
+            Model::KajiyaKay(k) => k.p(),
+            _ => unreachable!(),
+        };
+        let at_least_40 = |m: &Model| p_of(m) >= 40.0;
+        let free_fit = fit(&base, &free, &data, 2000).unwrap();
+        assert!((free_fit.params[2].1 - 30.0).abs() < 0.5, "{:?}", free_fit.params);
+        let held = fit_constrained(&base, &free, &data, 2000, Some(&at_least_40)).unwrap();
+        let p = held.params[2].1;
+        assert!((40.0..40.5).contains(&p), "constrained p = {p}");
+        assert!(held.chi2 > free_fit.chi2, "{} vs {}", held.chi2, free_fit.chi2);
+        let start = [("k_d".to_string(), 0.04), ("k_s".to_string(), 0.12), ("p".to_string(), 35.0)];
+        assert!(matches!(fit_constrained(&base, &start, &data, 10, Some(&at_least_40)), Err(FitError::Setup(_))));
     }
 
     #[test]

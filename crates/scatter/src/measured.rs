@@ -17,9 +17,15 @@
 //! `f_s = (1 − t)·T_{k}(θ_o + θ_i − θ_k) + t·T_{k+1}(θ_o + θ_i − θ_{k+1})`, with `t` the linear
 //! weight of θ_i between `θ_k` and `θ_{k+1}` (a plain blend of the two slices would show two
 //! half-height copies of a narrow lobe instead of one lobe in between). A shifted row beyond
-//! ±π/2 contributes 0. Outside the measured range the nearest slice is shifted the same way,
-//! which is also the rule that extends a table of a single incidence (documented, not
-//! claimed accurate: measure several incidences with `fiberlab measure --theta-i 0,10,…`).
+//! ±π/2 contributes 0. Outside the measured range the nearest slice is shifted the same way
+//! (documented, not claimed accurate: measure the range you render).
+//!
+//! **One incidence**: a table of a single incidence is refused wherever a table file becomes
+//! a model (`crates/render/src/model_loader.rs`, `LoadError::OneIncidence`: scenes,
+//! `render`, `evaluate`, `eval`, `sample`, …), since one slice says nothing about light from
+//! other inclinations; measure several with `fiberlab measure --theta-i -60,-30,0,30,60`.
+//! Built directly from a [`MeasuredTable`], such a table is extended by the shift rule above
+//! (the example below uses this).
 //!
 //! **Sampling** uses Helmholtz reciprocity as a proposal: given `ω_o`, a slice at `θ_o` is
 //! chosen with its interpolation weight and a bin with probability ∝ `lum(T)·∫_bin cosθ dω`,

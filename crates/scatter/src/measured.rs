@@ -27,12 +27,18 @@
 //! Built directly from a [`MeasuredTable`], such a table is extended by the shift rule above
 //! (the example below uses this).
 //!
-//! **Sampling** uses Helmholtz reciprocity as a proposal: given `ω_o`, a slice at `θ_o` is
-//! chosen with its interpolation weight and a bin with probability ∝ `lum(T)·∫_bin cosθ dω`,
-//! then a uniform direction (in solid angle) within the bin; a defensive fraction
-//! [`DEFENSIVE`] of the samples comes from the ideal diffuse fiber's lobe, so the pdf is
-//! positive wherever `f_s` can be. The pdf is exactly the density of that mixture and the
-//! weight is `f_s cosθ_i/pdf`. Far-field, smooth; reciprocity and energy hold only as well as
+//! **Sampling** uses Helmholtz reciprocity as a proposal, with the slices moved along the
+//! specular cone as `eval` moves them: given `ω_o`, a slice `k` around `θ_o` is chosen with
+//! its interpolation weight and a bin with probability ∝ `lum(T_k)·∫_bin cosθ dω`, then a
+//! point `x` uniform (in solid angle) within the bin, translated to `θ_i = x + θ_k − θ_o` (the
+//! reciprocal of `eval`'s read at `θ_o + θ_i − θ_k`; without the translation a narrow TT lobe
+//! between two slices is proposed at the slices' positions and found only by the defensive
+//! lobe, with weights of hundreds). A translated point beyond ±π/2 is replaced by a draw from
+//! the ideal diffuse fiber's lobe, and a defensive fraction [`DEFENSIVE`] of the samples comes
+//! from that lobe too, so the pdf is positive wherever `f_s` can be. The pdf is exactly the
+//! density of that mixture (per steradian, the bin's `p_bin·cos x/(Ω_bin·cosθ_i)`, growing
+//! like 1/cosθ_i toward the axis, [`crate::MIN_COS`] on it) and the weight is
+//! `f_s cosθ_i/pdf`. Far-field, smooth; reciprocity and energy hold only as well as
 //! the measurement does, so neither is claimed.
 
 use crate::params::{ParamKind, ParamSet, ParamSpec};
@@ -200,19 +206,66 @@ impl Measured {
         if x.abs() > FRAC_PI_2 { Rgb::ZERO } else { self.table.f[k][self.bin(x, phi_rel)] }
     }
 
-    /// Density of the table proposal (reciprocal slices at `θ_o`; a slice with no mass
-    /// proposes the ideal diffuse fiber's lobe instead).
+    /// Density of the table proposal (reciprocal slices around `θ_o`, translated; a slice with
+    /// no mass proposes the ideal diffuse fiber's lobe instead).
     fn table_pdf(&self, wi: DVec3, wo: DVec3) -> f64 {
-        let (k0, k1, t) = self.slices(theta(wo));
-        let b = self.bin(theta(wi), relative_phi(wo, wi));
+        let theta_o = theta(wo);
+        let (k0, k1, t) = self.slices(theta_o);
+        let phi_rel = relative_phi(wo, wi);
+        let diffuse = cos_theta_pdf(cos_theta(wi));
         let slice_pdf = |k: usize| {
             if self.cdf[k][self.cdf[k].len() - 1] <= 0.0 {
-                cos_theta_pdf(cos_theta(wi))
-            } else {
-                self.bin_probability(k, b) / self.bin_solid_angle(b / self.table.bins_phi)
+                return diffuse;
             }
+            let shift = self.table.theta_in[k] - theta_o;
+            let x = theta(wi) - shift;
+            let in_table = if x.abs() <= FRAC_PI_2 {
+                let b = self.bin(x, phi_rel);
+                self.bin_probability(k, b) * x.cos()
+                    / (self.bin_solid_angle(b / self.table.bins_phi) * cos_theta(wi).max(crate::MIN_COS))
+            } else {
+                0.0
+            };
+            in_table + self.mass_beyond_pole(k, shift) * diffuse
         };
         slice_pdf(k0) * (1.0 - t) + if t > 0.0 { slice_pdf(k1) * t } else { 0.0 }
+    }
+
+    /// Where `x` in row `row` (within the row's `[sin a, sin b]`) leaves [−π/2, π/2] when
+    /// translated by `shift`: the fraction of the row's `sin x` interval beyond, and the
+    /// threshold `sin x*`.
+    fn row_beyond_pole(&self, row: usize, shift: f64) -> (f64, f64) {
+        let dt = PI / self.table.bins_theta as f64;
+        let a = -FRAC_PI_2 + row as f64 * dt;
+        let (sa, sb) = (a.sin(), (a + dt).sin());
+        if shift > 0.0 {
+            let limit = (FRAC_PI_2 - shift).sin();
+            (((sb - limit.max(sa)) / (sb - sa)).clamp(0.0, 1.0), limit)
+        } else if shift < 0.0 {
+            let limit = (-FRAC_PI_2 - shift).sin();
+            (((limit.min(sb) - sa) / (sb - sa)).clamp(0.0, 1.0), limit)
+        } else {
+            (0.0, 0.0)
+        }
+    }
+
+    /// Probability that slice `k`'s proposal, translated by `shift`, leaves [−π/2, π/2].
+    fn mass_beyond_pole(&self, k: usize, shift: f64) -> f64 {
+        if shift == 0.0 {
+            return 0.0;
+        }
+        let (nt, np) = (self.table.bins_theta, self.table.bins_phi);
+        let c = &self.cdf[k];
+        let mut mass = 0.0;
+        let rows: Box<dyn Iterator<Item = usize>> = if shift > 0.0 { Box::new((0..nt).rev()) } else { Box::new(0..nt) };
+        for row in rows {
+            let (fraction, _) = self.row_beyond_pole(row, shift);
+            if fraction <= 0.0 {
+                break;
+            }
+            mass += fraction * (c[(row + 1) * np] - c[row * np]);
+        }
+        mass
     }
 
     fn bin(&self, theta_out: f64, phi_rel: f64) -> usize {
@@ -264,7 +317,8 @@ impl ScatteringFunction for Measured {
         let wi = if u[0] < DEFENSIVE {
             cos_theta_direction(u[1], u[2], TAU * u[3])
         } else {
-            let (k0, k1, t) = self.slices(theta(wo));
+            let theta_o = theta(wo);
+            let (k0, k1, t) = self.slices(theta_o);
             let u0 = (u[0] - DEFENSIVE) / (1.0 - DEFENSIVE);
             let slice = if u0 < t { k1 } else { k0 };
             let c = &self.cdf[slice];
@@ -277,8 +331,29 @@ impl ScatteringFunction for Measured {
                 let a = -FRAC_PI_2 + i as f64 * PI / nt as f64;
                 let (sa, sb) = (a.sin(), (a + PI / nt as f64).sin());
                 let s = (sa + u[2] * (sb - sa)).clamp(-1.0, 1.0);
-                let rel = -PI + (j as f64 + u[3]) * TAU / np as f64;
-                direction_from_sin_cos(s, (1.0 - s * s).max(0.0).sqrt(), phi(wo) + rel)
+                let shift = self.table.theta_in[slice] - theta_o;
+                let theta_i = s.asin() + shift;
+                if theta_i.abs() <= FRAC_PI_2 {
+                    let rel = -PI + (j as f64 + u[3]) * TAU / np as f64;
+                    let (si, ci) = theta_i.sin_cos();
+                    direction_from_sin_cos(si, ci.max(0.0), phi(wo) + rel)
+                } else {
+                    // Beyond the pole: the ideal diffuse fiber's lobe, from uniforms that are
+                    // fresh given this outcome (u[1] within the bin, u[2] within the part of
+                    // the bin beyond the pole).
+                    let (lo, hi) = (c[b], c[b + 1]);
+                    let fresh1 = if hi > lo { ((u[1] - lo) / (hi - lo)).clamp(0.0, 1.0) } else { 0.5 };
+                    let (_, limit) = self.row_beyond_pole(i, shift);
+                    let cut = ((limit - sa) / (sb - sa)).clamp(0.0, 1.0);
+                    let fresh2 = if shift > 0.0 {
+                        if cut < 1.0 { ((u[2] - cut) / (1.0 - cut)).clamp(0.0, 1.0) } else { 0.5 }
+                    } else if cut > 0.0 {
+                        (u[2] / cut).clamp(0.0, 1.0)
+                    } else {
+                        0.5
+                    };
+                    cos_theta_direction(fresh1, fresh2, TAU * u[3])
+                }
             }
         };
         let pdf = self.pdf(wi, wo, h);
@@ -396,27 +471,42 @@ mod tests {
         assert!(along(-20f64.to_radians()) < 0.01 && along(0.0) < 0.01);
     }
 
+    /// Between two slices the proposal follows the lobe `eval` moves along the cone: the
+    /// sampling weights of a narrow lobe stay near its furnace value (by quadrature), where a
+    /// proposal at the slices' own positions leaves the lobe to the defensive fraction
+    /// (weights ~ f·π²/DEFENSIVE, hundreds here).
+    #[test]
+    fn sampling_follows_a_lobe_moved_between_slices() {
+        let m = Measured::new(cone_table(&[0.0, 20.0], 180)).unwrap();
+        let wo = fiberlab_math::frame::direction(10f64.to_radians(), 0.4);
+        let w = crate::radiometry::furnace(&m, wo, &crate::radiometry::Quadrature::default())[0];
+        let mut rng = fiberlab_check::rng::TestRng::new(23);
+        let (mut max, mut mean) = (0.0f64, 0.0);
+        for _ in 0..4000 {
+            let weight = m.sample(wo, 0.0, rng.u4()).map_or(0.0, |s| s.weight[0]);
+            max = max.max(weight);
+            mean += weight / 4000.0;
+        }
+        assert!(max < 3.0 * w, "largest weight {max}, furnace {w}");
+        assert!((mean - w).abs() < 0.02 * w, "mean weight {mean}, furnace {w}");
+    }
+
     /// The pdf integrates to 1 over the sphere and `sample` agrees with `pdf` and `eval`.
     #[test]
     fn pdf_integrates_to_one_and_sampling_agrees() {
         let m = Measured::new(cone_table(&[-30.0, 0.0, 40.0], 45)).unwrap();
         for theta_o in [-0.9, -0.2, 0.35, 1.2] {
             let wo = fiberlab_math::frame::direction(theta_o, 0.7);
-            // Midpoint rule in (sinθ, φ) on nodes aligned with the table's bins (45 × 36), where
-            // the table part of the pdf is constant: exact for it, and accurate for the smooth
-            // defensive part.
-            let (sub, np) = (16, 36 * 8);
+            // Midpoint rule in (θ_i, φ), where `pdf·cosθ_i` is bounded (the table part is
+            // piecewise smooth, with steps at the translated bin edges).
+            let (nt, np) = (45 * 64, 36 * 8);
             let mut total = 0.0;
-            for i in 0..45 {
-                let a = -FRAC_PI_2 + i as f64 * PI / 45.0;
-                let (sa, sb) = (a.sin(), (a + PI / 45.0).sin());
-                for q in 0..sub {
-                    let s = sa + (q as f64 + 0.5) / sub as f64 * (sb - sa);
-                    for b in 0..np {
-                        let rel = -PI + (b as f64 + 0.5) * TAU / np as f64;
-                        let wi = direction_from_sin_cos(s, (1.0 - s * s).sqrt(), phi(wo) + rel);
-                        total += m.pdf(wi, wo, 0.0) * (sb - sa) / sub as f64 * TAU / np as f64;
-                    }
+            for i in 0..nt {
+                let t = -FRAC_PI_2 + (i as f64 + 0.5) * PI / nt as f64;
+                for b in 0..np {
+                    let rel = -PI + (b as f64 + 0.5) * TAU / np as f64;
+                    let wi = direction_from_sin_cos(t.sin(), t.cos(), phi(wo) + rel);
+                    total += m.pdf(wi, wo, 0.0) * t.cos() * PI / nt as f64 * TAU / np as f64;
                 }
             }
             assert!((total - 1.0).abs() < 1e-4, "θ_o = {theta_o}: ∫ pdf = {total}");

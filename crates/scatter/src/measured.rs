@@ -30,15 +30,18 @@
 //! **Sampling** uses Helmholtz reciprocity as a proposal, with the slices moved along the
 //! specular cone as `eval` moves them: given `ω_o`, a slice `k` around `θ_o` is chosen with
 //! its interpolation weight and a bin with probability ∝ `lum(T_k)·∫_bin cosθ dω`, then a
-//! point `x` uniform (in solid angle) within the bin, translated to `θ_i = x + θ_k − θ_o` (the
-//! reciprocal of `eval`'s read at `θ_o + θ_i − θ_k`; without the translation a narrow TT lobe
-//! between two slices is proposed at the slices' positions and found only by the defensive
-//! lobe, with weights of hundreds). A translated point beyond ±π/2 is replaced by a draw from
-//! the ideal diffuse fiber's lobe, and a defensive fraction [`DEFENSIVE`] of the samples comes
-//! from that lobe too, so the pdf is positive wherever `f_s` can be. The pdf is exactly the
-//! density of that mixture (per steradian, the bin's `p_bin·cos x/(Ω_bin·cosθ_i)`, growing
-//! like 1/cosθ_i toward the axis, [`crate::MIN_COS`] on it) and the weight is
-//! `f_s cosθ_i/pdf`. Far-field, smooth; reciprocity and energy hold only as well as
+//! point `x` uniform (in solid angle) within the bin's φ range and its θ range widened by one
+//! row on each side, translated to `θ_i = x + θ_k − θ_o` (the reciprocal of `eval`'s read at
+//! `θ_o + θ_i − θ_k`). Without the translation a narrow TT lobe between two slices is
+//! proposed at the slices' positions; without the widening a lobe narrower than a bin, which
+//! the bins of neighbouring slices quantize up to one row apart, is missed where `eval` takes
+//! it from the other slice; either way it is found only by the defensive lobe, with weights of
+//! hundreds. A translated point beyond ±π/2 is replaced by a draw from the ideal diffuse
+//! fiber's lobe, and a defensive fraction [`DEFENSIVE`] of the samples comes from that lobe
+//! too, so the pdf is positive wherever `f_s` can be. The pdf is exactly the density of that
+//! mixture (per steradian, `Σ p_bin·cos x/(Ω_widened·cosθ_i)` over the three rows whose
+//! widened span holds x, growing like 1/cosθ_i toward the axis, [`crate::MIN_COS`] on it) and
+//! the weight is `f_s cosθ_i/pdf`. Far-field, smooth; reciprocity and energy hold only as well as
 //! the measurement does, so neither is claimed.
 
 use crate::params::{ParamKind, ParamSet, ParamSpec};
@@ -220,9 +223,18 @@ impl Measured {
             let shift = self.table.theta_in[k] - theta_o;
             let x = theta(wi) - shift;
             let in_table = if x.abs() <= FRAC_PI_2 {
+                // The widened spans of the row of x and its two neighbours contain x.
+                let (nt, np) = (self.table.bins_theta, self.table.bins_phi);
                 let b = self.bin(x, phi_rel);
-                self.bin_probability(k, b) * x.cos()
-                    / (self.bin_solid_angle(b / self.table.bins_phi) * cos_theta(wi).max(crate::MIN_COS))
+                let (row, j) = (b / np, b % np);
+                let dphi = TAU / np as f64;
+                let density: f64 = (row.saturating_sub(1)..=(row + 1).min(nt - 1))
+                    .map(|r| {
+                        let (lo, hi) = self.widened_span(r);
+                        self.bin_probability(k, r * np + j) / ((hi - lo) * dphi)
+                    })
+                    .sum();
+                density * x.cos() / cos_theta(wi).max(crate::MIN_COS)
             } else {
                 0.0
             };
@@ -231,13 +243,21 @@ impl Measured {
         slice_pdf(k0) * (1.0 - t) + if t > 0.0 { slice_pdf(k1) * t } else { 0.0 }
     }
 
-    /// Where `x` in row `row` (within the row's `[sin a, sin b]`) leaves [−π/2, π/2] when
-    /// translated by `shift`: the fraction of the row's `sin x` interval beyond, and the
+    /// `[sin lo, sin hi]` of row `row` widened by one row on each side (within the table):
+    /// where the proposal places `x` for a bin of that row.
+    fn widened_span(&self, row: usize) -> (f64, f64) {
+        let nt = self.table.bins_theta;
+        let dt = PI / nt as f64;
+        let lo = -FRAC_PI_2 + row.saturating_sub(1) as f64 * dt;
+        let hi = -FRAC_PI_2 + ((row + 2).min(nt)) as f64 * dt;
+        (lo.sin(), hi.sin())
+    }
+
+    /// Where `x` drawn for row `row` (uniform in its widened `[sin lo, sin hi]`) leaves
+    /// [−π/2, π/2] when translated by `shift`: the fraction of the span beyond, and the
     /// threshold `sin x*`.
     fn row_beyond_pole(&self, row: usize, shift: f64) -> (f64, f64) {
-        let dt = PI / self.table.bins_theta as f64;
-        let a = -FRAC_PI_2 + row as f64 * dt;
-        let (sa, sb) = (a.sin(), (a + dt).sin());
+        let (sa, sb) = self.widened_span(row);
         if shift > 0.0 {
             let limit = (FRAC_PI_2 - shift).sin();
             (((sb - limit.max(sa)) / (sb - sa)).clamp(0.0, 1.0), limit)
@@ -328,8 +348,7 @@ impl ScatteringFunction for Measured {
                 let b = (c.partition_point(|&x| x <= u[1]).max(1) - 1).min(c.len() - 2);
                 let (nt, np) = (self.table.bins_theta, self.table.bins_phi);
                 let (i, j) = (b / np, b % np);
-                let a = -FRAC_PI_2 + i as f64 * PI / nt as f64;
-                let (sa, sb) = (a.sin(), (a + PI / nt as f64).sin());
+                let (sa, sb) = self.widened_span(i);
                 let s = (sa + u[2] * (sb - sa)).clamp(-1.0, 1.0);
                 let shift = self.table.theta_in[slice] - theta_o;
                 let theta_i = s.asin() + shift;
@@ -489,6 +508,35 @@ mod tests {
         }
         assert!(max < 3.0 * w, "largest weight {max}, furnace {w}");
         assert!((mean - w).abs() < 0.02 * w, "mean weight {mean}, furnace {w}");
+    }
+
+    /// A lobe narrower than a bin (one bin per slice, the bin holding θ_out = −θ_in), whose
+    /// bins sit at different phases in the two slices: the sampling weights stay near the
+    /// furnace value (by quadrature) where `eval` takes the lobe from the other slice than the
+    /// proposal does.
+    #[test]
+    fn sampling_covers_a_lobe_quantized_differently_by_neighbouring_slices() {
+        let (nt, np) = (60, 36);
+        let theta_in: Vec<f64> = [-20.0f64, -1.0].iter().map(|d| d.to_radians()).collect();
+        let f = theta_in
+            .iter()
+            .map(|&ti| {
+                let row = (((-ti + FRAC_PI_2) / PI) * nt as f64) as usize;
+                (0..nt * np).map(|b| if b / np == row { Rgb::splat(10.0) } else { Rgb::ZERO }).collect()
+            })
+            .collect();
+        let m = Measured::new(MeasuredTable { theta_in, bins_theta: nt, bins_phi: np, f }).unwrap();
+        let wo = fiberlab_math::frame::direction(9f64.to_radians(), 0.4);
+        let w = crate::radiometry::furnace(&m, wo, &crate::radiometry::Quadrature { theta: 14400, phi: 72, h: 1 })[0];
+        let mut rng = fiberlab_check::rng::TestRng::new(29);
+        let (mut max, mut mean) = (0.0f64, 0.0);
+        for _ in 0..40000 {
+            let weight = m.sample(wo, 0.0, rng.u4()).map_or(0.0, |s| s.weight[0]);
+            max = max.max(weight);
+            mean += weight / 40000.0;
+        }
+        assert!(max < 4.0 * w, "largest weight {max}, furnace {w}");
+        assert!((mean - w).abs() < 0.03 * w, "mean weight {mean}, furnace {w}");
     }
 
     /// The pdf integrates to 1 over the sphere and `sample` agrees with `pdf` and `eval`.

@@ -295,13 +295,6 @@ impl Measured {
         i * np + j
     }
 
-    /// Solid angle of a bin in row `i`.
-    fn bin_solid_angle(&self, i: usize) -> f64 {
-        let nt = self.table.bins_theta as f64;
-        let a = -FRAC_PI_2 + i as f64 * PI / nt;
-        ((a + PI / nt).sin() - a.sin()) * TAU / self.table.bins_phi as f64
-    }
-
     fn bin_probability(&self, slice: usize, bin: usize) -> f64 {
         let c = &self.cdf[slice];
         c[bin + 1] - c[bin]
@@ -346,7 +339,7 @@ impl ScatteringFunction for Measured {
                 cos_theta_direction(u[1], u[2], TAU * u[3])
             } else {
                 let b = (c.partition_point(|&x| x <= u[1]).max(1) - 1).min(c.len() - 2);
-                let (nt, np) = (self.table.bins_theta, self.table.bins_phi);
+                let np = self.table.bins_phi;
                 let (i, j) = (b / np, b % np);
                 let (sa, sb) = self.widened_span(i);
                 let s = (sa + u[2] * (sb - sa)).clamp(-1.0, 1.0);

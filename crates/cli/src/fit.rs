@@ -101,12 +101,8 @@ fn from_table(path: &Path, lobe: &str, per_channel: bool) -> anyhow::Result<Obse
 }
 
 /// Observations of a target model on a 10° (θ_i, θ_r) × 15° φ grid, weighted by
-/// cosθ_i cosθ_r: σ = s/sqrt(cosθ_i cosθ_r) with s the grid's mean value; luminances.
-pub(crate) fn from_model(model: &fiberlab_scatter::Model) -> Vec<Observation> {
-    from_model_in(model, false)
-}
-
-/// [`from_model`], per channel when `per_channel` (each channel's σ from its own mean).
+/// cosθ_i cosθ_r: σ = s/sqrt(cosθ_i cosθ_r) with s the grid's mean value; luminances, or
+/// per channel when `per_channel` (each channel's σ from its own mean).
 fn from_model_in(model: &fiberlab_scatter::Model, per_channel: bool) -> Vec<Observation> {
     use fiberlab_scatter::{Field, ScatteringFunction};
     let near = model.properties().field == Field::Near;

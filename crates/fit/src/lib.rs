@@ -221,6 +221,7 @@ struct Problem<'a> {
     base: &'a ParamSet,
     coordinates: &'a [Coordinate],
     data: &'a [Observation],
+    constraint: Option<Constraint<'a>>,
 }
 
 impl Problem<'_> {
@@ -239,6 +240,11 @@ impl Problem<'_> {
             }
         }
         (self.spec.build)(&params)
+    }
+
+    /// Whether the constraint (if any) admits `m`.
+    fn admits(&self, m: &Model) -> bool {
+        self.constraint.is_none_or(|admissible| admissible(m))
     }
 
     fn residuals(&self, m: &Model) -> Vec<f64> {
@@ -274,10 +280,13 @@ impl CostFunction for Problem<'_> {
     type Output = f64;
 
     fn cost(&self, p: &Self::Param) -> Result<f64, Error> {
-        // Parameters outside a model's valid range cost "infinitely" much.
+        // Parameters outside a model's valid range, or models the constraint rejects, cost
+        // "infinitely" much (an extreme barrier: the simplex never steps outside).
         Ok(match self.model_at(p) {
-            Ok(m) => self.residuals(&m).iter().map(|r| r * r).sum(),
-            Err(_) => 1e300,
+            Ok(m) if self.admits(&m) => {
+                self.residuals(&m).iter().map(|r| r * r).sum()
+            }
+            _ => 1e300,
         })
     }
 }
@@ -304,6 +313,27 @@ pub fn fit(
     fit_with(base, &free, data, &FitOptions { max_iters, progress: None })
 }
 
+/// A condition every trial model of a constrained fit must meet (e.g. an energy bound):
+/// `true` when the model is admissible.
+pub type Constraint<'a> = &'a (dyn Fn(&Model) -> bool + Sync);
+
+/// [`fit`] with the trial models restricted to those `constraint` admits: inadmissible
+/// parameters cost as much as parameters outside the model's valid range (Nelder–Mead with
+/// an extreme barrier) and the polishing steps never take them, so the result is admissible
+/// whenever the starting point is (a starting point the constraint rejects is
+/// [`FitError::Setup`]). The uncertainties are those of the unconstrained problem at the
+/// optimum (meaningless for a parameter the constraint holds on its boundary).
+pub fn fit_constrained(
+    base: &ParamSet,
+    free: &[(String, f64)],
+    data: &[Observation],
+    max_iters: u64,
+    constraint: Option<Constraint>,
+) -> Result<FitResult, FitError> {
+    let free: Vec<FreeParam> = free.iter().map(|(k, v)| FreeParam { key: k.clone(), start: vec![*v] }).collect();
+    fit_under(base, &free, data, &FitOptions { max_iters, progress: None }, constraint)
+}
+
 /// Fits the `free` parameters of the model whose other parameters are `base` (validated;
 /// its model is `base.model()`). Free parameters are real numbers or colours; a colour is
 /// fitted per channel when any observation is of a channel, else as one grey value.
@@ -312,6 +342,17 @@ pub fn fit_with(
     free: &[FreeParam],
     data: &[Observation],
     options: &FitOptions,
+) -> Result<FitResult, FitError> {
+    fit_under(base, free, data, options, None)
+}
+
+/// [`fit_with`] under an optional constraint ([`fit_constrained`]).
+fn fit_under(
+    base: &ParamSet,
+    free: &[FreeParam],
+    data: &[Observation],
+    options: &FitOptions,
+    constraint: Option<Constraint>,
 ) -> Result<FitResult, FitError> {
     let spec = find(base.model())?;
     if spec.data.is_some() {
@@ -382,8 +423,11 @@ pub fn fit_with(
     if data.iter().any(|o| o.sigma.is_nan() || o.sigma <= 0.0 || !o.value.is_finite()) {
         return Err(FitError::Setup("every observation needs a finite value and σ > 0".into()));
     }
-    let problem = Problem { spec, base, coordinates: &coordinates, data };
-    problem.model_at(&start)?;
+    let problem = Problem { spec, base, coordinates: &coordinates, data, constraint };
+    let start_model = problem.model_at(&start)?;
+    if !problem.admits(&start_model) {
+        return Err(FitError::Setup("the starting point does not satisfy the fit's constraint".into()));
+    }
     let mut simplex = vec![start.clone()];
     for k in 0..start.len() {
         let mut p = start.clone();
@@ -391,7 +435,7 @@ pub fn fit_with(
         simplex.push(p);
     }
     let solver = NelderMead::new(simplex).with_sd_tolerance(1e-9).map_err(|e| FitError::Optimizer(e.to_string()))?;
-    let mut executor = Executor::new(Problem { spec, base, coordinates: &coordinates, data }, solver)
+    let mut executor = Executor::new(Problem { spec, base, coordinates: &coordinates, data, constraint }, solver)
         .configure(|s| s.max_iters(options.max_iters));
     if let Some(progress) = &options.progress {
         executor = executor.add_observer(IterationObserver(progress.clone()), ObserverMode::Always);
@@ -477,7 +521,9 @@ fn polish(problem: &Problem, mut p: Vec<f64>, progress: impl Fn(u64)) -> Vec<f64
                 .collect();
             let Some(inv) = invert(damped) else { break };
             let trial: Vec<f64> = (0..n).map(|a| p[a] - (0..n).map(|b| inv[a][b] * jtr[b]).sum::<f64>()).collect();
-            if let Ok(m) = problem.model_at(&trial) {
+            if let Ok(m) = problem.model_at(&trial)
+                && problem.admits(&m)
+            {
                 let rt = problem.residuals(&m);
                 let ct = chi2(&rt);
                 if ct < cost {
@@ -633,6 +679,36 @@ mod tests {
         }
         assert!(r.at_bound.iter().all(Option::is_none), "{:?}", r.at_bound);
         assert!(r.chi2 / (r.dof as f64) < 2.0, "reduced χ² {}", r.chi2 / r.dof as f64);
+    }
+
+    /// Exact Kajiya–Kay data (p = 30): the unconstrained fit recovers p, a fit constrained
+    /// to p ≥ 40 ends admissible, on the boundary, and a rejected start is an error.
+    #[test]
+    fn a_constraint_keeps_every_trial_model_admissible() {
+        let spec = find("kajiya-kay").unwrap();
+        let truth = build("kajiya-kay", &[("k_d", "0.05"), ("k_s", "0.1"), ("p", "30")]).unwrap();
+        let mut data = Vec::new();
+        for i in 0..9 {
+            for j in 0..9 {
+                let (wi, wo) = (direction(-0.8 + 0.2 * i as f64, 0.0), direction(-0.8 + 0.2 * j as f64, 1.0));
+                data.push(Observation { wi, wo, value: truth.eval(wi, wo, 0.0).luminance(), sigma: 0.01 });
+            }
+        }
+        let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
+        let free = [("k_d".to_string(), 0.04), ("k_s".to_string(), 0.12), ("p".to_string(), 45.0)];
+        let p_of = |m: &Model| match m {
+            Model::KajiyaKay(k) => k.p(),
+            _ => unreachable!(),
+        };
+        let at_least_40 = |m: &Model| p_of(m) >= 40.0;
+        let free_fit = fit(&base, &free, &data, 2000).unwrap();
+        assert!((free_fit.params[2].1 - 30.0).abs() < 0.5, "{:?}", free_fit.params);
+        let held = fit_constrained(&base, &free, &data, 2000, Some(&at_least_40)).unwrap();
+        let p = held.params[2].1;
+        assert!((40.0..40.5).contains(&p), "constrained p = {p}");
+        assert!(held.chi2 > free_fit.chi2, "{} vs {}", held.chi2, free_fit.chi2);
+        let start = [("k_d".to_string(), 0.04), ("k_s".to_string(), 0.12), ("p".to_string(), 35.0)];
+        assert!(matches!(fit_constrained(&base, &start, &data, 10, Some(&at_least_40)), Err(FitError::Setup(_))));
     }
 
     #[test]

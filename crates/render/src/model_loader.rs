@@ -2,11 +2,18 @@
 //! `--params-file`): any registered model from its name and `(key, value)` pairs, with the
 //! external data its specification asks for ([`ModelSpec::data`]) loaded here — the I/O a
 //! pure scattering crate cannot do.
+//!
+//! A measured table of **one incidence** is refused here ([`LoadError::OneIncidence`]):
+//! the `measured` model interpolates between measured incidences, and a single slice says
+//! nothing about light from any other inclination. Every use of a table as a scattering
+//! function goes through this loader (scenes, `render`, `evaluate`, `eval`, `sample`,
+//! `plot`, `fit`, the model side of `compare-model`), so the rule holds everywhere;
+//! `compare-model --table` still reads such a table as measured data.
 
 use crate::measured_table::{TableError, load_measured};
 use fiberlab_scatter::params::{ParamSet, RawValue};
 use fiberlab_scatter::{ExternalData, Model, ModelError, ModelSpec};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 /// Why a model could not be loaded.
@@ -19,6 +26,19 @@ pub enum LoadError {
     /// The model's data file could not be read or used.
     #[error(transparent)]
     Table(#[from] TableError),
+    /// A measured table with a single incidence: nothing to interpolate between.
+    #[error(
+        "{}: the table holds one incidence (θ_i = {theta_deg}°); the `measured` model interpolates between \
+         measured incidences and needs at least two: measure several, e.g. `fiberlab measure --theta-i \
+         -60,-30,0,30,60`",
+        path.display()
+    )]
+    OneIncidence {
+        /// The table file.
+        path: PathBuf,
+        /// Its one incidence, degrees.
+        theta_deg: f64,
+    },
 }
 
 /// Builds model `name` from `pairs` (converted and validated against its specification);
@@ -30,8 +50,13 @@ pub fn load_model<K: AsRef<str>>(name: &str, pairs: &[(K, RawValue)], base: &Pat
     match spec.data {
         None => Ok((spec.build)(&params)?),
         Some(ExternalData::Table { key }) => {
-            let path = params.text(key).ok_or(ModelError::NeedsData { model: spec.name, key })?;
-            Ok(load_measured(&base.join(path))?.into())
+            let path = base.join(params.text(key).ok_or(ModelError::NeedsData { model: spec.name, key })?);
+            let table = load_measured(&path)?;
+            if let [theta] = table.incidences() {
+                let theta_deg = (theta.to_degrees() * 1e6).round() / 1e6;
+                return Err(LoadError::OneIncidence { path, theta_deg });
+            }
+            Ok(table.into())
         }
     }
 }
@@ -60,5 +85,33 @@ mod tests {
             matches!(e, LoadError::Table(_)) && e.to_string().contains(&dir.path().join("t.csv").display().to_string()),
             "{e}"
         );
+    }
+
+    /// A table of `incidences` (degrees), 2×2 bins of 0.1 sr⁻¹, in `fiberlab measure`'s CSV.
+    fn table_csv(incidences: &[f64]) -> String {
+        let mut text = String::from("lobe,theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b,std_r,std_g,std_b\n");
+        for ti in incidences {
+            for tr in [-45.0, 45.0] {
+                for p in [-90.0, 90.0] {
+                    text.push_str(&format!("all,{ti},0,{tr},{p},0.1,0.1,0.1,0.01,0.01,0.01\n"));
+                }
+            }
+        }
+        text
+    }
+
+    /// One incidence is refused with a message naming the file, its incidence and the fix;
+    /// two incidences load.
+    #[test]
+    fn a_table_of_one_incidence_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("one.csv"), table_csv(&[30.0])).unwrap();
+        std::fs::write(dir.path().join("two.csv"), table_csv(&[0.0, 30.0])).unwrap();
+        let e = load_model("measured", &[("table", RawValue::from("one.csv"))], dir.path()).unwrap_err();
+        let text = e.to_string();
+        assert!(matches!(e, LoadError::OneIncidence { theta_deg: 30.0, .. }), "{e}");
+        assert!(text.contains("one.csv") && text.contains("θ_i = 30°") && text.contains("at least two"), "{text}");
+        let two = load_model("measured", &[("table", RawValue::from("two.csv"))], dir.path()).unwrap();
+        assert!(matches!(two, Model::Measured(ref m) if m.incidences().len() == 2));
     }
 }

@@ -17,16 +17,31 @@
 //! `f_s = (1 − t)·T_{k}(θ_o + θ_i − θ_k) + t·T_{k+1}(θ_o + θ_i − θ_{k+1})`, with `t` the linear
 //! weight of θ_i between `θ_k` and `θ_{k+1}` (a plain blend of the two slices would show two
 //! half-height copies of a narrow lobe instead of one lobe in between). A shifted row beyond
-//! ±π/2 contributes 0. Outside the measured range the nearest slice is shifted the same way,
-//! which is also the rule that extends a table of a single incidence (documented, not
-//! claimed accurate: measure several incidences with `fiberlab measure --theta-i 0,10,…`).
+//! ±π/2 contributes 0. Outside the measured range the nearest slice is shifted the same way
+//! (documented, not claimed accurate: measure the range you render).
 //!
-//! **Sampling** uses Helmholtz reciprocity as a proposal: given `ω_o`, a slice at `θ_o` is
-//! chosen with its interpolation weight and a bin with probability ∝ `lum(T)·∫_bin cosθ dω`,
-//! then a uniform direction (in solid angle) within the bin; a defensive fraction
-//! [`DEFENSIVE`] of the samples comes from the ideal diffuse fiber's lobe, so the pdf is
-//! positive wherever `f_s` can be. The pdf is exactly the density of that mixture and the
-//! weight is `f_s cosθ_i/pdf`. Far-field, smooth; reciprocity and energy hold only as well as
+//! **One incidence**: a table of a single incidence is refused wherever a table file becomes
+//! a model (`crates/render/src/model_loader.rs`, `LoadError::OneIncidence`: scenes,
+//! `render`, `evaluate`, `eval`, `sample`, …), since one slice says nothing about light from
+//! other inclinations; measure several with `fiberlab measure --theta-i -60,-30,0,30,60`.
+//! Built directly from a [`MeasuredTable`], such a table is extended by the shift rule above
+//! (the example below uses this).
+//!
+//! **Sampling** uses Helmholtz reciprocity as a proposal, with the slices moved along the
+//! specular cone as `eval` moves them: given `ω_o`, a slice `k` around `θ_o` is chosen with
+//! its interpolation weight and a bin with probability ∝ `lum(T_k)·∫_bin cosθ dω`, then a
+//! point `x` uniform (in solid angle) within the bin's φ range and its θ range widened by one
+//! row on each side, translated to `θ_i = x + θ_k − θ_o` (the reciprocal of `eval`'s read at
+//! `θ_o + θ_i − θ_k`). Without the translation a narrow TT lobe between two slices is
+//! proposed at the slices' positions; without the widening a lobe narrower than a bin, which
+//! the bins of neighbouring slices quantize up to one row apart, is missed where `eval` takes
+//! it from the other slice; either way it is found only by the defensive lobe, with weights of
+//! hundreds. A translated point beyond ±π/2 is replaced by a draw from the ideal diffuse
+//! fiber's lobe, and a defensive fraction [`DEFENSIVE`] of the samples comes from that lobe
+//! too, so the pdf is positive wherever `f_s` can be. The pdf is exactly the density of that
+//! mixture (per steradian, `Σ p_bin·cos x/(Ω_widened·cosθ_i)` over the three rows whose
+//! widened span holds x, growing like 1/cosθ_i toward the axis, [`crate::MIN_COS`] on it) and
+//! the weight is `f_s cosθ_i/pdf`. Far-field, smooth; reciprocity and energy hold only as well as
 //! the measurement does, so neither is claimed.
 
 use crate::params::{ParamKind, ParamSet, ParamSpec};
@@ -194,19 +209,83 @@ impl Measured {
         if x.abs() > FRAC_PI_2 { Rgb::ZERO } else { self.table.f[k][self.bin(x, phi_rel)] }
     }
 
-    /// Density of the table proposal (reciprocal slices at `θ_o`; a slice with no mass
-    /// proposes the ideal diffuse fiber's lobe instead).
+    /// Density of the table proposal (reciprocal slices around `θ_o`, translated; a slice with
+    /// no mass proposes the ideal diffuse fiber's lobe instead).
     fn table_pdf(&self, wi: DVec3, wo: DVec3) -> f64 {
-        let (k0, k1, t) = self.slices(theta(wo));
-        let b = self.bin(theta(wi), relative_phi(wo, wi));
+        let theta_o = theta(wo);
+        let (k0, k1, t) = self.slices(theta_o);
+        let phi_rel = relative_phi(wo, wi);
+        let diffuse = cos_theta_pdf(cos_theta(wi));
         let slice_pdf = |k: usize| {
             if self.cdf[k][self.cdf[k].len() - 1] <= 0.0 {
-                cos_theta_pdf(cos_theta(wi))
-            } else {
-                self.bin_probability(k, b) / self.bin_solid_angle(b / self.table.bins_phi)
+                return diffuse;
             }
+            let shift = self.table.theta_in[k] - theta_o;
+            let x = theta(wi) - shift;
+            let in_table = if x.abs() <= FRAC_PI_2 {
+                // The widened spans of the row of x and its two neighbours contain x.
+                let (nt, np) = (self.table.bins_theta, self.table.bins_phi);
+                let b = self.bin(x, phi_rel);
+                let (row, j) = (b / np, b % np);
+                let dphi = TAU / np as f64;
+                let density: f64 = (row.saturating_sub(1)..=(row + 1).min(nt - 1))
+                    .map(|r| {
+                        let (lo, hi) = self.widened_span(r);
+                        self.bin_probability(k, r * np + j) / ((hi - lo) * dphi)
+                    })
+                    .sum();
+                density * x.cos() / cos_theta(wi).max(crate::MIN_COS)
+            } else {
+                0.0
+            };
+            in_table + self.mass_beyond_pole(k, shift) * diffuse
         };
         slice_pdf(k0) * (1.0 - t) + if t > 0.0 { slice_pdf(k1) * t } else { 0.0 }
+    }
+
+    /// `[sin lo, sin hi]` of row `row` widened by one row on each side (within the table):
+    /// where the proposal places `x` for a bin of that row.
+    fn widened_span(&self, row: usize) -> (f64, f64) {
+        let nt = self.table.bins_theta;
+        let dt = PI / nt as f64;
+        let lo = -FRAC_PI_2 + row.saturating_sub(1) as f64 * dt;
+        let hi = -FRAC_PI_2 + ((row + 2).min(nt)) as f64 * dt;
+        (lo.sin(), hi.sin())
+    }
+
+    /// Where `x` drawn for row `row` (uniform in its widened `[sin lo, sin hi]`) leaves
+    /// [−π/2, π/2] when translated by `shift`: the fraction of the span beyond, and the
+    /// threshold `sin x*`.
+    fn row_beyond_pole(&self, row: usize, shift: f64) -> (f64, f64) {
+        let (sa, sb) = self.widened_span(row);
+        if shift > 0.0 {
+            let limit = (FRAC_PI_2 - shift).sin();
+            (((sb - limit.max(sa)) / (sb - sa)).clamp(0.0, 1.0), limit)
+        } else if shift < 0.0 {
+            let limit = (-FRAC_PI_2 - shift).sin();
+            (((limit.min(sb) - sa) / (sb - sa)).clamp(0.0, 1.0), limit)
+        } else {
+            (0.0, 0.0)
+        }
+    }
+
+    /// Probability that slice `k`'s proposal, translated by `shift`, leaves [−π/2, π/2].
+    fn mass_beyond_pole(&self, k: usize, shift: f64) -> f64 {
+        if shift == 0.0 {
+            return 0.0;
+        }
+        let (nt, np) = (self.table.bins_theta, self.table.bins_phi);
+        let c = &self.cdf[k];
+        let mut mass = 0.0;
+        let rows: Box<dyn Iterator<Item = usize>> = if shift > 0.0 { Box::new((0..nt).rev()) } else { Box::new(0..nt) };
+        for row in rows {
+            let (fraction, _) = self.row_beyond_pole(row, shift);
+            if fraction <= 0.0 {
+                break;
+            }
+            mass += fraction * (c[(row + 1) * np] - c[row * np]);
+        }
+        mass
     }
 
     fn bin(&self, theta_out: f64, phi_rel: f64) -> usize {
@@ -214,13 +293,6 @@ impl Measured {
         let i = (((theta_out + FRAC_PI_2) / PI * nt as f64) as usize).min(nt - 1);
         let j = (((phi_rel + PI) / TAU * np as f64) as usize).min(np - 1);
         i * np + j
-    }
-
-    /// Solid angle of a bin in row `i`.
-    fn bin_solid_angle(&self, i: usize) -> f64 {
-        let nt = self.table.bins_theta as f64;
-        let a = -FRAC_PI_2 + i as f64 * PI / nt;
-        ((a + PI / nt).sin() - a.sin()) * TAU / self.table.bins_phi as f64
     }
 
     fn bin_probability(&self, slice: usize, bin: usize) -> f64 {
@@ -258,7 +330,8 @@ impl ScatteringFunction for Measured {
         let wi = if u[0] < DEFENSIVE {
             cos_theta_direction(u[1], u[2], TAU * u[3])
         } else {
-            let (k0, k1, t) = self.slices(theta(wo));
+            let theta_o = theta(wo);
+            let (k0, k1, t) = self.slices(theta_o);
             let u0 = (u[0] - DEFENSIVE) / (1.0 - DEFENSIVE);
             let slice = if u0 < t { k1 } else { k0 };
             let c = &self.cdf[slice];
@@ -266,13 +339,33 @@ impl ScatteringFunction for Measured {
                 cos_theta_direction(u[1], u[2], TAU * u[3])
             } else {
                 let b = (c.partition_point(|&x| x <= u[1]).max(1) - 1).min(c.len() - 2);
-                let (nt, np) = (self.table.bins_theta, self.table.bins_phi);
+                let np = self.table.bins_phi;
                 let (i, j) = (b / np, b % np);
-                let a = -FRAC_PI_2 + i as f64 * PI / nt as f64;
-                let (sa, sb) = (a.sin(), (a + PI / nt as f64).sin());
+                let (sa, sb) = self.widened_span(i);
                 let s = (sa + u[2] * (sb - sa)).clamp(-1.0, 1.0);
-                let rel = -PI + (j as f64 + u[3]) * TAU / np as f64;
-                direction_from_sin_cos(s, (1.0 - s * s).max(0.0).sqrt(), phi(wo) + rel)
+                let shift = self.table.theta_in[slice] - theta_o;
+                let theta_i = s.asin() + shift;
+                if theta_i.abs() <= FRAC_PI_2 {
+                    let rel = -PI + (j as f64 + u[3]) * TAU / np as f64;
+                    let (si, ci) = theta_i.sin_cos();
+                    direction_from_sin_cos(si, ci.max(0.0), phi(wo) + rel)
+                } else {
+                    // Beyond the pole: the ideal diffuse fiber's lobe, from uniforms that are
+                    // fresh given this outcome (u[1] within the bin, u[2] within the part of
+                    // the bin beyond the pole).
+                    let (lo, hi) = (c[b], c[b + 1]);
+                    let fresh1 = if hi > lo { ((u[1] - lo) / (hi - lo)).clamp(0.0, 1.0) } else { 0.5 };
+                    let (_, limit) = self.row_beyond_pole(i, shift);
+                    let cut = ((limit - sa) / (sb - sa)).clamp(0.0, 1.0);
+                    let fresh2 = if shift > 0.0 {
+                        if cut < 1.0 { ((u[2] - cut) / (1.0 - cut)).clamp(0.0, 1.0) } else { 0.5 }
+                    } else if cut > 0.0 {
+                        (u[2] / cut).clamp(0.0, 1.0)
+                    } else {
+                        0.5
+                    };
+                    cos_theta_direction(fresh1, fresh2, TAU * u[3])
+                }
             }
         };
         let pdf = self.pdf(wi, wo, h);
@@ -390,27 +483,71 @@ mod tests {
         assert!(along(-20f64.to_radians()) < 0.01 && along(0.0) < 0.01);
     }
 
+    /// Between two slices the proposal follows the lobe `eval` moves along the cone: the
+    /// sampling weights of a narrow lobe stay near its furnace value (by quadrature), where a
+    /// proposal at the slices' own positions leaves the lobe to the defensive fraction
+    /// (weights ~ f·π²/DEFENSIVE, hundreds here).
+    #[test]
+    fn sampling_follows_a_lobe_moved_between_slices() {
+        let m = Measured::new(cone_table(&[0.0, 20.0], 180)).unwrap();
+        let wo = fiberlab_math::frame::direction(10f64.to_radians(), 0.4);
+        let w = crate::radiometry::furnace(&m, wo, &crate::radiometry::Quadrature::default())[0];
+        let mut rng = fiberlab_check::rng::TestRng::new(23);
+        let (mut max, mut mean) = (0.0f64, 0.0);
+        for _ in 0..4000 {
+            let weight = m.sample(wo, 0.0, rng.u4()).map_or(0.0, |s| s.weight[0]);
+            max = max.max(weight);
+            mean += weight / 4000.0;
+        }
+        assert!(max < 3.0 * w, "largest weight {max}, furnace {w}");
+        assert!((mean - w).abs() < 0.02 * w, "mean weight {mean}, furnace {w}");
+    }
+
+    /// A lobe narrower than a bin (one bin per slice, the bin holding θ_out = −θ_in), whose
+    /// bins sit at different phases in the two slices: the sampling weights stay near the
+    /// furnace value (by quadrature) where `eval` takes the lobe from the other slice than the
+    /// proposal does.
+    #[test]
+    fn sampling_covers_a_lobe_quantized_differently_by_neighbouring_slices() {
+        let (nt, np) = (60, 36);
+        let theta_in: Vec<f64> = [-20.0f64, -1.0].iter().map(|d| d.to_radians()).collect();
+        let f = theta_in
+            .iter()
+            .map(|&ti| {
+                let row = (((-ti + FRAC_PI_2) / PI) * nt as f64) as usize;
+                (0..nt * np).map(|b| if b / np == row { Rgb::splat(10.0) } else { Rgb::ZERO }).collect()
+            })
+            .collect();
+        let m = Measured::new(MeasuredTable { theta_in, bins_theta: nt, bins_phi: np, f }).unwrap();
+        let wo = fiberlab_math::frame::direction(9f64.to_radians(), 0.4);
+        let w = crate::radiometry::furnace(&m, wo, &crate::radiometry::Quadrature { theta: 14400, phi: 72, h: 1 })[0];
+        let mut rng = fiberlab_check::rng::TestRng::new(29);
+        let (mut max, mut mean) = (0.0f64, 0.0);
+        for _ in 0..40000 {
+            let weight = m.sample(wo, 0.0, rng.u4()).map_or(0.0, |s| s.weight[0]);
+            max = max.max(weight);
+            mean += weight / 40000.0;
+        }
+        assert!(max < 4.0 * w, "largest weight {max}, furnace {w}");
+        assert!((mean - w).abs() < 0.03 * w, "mean weight {mean}, furnace {w}");
+    }
+
     /// The pdf integrates to 1 over the sphere and `sample` agrees with `pdf` and `eval`.
     #[test]
     fn pdf_integrates_to_one_and_sampling_agrees() {
         let m = Measured::new(cone_table(&[-30.0, 0.0, 40.0], 45)).unwrap();
         for theta_o in [-0.9, -0.2, 0.35, 1.2] {
             let wo = fiberlab_math::frame::direction(theta_o, 0.7);
-            // Midpoint rule in (sinθ, φ) on nodes aligned with the table's bins (45 × 36), where
-            // the table part of the pdf is constant: exact for it, and accurate for the smooth
-            // defensive part.
-            let (sub, np) = (16, 36 * 8);
+            // Midpoint rule in (θ_i, φ), where `pdf·cosθ_i` is bounded (the table part is
+            // piecewise smooth, with steps at the translated bin edges).
+            let (nt, np) = (45 * 64, 36 * 8);
             let mut total = 0.0;
-            for i in 0..45 {
-                let a = -FRAC_PI_2 + i as f64 * PI / 45.0;
-                let (sa, sb) = (a.sin(), (a + PI / 45.0).sin());
-                for q in 0..sub {
-                    let s = sa + (q as f64 + 0.5) / sub as f64 * (sb - sa);
-                    for b in 0..np {
-                        let rel = -PI + (b as f64 + 0.5) * TAU / np as f64;
-                        let wi = direction_from_sin_cos(s, (1.0 - s * s).sqrt(), phi(wo) + rel);
-                        total += m.pdf(wi, wo, 0.0) * (sb - sa) / sub as f64 * TAU / np as f64;
-                    }
+            for i in 0..nt {
+                let t = -FRAC_PI_2 + (i as f64 + 0.5) * PI / nt as f64;
+                for b in 0..np {
+                    let rel = -PI + (b as f64 + 0.5) * TAU / np as f64;
+                    let wi = direction_from_sin_cos(t.sin(), t.cos(), phi(wo) + rel);
+                    total += m.pdf(wi, wo, 0.0) * t.cos() * PI / nt as f64 * TAU / np as f64;
                 }
             }
             assert!((total - 1.0).abs() < 1e-4, "θ_o = {theta_o}: ∫ pdf = {total}");

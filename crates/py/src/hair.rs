@@ -9,8 +9,9 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 /// What reading returns: `(points (N, 3) float32, points per strand (S,) int64, thickness
-/// (N,) float32)`; the thickness is the per-point array or the file's default at every point.
-type Strands<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<f32>>, bool);
+/// (N,) float32, has a thickness array, default thickness)`; the thickness is the per-point
+/// array or the file's default at every point.
+type Strands<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<f32>>, bool, f32);
 
 fn strands<'py>(py: Python<'py>, hair: &HairFile) -> Strands<'py> {
     let n = hair.points.len();
@@ -22,10 +23,11 @@ fn strands<'py>(py: Python<'py>, hair: &HairFile) -> Strands<'py> {
         Array1::from_vec(counts).into_pyarray(py),
         Array1::from_vec(thickness).into_pyarray(py),
         hair.thickness.is_some(),
+        hair.default_thickness,
     )
 }
 
-/// Reads a `.hair` file: `(points, counts, thickness, has_thickness_array)`.
+/// Reads a `.hair` file: see [`Strands`].
 #[pyfunction]
 pub(crate) fn hair_read<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Strands<'py>> {
     let hair = HairFile::read(&path).map_err(|e| PyValueError::new_err(e.to_string()))?;

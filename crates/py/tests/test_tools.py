@@ -212,3 +212,16 @@ def test_frames_round_trip_and_map_angles_as_documented():
             assert fl.frames.offset_from_mitsuba(h_m) == pytest.approx(h, abs=1e-12)
     with pytest.raises(ValueError, match=r"\(\.\.\., 3\)"):
         fl.frames.to_mitsuba([1.0, 0.0])
+
+
+def test_ctrl_c_stops_a_measurement():
+    import _thread
+    import threading
+
+    timer = threading.Timer(0.5, _thread.interrupt_main)
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            fl.measure({"sigma_a": 0.2}, theta_i=0.3, rays=200_000_000, bins=(4, 4))
+    finally:
+        timer.cancel()

@@ -28,12 +28,11 @@ class Strands(NamedTuple):
     """The file's diameter for points without a thickness array."""
 
 
-def _split(points, counts, thickness, has_thickness) -> Strands:
+def _split(points, counts, thickness, has_thickness, default_thickness) -> Strands:
     ends = np.cumsum(counts)[:-1]
     strands = np.split(points, ends) if len(counts) else []
     per_point = np.split(thickness, ends) if len(counts) else []
-    default = float(thickness[0]) if (len(thickness) and not has_thickness) else 1.0
-    return Strands(strands, per_point if has_thickness else None, default)
+    return Strands(strands, per_point if has_thickness else None, float(default_thickness))
 
 
 def read(path) -> Strands:

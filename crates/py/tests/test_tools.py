@@ -158,6 +158,19 @@ def test_check_passes_for_chiang():
     assert not failed, failed
 
 
+def test_check_rows_equal_the_command_line_json():
+    # The same harness and effort: the rows of `fiberlab check` for the default Kajiya–Kay
+    # configuration (JSON writes NaN as null).
+    cli = [r for r in json.loads(run_cli("check", "--model", "kajiya-kay", "--json")) if r["model"] == "kajiya-kay"]
+    ours = fl.check(fl.KajiyaKay())
+
+    def plain(row):
+        return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in row.items()}
+
+    assert len(cli) == len(ours) > 10
+    assert [plain(r) for r in ours] == cli
+
+
 def test_check_reports_kajiya_kay_albedo_above_one_without_claiming_conservation():
     # Kajiya–Kay with k_d = k_s = 0.9 reflects far more than it receives; the model does not
     # claim energy conservation, so the harness measures the albedo without failing it.

@@ -24,6 +24,11 @@ Conventions (``docs/theory/conventions.md`` in the repository):
 * Bad input raises ``ValueError``: wrong shapes, NaN or infinite values, directions whose
   length is not within 1e-3 of 1, ``h`` outside [-1, 1], unknown models or parameters, values
   outside their range (the same messages as the command line).
+
+Tools, each running the code of the command of the same name: :func:`render`, :func:`measure`
+(the goniophotometer), :func:`compare` (image metrics), :func:`check` (the validation harness),
+:mod:`fiberlab.hair` (``.hair`` strands as arrays, the hair generator) and
+:mod:`fiberlab.frames` (Mitsuba 3's hair frame).
 """
 
 from __future__ import annotations

@@ -1,5 +1,8 @@
 //! `fiberlab._native`: the compiled core of the `fiberlab` Python package (the Python layer,
 //! `crates/py/python/fiberlab/__init__.py`, adds broadcasting, typed constructors and docs).
+//! The tools beside the models have one file each: [`measure`] (goniophotometer), [`compare`]
+//! (image metrics), [`hair`] (strand files and the generator), [`check`] (validation
+//! harness), [`bench`] (the Rust reference loop of the evaluation benchmark).
 //!
 //! Everything here works on flat, C-contiguous float64 arrays: directions `(N, 3)`, offsets
 //! `h` `(N,)`, uniforms `(N, 4)`. Inputs are borrowed without copying; loops run on rayon
@@ -8,6 +11,12 @@
 //! checked like the command line checks them: finite, length within 1e−3 of 1 (then
 //! normalized), `h` in [−1, 1]; a bad value raises `ValueError` naming the array and the
 //! flat index of the first bad element.
+
+mod bench;
+mod check;
+mod compare;
+mod hair;
+mod measure;
 
 use fiberlab_math::DVec3;
 use fiberlab_scatter::params::{ParamKind, RawValue};
@@ -19,6 +28,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use rayon::prelude::*;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Largest deviation of a direction's length from 1 that is accepted (then normalized), as
 /// on the command line.
@@ -26,7 +36,7 @@ const UNIT_TOLERANCE: f64 = 1e-3;
 
 /// A Python value as a parameter value of any edge ([`RawValue`]): str → text, bool →
 /// boolean, int/float → number, list/tuple → list.
-fn raw_value(key: &str, value: &Bound<'_, PyAny>) -> PyResult<RawValue> {
+pub(crate) fn raw_value(key: &str, value: &Bound<'_, PyAny>) -> PyResult<RawValue> {
     if value.is_instance_of::<PyBool>() {
         return Ok(RawValue::Bool(value.extract()?));
     }
@@ -59,7 +69,7 @@ type Samples<'py> =
 
 /// A scattering model of the registry, built from its name and parameters.
 #[pyclass(name = "Model", module = "fiberlab._native", frozen)]
-struct PyModel {
+pub(crate) struct PyModel {
     model: Model,
     name: String,
     given: Vec<(String, String)>,
@@ -87,18 +97,27 @@ fn bad_direction(name: &str, v: &[f64], k: usize) -> PyErr {
     ))
 }
 
-/// Checks the arrays of one call: directions finite and unit, `h` in [−1, 1], sizes equal.
-fn check_inputs(dirs: &[(&str, &[f64])], h: &[f64], n: usize) -> PyResult<()> {
+/// Checks that the arrays of one call hold `n` elements each.
+fn check_sizes(dirs: &[(&str, &[f64])], h: &[f64], n: usize) -> PyResult<()> {
     for (name, v) in dirs {
         if v.len() != 3 * n {
             return Err(PyValueError::new_err(format!("{name}: expected {n} directions, got {}", v.len() / 3)));
         }
-        if let Some(k) = first_bad(n, |k| direction(v, k).is_some()) {
-            return Err(bad_direction(name, v, k));
-        }
     }
     if h.len() != n {
         return Err(PyValueError::new_err(format!("h: expected {n} values, got {}", h.len())));
+    }
+    Ok(())
+}
+
+/// Checks the arrays of one call: sizes equal, directions finite and unit, `h` in [−1, 1];
+/// the error names the first bad element of the first bad array.
+pub(crate) fn check_inputs(dirs: &[(&str, &[f64])], h: &[f64], n: usize) -> PyResult<()> {
+    check_sizes(dirs, h, n)?;
+    for (name, v) in dirs {
+        if let Some(k) = first_bad(n, |k| direction(v, k).is_some()) {
+            return Err(bad_direction(name, v, k));
+        }
     }
     if let Some(k) = first_bad(n, |k| (-1.0..=1.0).contains(&h[k])) {
         return Err(PyValueError::new_err(format!("h[{k}] = {}: expected a value in [-1, 1]", h[k])));
@@ -106,7 +125,7 @@ fn check_inputs(dirs: &[(&str, &[f64])], h: &[f64], n: usize) -> PyResult<()> {
     Ok(())
 }
 
-fn slice<'a, D: numpy::ndarray::Dimension>(
+pub(crate) fn slice<'a, D: numpy::ndarray::Dimension>(
     name: &str,
     a: &'a numpy::PyReadonlyArray<'_, f64, D>,
 ) -> PyResult<&'a [f64]> {
@@ -121,7 +140,7 @@ fn rows(py: Python<'_>, v: Vec<f64>) -> Bound<'_, PyArray2<f64>> {
 
 /// What `eval_pdf`-like calls compute per direction pair.
 #[derive(Clone, Copy)]
-enum Quantity {
+pub(crate) enum Quantity {
     /// f_s (sr⁻¹), three channels.
     Fs,
     /// f_s · cosθ_i, three channels.
@@ -130,28 +149,40 @@ enum Quantity {
     Pdf,
 }
 
+/// Evaluates `what` for every pair, in parallel; allocates only the output. Each element is
+/// checked as it is read (the same test as [`check_inputs`]); `None` when one is invalid, for
+/// the caller to name it with [`check_inputs`]: one pass over the arrays when they are valid.
+pub(crate) fn eval_loop(model: &Model, wi: &[f64], wo: &[f64], h: &[f64], what: Quantity) -> Option<Vec<f64>> {
+    let width = if matches!(what, Quantity::Pdf) { 1 } else { 3 };
+    let mut out = vec![0.0; width * h.len()];
+    let bad = AtomicBool::new(false);
+    out.par_chunks_mut(width).enumerate().for_each(|(k, o)| match (direction(wi, k), direction(wo, k)) {
+        (Some(a), Some(b)) if (-1.0..=1.0).contains(&h[k]) => match what {
+            Quantity::Pdf => o[0] = model.pdf(a, b, h[k]),
+            Quantity::Fs | Quantity::FsCos => {
+                let f = model.eval(a, b, h[k]);
+                let c = if matches!(what, Quantity::FsCos) { fiberlab_math::frame::cos_theta(a) } else { 1.0 };
+                o.copy_from_slice(&[f[0] * c, f[1] * c, f[2] * c]);
+            }
+        },
+        _ => bad.store(true, Ordering::Relaxed),
+    });
+    (!bad.into_inner()).then_some(out)
+}
+
 impl PyModel {
     /// Evaluates `what` for every pair, in parallel without the GIL.
     fn map_pairs(&self, py: Python<'_>, wi: &[f64], wo: &[f64], h: &[f64], what: Quantity) -> PyResult<Vec<f64>> {
-        let n = h.len();
-        check_inputs(&[("wi", wi), ("wo", wo)], h, n)?;
-        let width = if matches!(what, Quantity::Pdf) { 1 } else { 3 };
+        let dirs = [("wi", wi), ("wo", wo)];
+        check_sizes(&dirs, h, h.len())?;
         let model = &self.model;
-        Ok(py.detach(|| {
-            let mut out = vec![0.0; width * n];
-            out.par_chunks_mut(width).enumerate().for_each(|(k, o)| {
-                let (a, b) = (direction(wi, k).expect("checked"), direction(wo, k).expect("checked"));
-                match what {
-                    Quantity::Pdf => o[0] = model.pdf(a, b, h[k]),
-                    Quantity::Fs | Quantity::FsCos => {
-                        let f = model.eval(a, b, h[k]);
-                        let c = if matches!(what, Quantity::FsCos) { fiberlab_math::frame::cos_theta(a) } else { 1.0 };
-                        o.copy_from_slice(&[f[0] * c, f[1] * c, f[2] * c]);
-                    }
-                }
-            });
-            out
-        }))
+        match py.detach(|| eval_loop(model, wi, wo, h, what)) {
+            Some(v) => Ok(v),
+            None => {
+                check_inputs(&dirs, h, h.len())?;
+                Err(PyValueError::new_err("invalid input"))
+            }
+        }
     }
 }
 
@@ -417,9 +448,9 @@ fn render<'py>(
                 std::thread::sleep(std::time::Duration::from_millis(50));
                 Python::attach(|py| {
                     let result = py.check_signals().and_then(|()| match &progress {
-                        Some(cb) => cb
-                            .call1(py, (done.load(Ordering::Relaxed), total.load(Ordering::Relaxed)))
-                            .map(drop),
+                        Some(cb) => {
+                            cb.call1(py, (done.load(Ordering::Relaxed), total.load(Ordering::Relaxed))).map(drop)
+                        }
                         None => Ok(()),
                     });
                     if let Err(e) = result
@@ -449,6 +480,13 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(models, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(measure::measure, m)?)?;
+    m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
+    m.add_function(wrap_pyfunction!(hair::hair_read, m)?)?;
+    m.add_function(wrap_pyfunction!(hair::hair_write, m)?)?;
+    m.add_function(wrap_pyfunction!(hair::hair_generate, m)?)?;
+    m.add_function(wrap_pyfunction!(check::check, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::_bench_eval_rust, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

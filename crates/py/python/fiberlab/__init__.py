@@ -24,6 +24,11 @@ Conventions (``docs/theory/conventions.md`` in the repository):
 * Bad input raises ``ValueError``: wrong shapes, NaN or infinite values, directions whose
   length is not within 1e-3 of 1, ``h`` outside [-1, 1], unknown models or parameters, values
   outside their range (the same messages as the command line).
+
+Tools, each running the code of the command of the same name: :func:`render`, :func:`measure`
+(the goniophotometer), :func:`compare` (image metrics), :func:`check` (the validation harness),
+:mod:`fiberlab.hair` (``.hair`` strands as arrays, the hair generator) and
+:mod:`fiberlab.frames` (Mitsuba 3's hair frame).
 """
 
 from __future__ import annotations
@@ -37,7 +42,8 @@ from . import _native
 
 __version__ = _native.__version__
 
-__all__ = ["Model", "Sample", "load_dict", "models", "directions_from_angles", "render", "read_exr", "scene_toml"]
+__all__ = ["Model", "Sample", "load_dict", "models", "directions_from_angles", "render", "read_exr", "scene_toml",
+           "measure", "compare", "check", "hair", "frames"]
 
 
 class Sample(NamedTuple):
@@ -274,6 +280,81 @@ def read_exr(path) -> np.ndarray:
     return _native.read_exr(str(path))
 
 
+def measure(fiber: Optional[Mapping[str, Any]] = None, theta_i=0.0, phi_i: float = 0.0, rays: int = 100_000,
+            bins=(180, 360), seed: int = 1):
+    """Measures a fiber with the virtual goniophotometer, like ``fiberlab measure`` (the same
+    numbers for the same parameters and seed).
+
+    ``fiber``: a dict of the fiber's parameters — the keys of ``fiberlab measure --param``
+    (``eta``, ``sigma_a``, ``aspect``, ``orientation``, ``scale_angle``, ``scale_length``,
+    ``medulla_radius``, ``medulla_sigma_s``, ``medulla_sigma_a``, ``medulla_g``, ``surface``,
+    ``albedo``) with the units of a fiber TOML file (``orientation`` and ``scale_angle`` in
+    degrees). ``theta_i`` (radians, |θ_i| < 89.9°) is a number or a list; ``phi_i`` radians;
+    ``bins = (nθ, nφ)`` over θ_r ∈ [−π/2, π/2] and φ = φ_r − φ_i ∈ [−π, π].
+
+    Returns, for a scalar ``theta_i``, a dict with ``theta_i``, ``phi_i``, bin centres
+    ``theta_r`` ``(nθ,)`` and ``phi`` ``(nφ,)`` (radians), ``lobes`` (``"r"``, ``"tt"``,
+    ``"trt"``, ``"higher"``, ``"medulla"``, ``"all"`` → ``{"f", "std"}`` ``(nθ, nφ, 3)`` f_s in
+    sr⁻¹ and its Monte Carlo standard error, and ``"albedo"`` ``(3,)``) and the ray counts
+    ``traced``, ``missed``, ``dropped``; for a list, a list of such dicts.
+    """
+    thetas = np.atleast_1d(np.asarray(theta_i, dtype=np.float64))
+    if thetas.ndim != 1:
+        raise ValueError(f"measure: theta_i must be a number or a list, got shape {thetas.shape}")
+    try:
+        nt, nphi = (int(b) for b in bins)
+    except (TypeError, ValueError):
+        raise ValueError(f"measure: bins must be two positive integers (nθ, nφ), got {bins!r}") from None
+    if int(rays) < 1 or nt < 1 or nphi < 1 or int(seed) < 0:
+        raise ValueError(f"measure: rays and bins must be positive and seed non-negative, got rays={rays}, "
+                         f"bins={bins!r}, seed={seed}")
+    out = _native.measure(dict(fiber or {}), [float(t) for t in thetas], float(phi_i), int(rays), nt, nphi,
+                          int(seed))
+    return out if np.ndim(theta_i) else out[0]
+
+
+def _image(name: str, a) -> np.ndarray:
+    arr = np.ascontiguousarray(np.asarray(a, dtype=np.float64))
+    if arr.ndim != 3 or arr.shape[2] != 3:
+        raise ValueError(f"{name}: expected an (H, W, 3) array, got shape {arr.shape}")
+    return arr
+
+
+def compare(a, b, mask=None, align: bool = False) -> dict:
+    """Image metrics of ``b`` against the reference ``a`` (``(H, W, 3)`` linear RGB), computed
+    by the code of ``fiberlab compare``: ``{"rmse", "relmse", "ssim", "flip"}`` (RMSE and
+    relative MSE of linear values, SSIM of the sRGB-encoded luminance, mean ꟻLIP error), plus
+    ``"scale"`` (the per-channel least-squares factors applied to ``b``) when ``align``.
+    ``mask`` (``(H, W, 3)`` or ``(H, W)``) selects the pixels whose mean is above one half."""
+    m = None
+    if mask is not None:
+        m = np.asarray(mask, dtype=np.float64)
+        if m.ndim == 2:
+            m = np.repeat(m[..., None], 3, axis=2)
+        m = _image("mask", m)
+    return _native.compare(_image("a", a), _image("b", b), m, bool(align))
+
+
+def check(model: "Model", chi2_samples: Optional[int] = None, samples: Optional[int] = None,
+          pairs: Optional[int] = None) -> list:
+    """Runs the validation harness of ``fiberlab check`` on one model (χ² tests of sampling,
+    pdf integrals, sample weights, white furnace, reciprocity, finiteness, … as the model's
+    claims allow): a list of dicts ``{model, test, value, expected, tolerance, pass,
+    report}``; ``report`` rows are measurements without a pass/fail claim. The effort
+    (samples per χ² test, per Monte Carlo test, random direction pairs) defaults to the
+    command line's; the rows are the command line's for the same configuration."""
+    label = " ".join([model.name] + [f"{k}={_label_value(v)}" for k, v in model._given.items()])
+    return _native.check(model._native, label, chi2_samples, samples, pairs)
+
+
+def _label_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return ",".join(_label_value(x) for x in v)
+    return str(v)
+
+
 def _constructor(name: str):
     spec = next(m for m in models() if m["name"] == name)
 
@@ -295,3 +376,5 @@ for _spec in models():
     globals()[_make.__name__] = _make
     __all__.append(_make.__name__)
 del _spec, _make
+
+from . import frames, hair  # noqa: E402  (submodules: fl.frames, fl.hair)

@@ -1,0 +1,86 @@
+//! `fiberlab._native.hair_*`: `.hair` strand files (`fiberlab_io::hair`) and the procedural
+//! generator of `fiberlab hair generate` (`fiberlab_render::generator`) as arrays.
+
+use fiberlab_io::HairFile;
+use fiberlab_render::generator::HairParams;
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+/// What reading returns: `(points (N, 3) float32, points per strand (S,) int64, thickness
+/// (N,) float32, has a thickness array, default thickness)`; the thickness is the per-point
+/// array or the file's default at every point.
+type Strands<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<f32>>, bool, f32);
+
+fn strands<'py>(py: Python<'py>, hair: &HairFile) -> Strands<'py> {
+    let n = hair.points.len();
+    let points: Vec<f32> = hair.points.iter().flatten().copied().collect();
+    let counts: Vec<i64> = hair.strand_ranges().iter().map(|r| r.len() as i64).collect();
+    let thickness: Vec<f32> = (0..n).map(|i| hair.thickness_at(i)).collect();
+    (
+        Array2::from_shape_vec((n, 3), points).expect("three coordinates per point").into_pyarray(py),
+        Array1::from_vec(counts).into_pyarray(py),
+        Array1::from_vec(thickness).into_pyarray(py),
+        hair.thickness.is_some(),
+        hair.default_thickness,
+    )
+}
+
+/// Reads a `.hair` file: see [`Strands`].
+#[pyfunction]
+pub(crate) fn hair_read<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Strands<'py>> {
+    let hair = HairFile::read(&path).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    Ok(strands(py, &hair))
+}
+
+/// Writes a `.hair` file from all points `(N, 3)` float32, the points per strand `(S,)` (each
+/// at least 1, at most 65,536) and an optional per-point diameter `(N,)` float32 (without it
+/// every strand has diameter `default_thickness`).
+#[pyfunction]
+#[pyo3(signature = (path, points, counts, thickness = None, default_thickness = 1.0))]
+pub(crate) fn hair_write(
+    path: std::path::PathBuf,
+    points: PyReadonlyArray2<'_, f32>,
+    counts: PyReadonlyArray1<'_, i64>,
+    thickness: Option<PyReadonlyArray1<'_, f32>>,
+    default_thickness: f32,
+) -> PyResult<()> {
+    let bad = |m: String| PyValueError::new_err(m);
+    let p = points.as_slice().map_err(|_| bad("points: expected a C-contiguous (N, 3) array".into()))?;
+    if points.shape()[1] != 3 {
+        return Err(bad(format!("points: expected shape (N, 3), got {:?}", points.shape())));
+    }
+    let counts = counts.as_slice().map_err(|_| bad("strand lengths: expected a contiguous array".into()))?;
+    let mut segments = Vec::with_capacity(counts.len());
+    for (i, &c) in counts.iter().enumerate() {
+        if !(1..=i64::from(u16::MAX) + 1).contains(&c) {
+            return Err(bad(format!("strand {i} has {c} points: expected 1 to 65536")));
+        }
+        segments.push((c - 1) as u16);
+    }
+    let thickness = match &thickness {
+        Some(t) => Some(t.as_slice().map_err(|_| bad("thickness: expected a contiguous array".into()))?.to_vec()),
+        None => None,
+    };
+    let hair = HairFile {
+        segments: Some(segments),
+        points: p.chunks_exact(3).map(|v| [v[0], v[1], v[2]]).collect(),
+        thickness,
+        strand_count: u32::try_from(counts.len()).map_err(|_| bad("too many strands".into()))?,
+        default_thickness,
+        ..HairFile::default()
+    };
+    hair.write(&path).map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+/// Grows procedural hair like `fiberlab hair generate`, from the generator's parameters as
+/// TOML text (the keys of a scene file's `[hair.generator]` table): the same arrays as
+/// [`hair_read`].
+#[pyfunction]
+pub(crate) fn hair_generate<'py>(py: Python<'py>, toml_text: &str) -> PyResult<Strands<'py>> {
+    let params: HairParams =
+        toml::from_str(toml_text).map_err(|e| PyValueError::new_err(format!("hair generator: {}", e.message())))?;
+    let hair = py.detach(|| params.generate()).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    Ok(strands(py, &hair))
+}

@@ -263,7 +263,10 @@ fn observations(grid: &[(DVec3, DVec3, f64)], values: &[f64]) -> Vec<Observation
     let mean = (values.iter().sum::<f64>() / values.len() as f64).max(1e-12);
     // Each quantity is fitted with grey colours, whose luminance is that grey value.
     let channel = fiberlab_fit::Channel::Luminance;
-    grid.iter().zip(values).map(|(&(wi, wo, w), &value)| Observation { wi, wo, value, sigma: mean / w, channel }).collect()
+    grid.iter()
+        .zip(values)
+        .map(|(&(wi, wo, w), &value)| Observation { wi, wo, value, sigma: mean / w, channel })
+        .collect()
 }
 
 /// Camera-side furnace `W(θ_o) = ∫ f_s cosθ_i dω_i` of a model without φ dependence (as

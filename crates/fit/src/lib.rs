@@ -283,9 +283,7 @@ impl CostFunction for Problem<'_> {
         // Parameters outside a model's valid range, or models the constraint rejects, cost
         // "infinitely" much (an extreme barrier: the simplex never steps outside).
         Ok(match self.model_at(p) {
-            Ok(m) if self.admits(&m) => {
-                self.residuals(&m).iter().map(|r| r * r).sum()
-            }
+            Ok(m) if self.admits(&m) => self.residuals(&m).iter().map(|r| r * r).sum(),
             _ => 1e300,
         })
     }
@@ -691,7 +689,13 @@ mod tests {
         for i in 0..9 {
             for j in 0..9 {
                 let (wi, wo) = (direction(-0.8 + 0.2 * i as f64, 0.0), direction(-0.8 + 0.2 * j as f64, 1.0));
-                data.push(Observation { wi, wo, value: truth.eval(wi, wo, 0.0).luminance(), sigma: 0.01 });
+                data.push(Observation {
+                    wi,
+                    wo,
+                    value: truth.eval(wi, wo, 0.0).luminance(),
+                    sigma: 0.01,
+                    channel: Channel::Luminance,
+                });
             }
         }
         let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();

@@ -19,9 +19,9 @@
 //! then merged, or stop and resume.
 
 use crate::accumulation::{Accumulation, ResumeError};
-pub use crate::region::Region;
 use crate::bvh::Ray;
 use crate::curves::CurveHit;
+pub use crate::region::Region;
 use crate::sampler::PixelSampler;
 use crate::scene::{Hit, Scene, SurfaceMaterial};
 use fiberlab_io::LinearImage;

@@ -142,10 +142,6 @@ fn the_base_scene_builds_and_has_numbers_to_mutate() {
     assert!(spans.iter().all(|s| SCENE[s.clone()].parse::<f64>().is_ok()), "every span is a number");
 }
 
-/// Keys whose non-finite values the scene reader still accepts (issue 15, deliverable 4):
-/// `[render] exposure` (a NaN exposure gives a black PNG). Remove a key once it is checked.
-const NOT_YET_VALIDATED: [&str; 1] = ["exposure"];
-
 /// "Every number in a scene validated": each float of the scene replaced by `nan`, `inf` or
 /// `-inf` is refused, at a line no later than the number's own (a whole-section error points
 /// at the section's header), never built.
@@ -158,9 +154,6 @@ fn every_non_finite_scene_number_is_refused_at_its_line() {
             continue; // integers (sizes, counts, seeds): a float there is a type error
         }
         let line = line_of(SCENE, span.start);
-        if NOT_YET_VALIDATED.iter().any(|key| SCENE.lines().nth(line - 1).unwrap().starts_with(key)) {
-            continue;
-        }
         for bad in ["nan", "inf", "-inf"] {
             let text = format!("{}{bad}{}", &SCENE[..span.start], &SCENE[span.end..]);
             match parse_and_build(&text) {

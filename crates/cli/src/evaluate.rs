@@ -23,7 +23,7 @@ use fiberlab_scatter::hair::attenuation::PathLength;
 use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
 use fiberlab_scatter::measured::Measured;
 use fiberlab_scatter::params::{ParamSet, RawValue};
-use fiberlab_scatter::{ExternalData, Field, Model, Registered, ScatteringFunction};
+use fiberlab_scatter::{ExternalData, Model, Registered, ScatteringFunction};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -233,31 +233,6 @@ fn rgb_short(c: Rgb) -> String {
     format!("{:.4},{:.4},{:.4}", c[0], c[1], c[2])
 }
 
-/// Directions of the fitting grid: θ_i and θ_r every 10° in [−80°, 80°], relative azimuth
-/// every 15°, with the weight `sqrt(cosθ_i cosθ_r)` of the `cosθ_i cosθ_r`-weighted fit.
-fn fitting_grid() -> Vec<(DVec3, DVec3, f64)> {
-    let mut grid = Vec::new();
-    for i in 0..17 {
-        for r in 0..17 {
-            for j in 0..24 {
-                let (ti, tr) = (f64::to_radians(-80.0 + 10.0 * i as f64), f64::to_radians(-80.0 + 10.0 * r as f64));
-                let (wi, wo) = (direction(ti, 0.0), direction(tr, f64::to_radians(-172.5 + 15.0 * j as f64)));
-                grid.push((wi, wo, (ti.cos() * tr.cos()).sqrt()));
-            }
-        }
-    }
-    grid
-}
-
-/// `f_s` of `model` (averaged over h for a near-field model) at one pair of directions.
-fn width_averaged(model: &Model, wi: DVec3, wo: DVec3) -> Rgb {
-    if model.properties().field == Field::Near {
-        (0..8).map(|k| model.eval(wi, wo, -1.0 + (k as f64 + 0.5) / 4.0)).fold(Rgb::ZERO, |a, b| a + b) / 8.0
-    } else {
-        model.eval(wi, wo, 0.0)
-    }
-}
-
 /// Observations of one quantity of the target on the fitting grid, σ = mean/weight.
 fn observations(grid: &[(DVec3, DVec3, f64)], values: &[f64]) -> Vec<Observation> {
     let mean = (values.iter().sum::<f64>() / values.len() as f64).max(1e-12);
@@ -330,8 +305,8 @@ impl EnergyBound {
 /// constrained to the energy bound ([`EnergyBound`]: at every checked θ_o, Kajiya–Kay's
 /// furnace at most the target's and at most 1), so the result obeys it in every channel.
 fn fitted_kajiya_kay(target: &Model) -> anyhow::Result<KajiyaKayParams> {
-    let grid = fitting_grid();
-    let values: Vec<Rgb> = grid.iter().map(|&(wi, wo, _)| width_averaged(target, wi, wo)).collect();
+    let grid = fiberlab_fit::model_grid();
+    let values: Vec<Rgb> = grid.iter().map(|&(wi, wo, _)| fiberlab_fit::width_averaged(target, wi, wo)).collect();
     let bound = EnergyBound::of(target);
     let info = KajiyaKay::INFO;
     let base = ParamSet::parse::<&str, &str>(info.name, info.params, &[])?;
@@ -785,8 +760,9 @@ mod tests {
             }
         }
         // The same luminance fit without the constraint leaves the bound.
-        let grid = fitting_grid();
-        let lum: Vec<f64> = grid.iter().map(|&(wi, wo, _)| width_averaged(&target, wi, wo).luminance()).collect();
+        let grid = fiberlab_fit::model_grid();
+        let lum: Vec<f64> =
+            grid.iter().map(|&(wi, wo, _)| fiberlab_fit::width_averaged(&target, wi, wo).luminance()).collect();
         let info = KajiyaKay::INFO;
         let base = ParamSet::parse::<&str, &str>(info.name, info.params, &[]).unwrap();
         let free = [("k_d".to_string(), 0.02), ("k_s".to_string(), 0.1), ("p".to_string(), 10.0)];

@@ -104,27 +104,11 @@ fn from_table(path: &Path, lobe: &str, per_channel: bool) -> anyhow::Result<Obse
 /// cosθ_i cosθ_r: σ = s/sqrt(cosθ_i cosθ_r) with s the grid's mean value; luminances, or
 /// per channel when `per_channel` (each channel's σ from its own mean).
 fn from_model_in(model: &fiberlab_scatter::Model, per_channel: bool) -> Vec<Observation> {
-    use fiberlab_scatter::{Field, ScatteringFunction};
-    let near = model.properties().field == Field::Near;
     let mut obs = Vec::new();
-    for i in 0..17 {
-        for r in 0..17 {
-            for j in 0..24 {
-                let (ti, tr) = (f64::to_radians(-80.0 + 10.0 * i as f64), f64::to_radians(-80.0 + 10.0 * r as f64));
-                let (wi, wo) = (direction(ti, 0.0), direction(tr, f64::to_radians(-172.5 + 15.0 * j as f64)));
-                let f = if near {
-                    (0..8)
-                        .map(|k| model.eval(wi, wo, -1.0 + (k as f64 + 0.5) / 4.0))
-                        .fold(fiberlab_math::Rgb::ZERO, |a, b| a + b)
-                        * 0.125
-                } else {
-                    model.eval(wi, wo, 0.0)
-                };
-                for channel in channels(per_channel) {
-                    let sigma = 1.0 / (ti.cos() * tr.cos()).sqrt();
-                    obs.push(Observation { wi, wo, value: channel.of(f), sigma, channel });
-                }
-            }
+    for (wi, wo, weight) in fiberlab_fit::model_grid() {
+        let f = fiberlab_fit::width_averaged(model, wi, wo);
+        for channel in channels(per_channel) {
+            obs.push(Observation { wi, wo, value: channel.of(f), sigma: 1.0 / weight, channel });
         }
     }
     for channel in channels(per_channel) {

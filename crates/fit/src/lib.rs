@@ -19,6 +19,7 @@
 use argmin::core::observers::{Observe, ObserverMode};
 use argmin::core::{CostFunction, Error, Executor, KV, State};
 use argmin::solver::neldermead::NelderMead;
+use fiberlab_math::frame::direction;
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::params::{ParamKind, ParamSet, Range, RawValue};
 use fiberlab_scatter::{Field, Model, ModelError, ModelSpec, ScatteringFunction, find};
@@ -60,6 +61,35 @@ pub struct Observation {
     pub sigma: f64,
     /// What of `f_s` was measured.
     pub channel: Channel,
+}
+
+/// `f_s` of `model` at one pair of directions, averaged over the fiber's width (8 midpoint
+/// offsets h) for a near-field model: what a fit compares with a far-field measurement.
+#[must_use]
+pub fn width_averaged(model: &Model, wi: DVec3, wo: DVec3) -> Rgb {
+    if model.properties().field == Field::Near {
+        (0..8).map(|k| model.eval(wi, wo, -1.0 + (k as f64 + 0.5) / 4.0)).fold(Rgb::ZERO, |a, b| a + b) * 0.125
+    } else {
+        model.eval(wi, wo, 0.0)
+    }
+}
+
+/// The grid on which a model is fitted to another model: θ_i and θ_r every 10° in
+/// [−80°, 80°], relative azimuth every 15°, each pair with the weight `sqrt(cosθ_i cosθ_r)`
+/// of a `cosθ_i cosθ_r`-weighted fit (σ ∝ 1/weight).
+#[must_use]
+pub fn model_grid() -> Vec<(DVec3, DVec3, f64)> {
+    let mut grid = Vec::with_capacity(17 * 17 * 24);
+    for i in 0..17 {
+        for r in 0..17 {
+            for j in 0..24 {
+                let (ti, tr) = (f64::to_radians(-80.0 + 10.0 * i as f64), f64::to_radians(-80.0 + 10.0 * r as f64));
+                let (wi, wo) = (direction(ti, 0.0), direction(tr, f64::to_radians(-172.5 + 15.0 * j as f64)));
+                grid.push((wi, wo, (ti.cos() * tr.cos()).sqrt()));
+            }
+        }
+    }
+    grid
 }
 
 /// Why a fit could not be made.
@@ -248,7 +278,6 @@ impl Problem<'_> {
     }
 
     fn residuals(&self, m: &Model) -> Vec<f64> {
-        let near = m.properties().field == Field::Near;
         // The channels of one direction pair follow each other: evaluate the model once for them.
         let mut last: Option<(DVec3, DVec3, Rgb)> = None;
         self.data
@@ -257,14 +286,7 @@ impl Problem<'_> {
                 let f = match last {
                     Some((wi, wo, f)) if wi == o.wi && wo == o.wo => f,
                     _ => {
-                        let f = if near {
-                            (0..8)
-                                .map(|k| m.eval(o.wi, o.wo, -1.0 + (k as f64 + 0.5) / 4.0))
-                                .fold(Rgb::ZERO, |a, b| a + b)
-                                * 0.125
-                        } else {
-                            m.eval(o.wi, o.wo, 0.0)
-                        };
+                        let f = width_averaged(m, o.wi, o.wo);
                         last = Some((o.wi, o.wo, f));
                         f
                     }

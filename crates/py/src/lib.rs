@@ -234,40 +234,29 @@ impl PyModel {
         format!("fiberlab.Model({:?}{}{})", self.name, if params.is_empty() { "" } else { ", " }, params.join(", "))
     }
 
-    /// f_s(ω_i, ω_o; h) in sr⁻¹ for `(N, 3)` float64 arrays, `h` `(N,)`: `(N, 3)`.
-    fn eval_fs<'py>(
+    /// `what` of every pair of `(N, 3)` float64 arrays `wi`, `wo` with `h` `(N,)`: `"fs"`,
+    /// f_s(ω_i, ω_o; h) in sr⁻¹, `(N, 3)`; `"fs_cos"`, f_s · cosθ_i (the cosine of the light
+    /// direction ω_i from the normal plane), `(N, 3)`; `"pdf"`, the density (sr⁻¹) with which
+    /// `sample(wo)` draws ω_i, `(N,)`.
+    fn evaluate<'py>(
         &self,
         py: Python<'py>,
         wi: PyReadonlyArray2<'py, f64>,
         wo: PyReadonlyArray2<'py, f64>,
         h: PyReadonlyArray1<'py, f64>,
-    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let v = self.map_pairs(py, slice("wi", &wi)?, slice("wo", &wo)?, slice("h", &h)?, Quantity::Fs)?;
-        Ok(rows(py, v))
-    }
-
-    /// f_s · cosθ_i (the cosine of the light direction ω_i, from the normal plane): `(N, 3)`.
-    fn eval_fs_cos<'py>(
-        &self,
-        py: Python<'py>,
-        wi: PyReadonlyArray2<'py, f64>,
-        wo: PyReadonlyArray2<'py, f64>,
-        h: PyReadonlyArray1<'py, f64>,
-    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let v = self.map_pairs(py, slice("wi", &wi)?, slice("wo", &wo)?, slice("h", &h)?, Quantity::FsCos)?;
-        Ok(rows(py, v))
-    }
-
-    /// The density (sr⁻¹) with which `sample(wo)` draws ω_i: `(N,)`.
-    fn pdf<'py>(
-        &self,
-        py: Python<'py>,
-        wi: PyReadonlyArray2<'py, f64>,
-        wo: PyReadonlyArray2<'py, f64>,
-        h: PyReadonlyArray1<'py, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let v = self.map_pairs(py, slice("wi", &wi)?, slice("wo", &wo)?, slice("h", &h)?, Quantity::Pdf)?;
-        Ok(Array1::from_vec(v).into_pyarray(py))
+        what: &str,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let quantity = match what {
+            "fs" => Quantity::Fs,
+            "fs_cos" => Quantity::FsCos,
+            "pdf" => Quantity::Pdf,
+            _ => return Err(PyValueError::new_err(format!("evaluate: unknown quantity {what:?} (fs, fs_cos, pdf)"))),
+        };
+        let v = self.map_pairs(py, slice("wi", &wi)?, slice("wo", &wo)?, slice("h", &h)?, quantity)?;
+        Ok(match quantity {
+            Quantity::Pdf => Array1::from_vec(v).into_pyarray(py).into_any(),
+            _ => rows(py, v).into_any(),
+        })
     }
 
     /// Importance samples of ω_i for `wo` `(N, 3)`, `u` `(N, 4)` uniforms in [0, 1), `h`

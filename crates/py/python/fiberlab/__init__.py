@@ -150,18 +150,18 @@ class Model:
     def eval_fs(self, wi, wo, h=None) -> np.ndarray:
         """f_s(ω_i, ω_o; h) in sr⁻¹ (no cosine): shape ``batch + (3,)``."""
         batch, a, b, c = self._pairs(wi, wo, h)
-        return _call(batch, self._native.eval_fs, a, b, c).reshape(batch + (3,))
+        return _call(batch, self._native.evaluate, a, b, c, "fs").reshape(batch + (3,))
 
     def eval(self, wi, wo, h=None) -> np.ndarray:
         """f_s · cos θ_i (cosine of the light direction from the normal plane; Mitsuba's
         ``eval``): shape ``batch + (3,)``."""
         batch, a, b, c = self._pairs(wi, wo, h)
-        return _call(batch, self._native.eval_fs_cos, a, b, c).reshape(batch + (3,))
+        return _call(batch, self._native.evaluate, a, b, c, "fs_cos").reshape(batch + (3,))
 
     def pdf(self, wi, wo, h=None) -> np.ndarray:
         """Density in sr⁻¹ with which :meth:`sample` draws ``wi`` given ``wo``: shape ``batch``."""
         batch, a, b, c = self._pairs(wi, wo, h)
-        return _call(batch, self._native.pdf, a, b, c).reshape(batch)
+        return _call(batch, self._native.evaluate, a, b, c, "pdf").reshape(batch)
 
     def eval_pdf(self, wi, wo, h=None):
         """``(eval(wi, wo, h), pdf(wi, wo, h))``."""

@@ -15,6 +15,7 @@
 mod bench;
 mod check;
 mod compare;
+mod fit;
 mod hair;
 mod measure;
 
@@ -77,7 +78,7 @@ pub(crate) struct PyModel {
 
 /// Checks direction `k` of a flat `(N, 3)` array; returns it normalized.
 #[inline]
-fn direction(v: &[f64], k: usize) -> Option<DVec3> {
+pub(crate) fn direction(v: &[f64], k: usize) -> Option<DVec3> {
     let w = DVec3::new(v[3 * k], v[3 * k + 1], v[3 * k + 2]);
     let len = w.length();
     (w.is_finite() && (len - 1.0).abs() <= UNIT_TOLERANCE).then(|| w / len)
@@ -471,6 +472,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(measure::measure, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
     m.add_function(wrap_pyfunction!(hair::hair_read, m)?)?;
     m.add_function(wrap_pyfunction!(hair::hair_write, m)?)?;
     m.add_function(wrap_pyfunction!(hair::hair_generate, m)?)?;

@@ -238,3 +238,31 @@ def test_ctrl_c_stops_a_measurement():
             fl.measure({"sigma_a": 0.2}, theta_i=0.3, rays=200_000_000, bins=(4, 4))
     finally:
         timer.cancel()
+
+
+def test_fit_recovers_the_parameters_data_were_made_with():
+    # Data from Kajiya–Kay at known parameters (an independent model instance), per channel
+    # for its colour k_d: the fit must return them, and the model it returns must reproduce
+    # the data.
+    truth = fl.KajiyaKay(k_d=[0.3, 0.2, 0.1], k_s=0.2, p=30)
+    rng = np.random.default_rng(3)
+    n = 600
+    wi = fl.directions_from_angles(rng.uniform(-1.2, 1.2, n), 0.0)
+    wo = fl.directions_from_angles(rng.uniform(-1.2, 1.2, n), rng.uniform(-np.pi, np.pi, n))
+    f = truth.eval_fs(wi, wo)
+    channel = np.tile([0, 1, 2], n)
+    r = fl.fit("kajiya-kay", np.repeat(wi, 3, axis=0), np.repeat(wo, 3, axis=0), f.reshape(-1),
+               sigma=0.01, channel=channel, init={"k_d": [0.1, 0.1, 0.1], "k_s": 0.1, "p": 10})
+    np.testing.assert_allclose(r["params"]["k_d"], [0.3, 0.2, 0.1], rtol=1e-4)
+    # k_s is a colour too: with per-channel data it is fitted per channel (7 numbers).
+    np.testing.assert_allclose(r["params"]["k_s"], [0.2, 0.2, 0.2], rtol=1e-4)
+    np.testing.assert_allclose(r["params"]["p"], 30, rtol=1e-4)
+    assert r["chi2"] < 1e-6 and r["dof"] == 3 * n - 7
+    np.testing.assert_allclose(r["model"].eval_fs(wi, wo), f, rtol=1e-4, atol=1e-9)
+    # Undefined uncertainties come with a reason, never NaN.
+    for u in r["uncertainty"].values():
+        assert isinstance(u, str) or np.isfinite(u)
+    with pytest.raises(ValueError, match="init `p`"):
+        fl.fit("kajiya-kay", wi, wo, f[:, 1], init={"p": "x"})
+    with pytest.raises(ValueError, match="channel"):
+        fl.fit("kajiya-kay", wi, wo, f[:, 1], channel=5, init={"p": 10})

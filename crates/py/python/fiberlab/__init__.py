@@ -42,7 +42,7 @@ from . import _native
 
 __version__ = _native.__version__
 
-__all__ = ["Model", "Sample", "load_dict", "models", "directions_from_angles", "render", "read_exr", "scene_toml",
+__all__ = ["Model", "Sample", "load_dict", "models", "directions_from_angles", "render", "read_exr", "scene_toml", "fit",
            "measure", "compare", "check", "hair", "frames"]
 
 
@@ -333,6 +333,34 @@ def compare(a, b, mask=None, align: bool = False) -> dict:
             m = np.repeat(m[..., None], 3, axis=2)
         m = _image("mask", m)
     return _native.compare(_image("a", a), _image("b", b), m, bool(align))
+
+
+def fit(type: str, wi, wo, value, sigma=None, *, init: Mapping[str, Any], fixed: Optional[Mapping[str, Any]] = None,
+        channel=None, max_iters: int = 400) -> dict:
+    """Fits model ``type``'s parameters ``init`` (key → starting number, or ``[r, g, b]`` to fit
+    a colour per channel) to measured f_s, like ``fiberlab fit``: weighted least squares
+    (Nelder–Mead, then Levenberg–Marquardt steps) of ``(f_s(wi, wo) − value)/sigma``, the model
+    averaged over the fiber's width when it is near-field.
+
+    ``wi``, ``wo``: ``(N, 3)`` directions; ``value`` ``(N,)`` in sr⁻¹; ``sigma`` ``(N,)``
+    standard errors (default: all 1); ``channel`` ``(N,)``: −1 luminance (default), 0/1/2 red,
+    green, blue. ``fixed``: the other parameters. Returns ``{"params", "uncertainty",
+    "at_bound", "chi2", "dof", "iterations", "model"}``: an uncertainty is a σ or the reason
+    none can be given; ``at_bound`` names each fitted number that ended on its bound;
+    ``model`` is the fitted :class:`Model`.
+    """
+    wi, wo = _as_directions("wi", wi), _as_directions("wo", wo)
+    v = np.ascontiguousarray(np.asarray(value, dtype=np.float64).reshape(-1))
+    n = v.shape[0]
+    s = np.ones(n) if sigma is None else np.ascontiguousarray(np.broadcast_to(np.asarray(sigma, dtype=np.float64), (n,)))
+    c = np.full(n, -1, dtype=np.int64) if channel is None else np.ascontiguousarray(
+        np.broadcast_to(np.asarray(channel, dtype=np.int64), (n,)))
+    a = np.ascontiguousarray(np.broadcast_to(wi, (n, 3)))
+    b = np.ascontiguousarray(np.broadcast_to(wo, (n, 3)))
+    fixed = dict(fixed or {})
+    r = _native.fit(type, fixed, dict(init), a, b, v, s, c, max_iters)
+    r["model"] = Model(type, **fixed, **r["params"])
+    return r
 
 
 def check(model: "Model", chi2_samples: Optional[int] = None, samples: Optional[int] = None,

@@ -789,6 +789,17 @@ mod tests {
         pairs
     }
 
+    /// The luminance of `truth` on [`grid`], with a 1 % standard error.
+    fn luminance_data(truth: &Model) -> Vec<Observation> {
+        grid()
+            .into_iter()
+            .map(|(wi, wo)| {
+                let value = truth.eval(wi, wo, 0.0).luminance();
+                Observation { wi, wo, value, sigma: 0.01 * value + 1e-6, channel: Channel::Luminance }
+            })
+            .collect()
+    }
+
     /// The ideal diffuse fiber is `f_s = ρ/π²` (closed form). Data of ρ = 1.3, beyond its valid
     /// range [0, 1]: the fit ends on the upper bound, says so, and gives no σ for it.
     #[test]
@@ -821,13 +832,7 @@ mod tests {
         let spec = find("kajiya-kay").unwrap();
         let base = ParamSet::parse(spec.name, spec.params, &[("k_s", "0")]).unwrap();
         let truth = build("kajiya-kay", &[("k_d", "0.3"), ("k_s", "0")]).unwrap();
-        let data: Vec<Observation> = grid()
-            .into_iter()
-            .map(|(wi, wo)| {
-                let value = truth.eval(wi, wo, 0.0).luminance();
-                Observation { wi, wo, value, sigma: 0.01 * value + 1e-6, channel: Channel::Luminance }
-            })
-            .collect();
+        let data = luminance_data(&truth);
         let r = fit(&base, &[("k_d".into(), 0.2), ("p".into(), 10.0)], &data, 400).unwrap();
         assert!(r.uncertainties[0].sigma().is_some_and(f64::is_finite), "{:?}", r.uncertainties);
         assert_eq!(r.uncertainties[1], Uncertainty::Undefined(Undefined::NoEffect));
@@ -843,13 +848,7 @@ mod tests {
         let truth =
             build("goldman", &[("k_d", "0.04"), ("k_s", "0.2"), ("rho_reflect", "0.5"), ("rho_transmit", "0.3")])
                 .unwrap();
-        let data: Vec<Observation> = grid()
-            .into_iter()
-            .map(|(wi, wo)| {
-                let value = truth.eval(wi, wo, 0.0).luminance();
-                Observation { wi, wo, value, sigma: 0.01 * value + 1e-6, channel: Channel::Luminance }
-            })
-            .collect();
+        let data = luminance_data(&truth);
         let spec = find("goldman").unwrap();
         let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
         let free: Vec<(String, f64)> = [("k_d", 0.02), ("k_s", 0.1), ("rho_reflect", 0.6), ("rho_transmit", 0.4)]

@@ -12,8 +12,7 @@ fn image(name: &str, a: &PyReadonlyArray3<'_, f64>) -> PyResult<Image> {
     if shape[2] != 3 {
         return Err(PyValueError::new_err(format!("{name}: expected shape (H, W, 3), got {shape:?}")));
     }
-    let v =
-        a.as_slice().map_err(|_| PyValueError::new_err(format!("{name}: expected a C-contiguous float64 array")))?;
+    let v = crate::slice(name, a)?;
     Ok(Image { width: shape[1], height: shape[0], pixels: v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect() })
 }
 

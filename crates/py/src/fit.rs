@@ -1,20 +1,13 @@
 //! `fiberlab._native.fit`: `fiberlab fit`'s weighted least squares ([`fiberlab_fit`]) on
 //! arrays of observations.
 
-use crate::{direction, raw_value};
+use crate::{direction, raw_value, slice};
 use fiberlab_fit::{Channel, FitOptions, FreeParam, Observation, Uncertainty, fit_with};
 use fiberlab_scatter::params::ParamSet;
 use numpy::{PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-
-fn flat<'a, D: numpy::ndarray::Dimension>(
-    name: &str,
-    a: &'a numpy::PyReadonlyArray<'_, f64, D>,
-) -> PyResult<&'a [f64]> {
-    a.as_slice().map_err(|_| PyValueError::new_err(format!("{name}: expected a C-contiguous float64 array")))
-}
 
 /// Fits the parameters `init` (key → starting number, or `[r, g, b]` for a colour fitted per
 /// channel) of model `model` with the others `fixed`, to observations: directions `wi`, `wo`
@@ -56,7 +49,8 @@ pub(crate) fn fit<'py>(
         };
         free.push(FreeParam { key, start });
     }
-    let (wi, wo, value, sigma) = (flat("wi", &wi)?, flat("wo", &wo)?, flat("value", &value)?, flat("sigma", &sigma)?);
+    let (wi, wo, value, sigma) =
+        (slice("wi", &wi)?, slice("wo", &wo)?, slice("value", &value)?, slice("sigma", &sigma)?);
     let channel =
         channel.as_slice().map_err(|_| PyValueError::new_err("channel: expected a C-contiguous int array"))?;
     let n = value.len();

@@ -126,6 +126,7 @@ pub(crate) fn check_inputs(dirs: &[(&str, &[f64])], h: &[f64], n: usize) -> PyRe
     Ok(())
 }
 
+/// The elements of a C-contiguous float64 array (a `ValueError` naming it otherwise).
 pub(crate) fn slice<'a, D: numpy::ndarray::Dimension>(
     name: &str,
     a: &'a numpy::PyReadonlyArray<'_, f64, D>,

@@ -26,6 +26,6 @@ pub mod marschner_2003;
 pub mod measured;
 
 pub use error::ModelError;
-pub use function::{ConeValue, Field, Lobes, MIN_COS, Properties, Sample, ScatteringFunction};
+pub use function::{ConeValue, Field, LobeInfo, Lobes, MIN_COS, Properties, Sample, ScatteringFunction};
 pub use model::{ALL_MODELS, MODELS, Model, ModelSpec, build, build_raw, find};
 pub use spec::{ExternalData, ModelInfo, Registered};

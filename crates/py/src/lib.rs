@@ -22,8 +22,7 @@ mod measure;
 use fiberlab_math::DVec3;
 use fiberlab_scatter::params::{ParamKind, RawValue};
 use fiberlab_scatter::{Field, Lobes, Model, ScatteringFunction};
-use numpy::ndarray::{Array1, Array2};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
@@ -64,9 +63,9 @@ pub(crate) fn raw_value(key: &str, value: &Bound<'_, PyAny>) -> PyResult<RawValu
     )))
 }
 
-/// What `sample` returns: `(wi, weight, pdf, delta)`.
+/// What `sample` returns: `(wi, weight, pdf, lobe)`.
 type Samples<'py> =
-    (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<bool>>);
+    (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i32>>);
 
 /// A scattering model of the registry, built from its name and parameters.
 #[pyclass(name = "Model", module = "fiberlab._native", frozen)]
@@ -134,10 +133,13 @@ pub(crate) fn slice<'a, D: numpy::ndarray::Dimension>(
     a.as_slice().map_err(|_| PyValueError::new_err(format!("{name}: expected a C-contiguous float64 array")))
 }
 
-/// Rows `(N, 3)` from a flat vector.
-fn rows(py: Python<'_>, v: Vec<f64>) -> Bound<'_, PyArray2<f64>> {
-    let n = v.len() / 3;
-    Array2::from_shape_vec((n, 3), v).expect("three values per row").into_pyarray(py)
+/// A zeroed C-contiguous NumPy array of `shape`, allocated by NumPy (so that Python's
+/// `tracemalloc` accounts for it) for a loop to fill in place.
+fn output<'py, T: numpy::Element + Copy, D: numpy::ndarray::Dimension>(
+    py: Python<'py>,
+    shape: D,
+) -> Bound<'py, numpy::PyArray<T, D>> {
+    numpy::PyArray::<T, D>::zeros(py, shape, false)
 }
 
 /// What `eval_pdf`-like calls compute per direction pair.
@@ -151,12 +153,20 @@ pub(crate) enum Quantity {
     Pdf,
 }
 
-/// Evaluates `what` for every pair, in parallel; allocates only the output. Each element is
-/// checked as it is read (the same test as [`check_inputs`]); `None` when one is invalid, for
-/// the caller to name it with [`check_inputs`]: one pass over the arrays when they are valid.
-pub(crate) fn eval_loop(model: &Model, wi: &[f64], wo: &[f64], h: &[f64], what: Quantity) -> Option<Vec<f64>> {
-    let width = if matches!(what, Quantity::Pdf) { 1 } else { 3 };
-    let mut out = vec![0.0; width * h.len()];
+impl Quantity {
+    /// Values per pair.
+    pub(crate) fn width(self) -> usize {
+        if matches!(self, Quantity::Pdf) { 1 } else { 3 }
+    }
+}
+
+/// Evaluates `what` for every pair, in parallel, into `out` (`what.width()` values per pair);
+/// allocates nothing. Each element is checked as it is read (the same test as
+/// [`check_inputs`]); `false` when one is invalid, for the caller to name it with
+/// [`check_inputs`]: one pass over the arrays when they are valid.
+pub(crate) fn eval_loop(model: &Model, wi: &[f64], wo: &[f64], h: &[f64], what: Quantity, out: &mut [f64]) -> bool {
+    let width = what.width();
+    debug_assert_eq!(out.len(), width * h.len());
     let bad = AtomicBool::new(false);
     out.par_chunks_mut(width).enumerate().for_each(|(k, o)| match (direction(wi, k), direction(wo, k)) {
         (Some(a), Some(b)) if (-1.0..=1.0).contains(&h[k]) => match what {
@@ -169,21 +179,28 @@ pub(crate) fn eval_loop(model: &Model, wi: &[f64], wo: &[f64], h: &[f64], what: 
         },
         _ => bad.store(true, Ordering::Relaxed),
     });
-    (!bad.into_inner()).then_some(out)
+    !bad.into_inner()
 }
 
 impl PyModel {
-    /// Evaluates `what` for every pair, in parallel without the GIL.
-    fn map_pairs(&self, py: Python<'_>, wi: &[f64], wo: &[f64], h: &[f64], what: Quantity) -> PyResult<Vec<f64>> {
+    /// Evaluates `what` for every pair into `out`, in parallel without the GIL.
+    fn map_pairs(
+        &self,
+        py: Python<'_>,
+        wi: &[f64],
+        wo: &[f64],
+        h: &[f64],
+        what: Quantity,
+        out: &mut [f64],
+    ) -> PyResult<()> {
         let dirs = [("wi", wi), ("wo", wo)];
         check_sizes(&dirs, h, h.len())?;
         let model = &self.model;
-        match py.detach(|| eval_loop(model, wi, wo, h, what)) {
-            Some(v) => Ok(v),
-            None => {
-                check_inputs(&dirs, h, h.len())?;
-                Err(PyValueError::new_err("invalid input"))
-            }
+        if py.detach(|| eval_loop(model, wi, wo, h, what, out)) {
+            Ok(())
+        } else {
+            check_inputs(&dirs, h, h.len())?;
+            Err(PyValueError::new_err("invalid input"))
         }
     }
 }
@@ -254,16 +271,33 @@ impl PyModel {
             "pdf" => Quantity::Pdf,
             _ => return Err(PyValueError::new_err(format!("evaluate: unknown quantity {what:?} (fs, fs_cos, pdf)"))),
         };
-        let v = self.map_pairs(py, slice("wi", &wi)?, slice("wo", &wo)?, slice("h", &h)?, quantity)?;
+        let (wi, wo, h) = (slice("wi", &wi)?, slice("wo", &wo)?, slice("h", &h)?);
+        let n = h.len();
         Ok(match quantity {
-            Quantity::Pdf => Array1::from_vec(v).into_pyarray(py).into_any(),
-            _ => rows(py, v).into_any(),
+            Quantity::Pdf => {
+                let out = output::<f64, _>(py, numpy::ndarray::Ix1(n));
+                self.map_pairs(py, wi, wo, h, quantity, out.readwrite().as_slice_mut().expect("contiguous"))?;
+                out.into_any()
+            }
+            _ => {
+                let out = output::<f64, _>(py, numpy::ndarray::Ix2(n, 3));
+                self.map_pairs(py, wi, wo, h, quantity, out.readwrite().as_slice_mut().expect("contiguous"))?;
+                out.into_any()
+            }
         })
     }
 
+    /// The lobes `sample` chooses among, in the order of its `lobe` indices: a list of
+    /// `(name, delta)` pairs (`delta`: samples of that lobe lie on a delta lobe).
+    #[getter]
+    fn lobes(&self) -> Vec<(&'static str, bool)> {
+        self.model.lobes().iter().map(|l| (l.name, l.delta)).collect()
+    }
+
     /// Importance samples of ω_i for `wo` `(N, 3)`, `u` `(N, 4)` uniforms in [0, 1), `h`
-    /// `(N,)`: `(wi (N, 3), weight (N, 3) = f_s·cosθ_i/pdf, pdf (N,), delta (N,) bool)`; a
-    /// failed sample has wi = weight = 0, pdf = 0.
+    /// `(N,)`: `(wi (N, 3), weight (N, 3) = f_s·cosθ_i/pdf, pdf (N,), lobe (N,) int32)`, `lobe`
+    /// indexing [`Self::lobes`]; a failed sample has wi = weight = 0, pdf = 0, lobe = −1. The
+    /// four outputs are allocated once and written in place.
     fn sample<'py>(
         &self,
         py: Python<'py>,
@@ -273,11 +307,31 @@ impl PyModel {
     ) -> PyResult<Samples<'py>> {
         let (wo, u, h) = (slice("wo", &wo)?, slice("u", &u)?, slice("h", &h)?);
         let n = h.len();
-        check_inputs(&[("wo", wo)], h, n)?;
+        check_sizes(&[("wo", wo)], h, n)?;
         if u.len() != 4 * n {
             return Err(PyValueError::new_err(format!("u: expected {n} rows of 4 uniforms, got {} values", u.len())));
         }
-        if let Some(k) = first_bad(4 * n, |k| (0.0..1.0).contains(&u[k])) {
+        let model = &self.model;
+        let arrays = (
+            output::<f64, _>(py, numpy::ndarray::Ix2(n, 3)),
+            output::<f64, _>(py, numpy::ndarray::Ix2(n, 3)),
+            output::<f64, _>(py, numpy::ndarray::Ix1(n)),
+            output::<i32, _>(py, numpy::ndarray::Ix1(n)),
+        );
+        let valid = {
+            let (mut wi, mut weight, mut pdf, mut lobe) =
+                (arrays.0.readwrite(), arrays.1.readwrite(), arrays.2.readwrite(), arrays.3.readwrite());
+            let out = SampleOutputs {
+                wi: wi.as_slice_mut().expect("contiguous"),
+                weight: weight.as_slice_mut().expect("contiguous"),
+                pdf: pdf.as_slice_mut().expect("contiguous"),
+                lobe: lobe.as_slice_mut().expect("contiguous"),
+            };
+            py.detach(|| sample_loop(model, wo, u, h, out))
+        };
+        if !valid {
+            check_inputs(&[("wo", wo)], h, n)?;
+            let k = first_bad(4 * n, |k| (0.0..1.0).contains(&u[k])).expect("an invalid input");
             return Err(PyValueError::new_err(format!(
                 "u[{}, {}] = {}: expected a uniform in [0, 1)",
                 k / 4,
@@ -285,44 +339,50 @@ impl PyModel {
                 u[k]
             )));
         }
-        let model = &self.model;
-        let (wi, weight, pdf, delta) = py.detach(|| {
-            let samples: Vec<Option<fiberlab_scatter::Sample>> = (0..n)
-                .into_par_iter()
-                .map(|k| {
-                    let w = direction(wo, k).expect("checked");
-                    model.sample(w, h[k], [u[4 * k], u[4 * k + 1], u[4 * k + 2], u[4 * k + 3]])
-                })
-                .collect();
-            let mut wi = Vec::with_capacity(3 * n);
-            let mut weight = Vec::with_capacity(3 * n);
-            let mut pdf = Vec::with_capacity(n);
-            let mut delta = Vec::with_capacity(n);
-            for s in &samples {
-                match s {
-                    Some(s) => {
-                        wi.extend([s.wi.x, s.wi.y, s.wi.z]);
-                        weight.extend([s.weight[0], s.weight[1], s.weight[2]]);
-                        pdf.push(s.pdf);
-                        delta.push(s.delta);
-                    }
-                    None => {
-                        wi.extend([0.0; 3]);
-                        weight.extend([0.0; 3]);
-                        pdf.push(0.0);
-                        delta.push(false);
-                    }
-                }
-            }
-            (wi, weight, pdf, delta)
-        });
-        Ok((
-            rows(py, wi),
-            rows(py, weight),
-            Array1::from_vec(pdf).into_pyarray(py),
-            Array1::from_vec(delta).into_pyarray(py),
-        ))
+        Ok(arrays)
     }
+}
+
+/// The four outputs of `sample`, flat: `wi` and `weight` three values per sample, `pdf` and
+/// `lobe` one.
+pub(crate) struct SampleOutputs<'a> {
+    pub(crate) wi: &'a mut [f64],
+    pub(crate) weight: &'a mut [f64],
+    pub(crate) pdf: &'a mut [f64],
+    pub(crate) lobe: &'a mut [i32],
+}
+
+/// One sample per `wo[k]`, `u[k]`, `h[k]`, in parallel, written into `out` (zeros and lobe −1
+/// for a failed sample); allocates nothing. Each element is checked as it is read (`wo`
+/// finite and unit, `h` in [−1, 1], `u` in [0, 1)); `false` when one is invalid, for the
+/// caller to name it.
+pub(crate) fn sample_loop(model: &Model, wo: &[f64], u: &[f64], h: &[f64], out: SampleOutputs<'_>) -> bool {
+    let bad = AtomicBool::new(false);
+    out.wi
+        .par_chunks_mut(3)
+        .zip(out.weight.par_chunks_mut(3))
+        .zip(out.pdf.par_iter_mut())
+        .zip(out.lobe.par_iter_mut())
+        .enumerate()
+        .for_each(|(k, (((wi, weight), pdf), lobe))| {
+            let uk = [u[4 * k], u[4 * k + 1], u[4 * k + 2], u[4 * k + 3]];
+            let (Some(w), true, true) =
+                (direction(wo, k), (-1.0..=1.0).contains(&h[k]), uk.iter().all(|x| (0.0..1.0).contains(x)))
+            else {
+                bad.store(true, Ordering::Relaxed);
+                return;
+            };
+            match model.sample(w, h[k], uk) {
+                Some(s) => {
+                    wi.copy_from_slice(&[s.wi.x, s.wi.y, s.wi.z]);
+                    weight.copy_from_slice(&[s.weight[0], s.weight[1], s.weight[2]]);
+                    *pdf = s.pdf;
+                    *lobe = i32::from(s.lobe);
+                }
+                None => *lobe = -1,
+            }
+        });
+    !bad.into_inner()
 }
 
 /// Every registered model: a list of dicts `{name, summary, citation, params}`, each
@@ -478,7 +538,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(hair::hair_write, m)?)?;
     m.add_function(wrap_pyfunction!(hair::hair_generate, m)?)?;
     m.add_function(wrap_pyfunction!(check::check, m)?)?;
-    m.add_function(wrap_pyfunction!(bench::_bench_eval_rust, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::_bench_rust, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -140,13 +140,54 @@ def test_sample_agrees_with_eval_and_pdf(name):
     np.testing.assert_allclose(s.pdf[ok], model.pdf(s.wi[ok], wo[ok], h[ok]), rtol=1e-6)
     value = model.eval(s.wi[ok], wo[ok], h[ok])
     np.testing.assert_allclose(s.weight[ok], value / s.pdf[ok][:, None], rtol=1e-6, atol=1e-12)
-    assert not s.delta.any()
+    assert s.lobe.dtype == np.int32
+    assert ((s.lobe[ok] >= 0) & (s.lobe[ok] < len(model.lobes))).all()
+    assert (s.lobe[~ok] == -1).all()
+    assert not model.is_delta(s.lobe).any()
 
 
 def test_the_specular_fiber_samples_a_delta_lobe():
-    s = fl.Specular().sample(fl.directions_from_angles(0.3, 0.2), [0.1, 0.2, 0.3, 0.4])
-    assert bool(s.delta)
+    m = fl.Specular()
+    s = m.sample(fl.directions_from_angles(0.3, 0.2), [0.1, 0.2, 0.3, 0.4])
+    assert m.lobes == ("specular",) and m.lobe_delta == (True,)
+    assert int(s.lobe) == 0 and bool(m.is_delta(s.lobe))
     np.testing.assert_allclose(np.arcsin(s.wi[0]), -0.3, atol=1e-12)
+
+
+def test_sample_returns_the_lobe_by_its_attenuation_share():
+    """chiang picks lobe p with probability Y(A_p)/Σ Y(A_q) (Chiang 2016), A_p computed here
+    from Fresnel and the chord absorption: the lobe counts of 4·10⁵ samples match it."""
+    eta, beta_m, h, theta_o = 1.55, 0.3, 0.3, 0.4
+    m = fl.Chiang(eta=eta, sigma_a=[0.3, 0.6, 1.2], beta_m=beta_m, alpha=0)
+    assert m.lobes == ("R", "TT", "TRT", "TRRT+")
+    assert fl.KajiyaKay().lobes == ("diffuse", "specular")
+    n = 400_000
+    rng = np.random.default_rng(3)
+    s = m.sample(fl.directions_from_angles(theta_o, 0.2), rng.uniform(0, 1, (n, 4)), h)
+    # Attenuations of a hit at offset h seen from inclination θ_o (Chiang 2016, eqs. 3–5 with
+    # the Bravais index η' for the azimuthal refraction).
+    cos_o = np.cos(theta_o)
+    eta_p = np.sqrt(eta**2 - np.sin(theta_o) ** 2) / cos_o
+    sin_gamma_t = h / eta_p
+    cos_theta_t = np.sqrt(1 - (np.sin(theta_o) / eta) ** 2)
+    t = np.exp(-np.array([0.3, 0.6, 1.2]) * 2 * np.sqrt(1 - sin_gamma_t**2) / cos_theta_t)
+    c = cos_o * np.sqrt(1 - h * h)  # cosine of the incidence angle on the surface
+    st = np.sqrt(1 - c * c) / eta
+    ct = np.sqrt(1 - st * st)
+    rs = (c - eta * ct) / (c + eta * ct)
+    rp = (eta * c - ct) / (eta * c + ct)
+    f = 0.5 * (rs * rs + rp * rp)
+    a = [np.full(3, f), (1 - f) ** 2 * t]
+    a.append(a[1] * f * t)
+    a.append(a[2] * f * t / (1 - f * t))
+    y = np.array([0.2126 * x[0] + 0.7152 * x[1] + 0.0722 * x[2] for x in a])
+    share = y / y.sum()
+    ok = s.pdf > 0
+    counts = np.bincount(s.lobe[ok], minlength=4)
+    n_ok = ok.sum()
+    assert n_ok > 0.999 * n
+    sd = np.sqrt(n_ok * share * (1 - share))
+    assert (np.abs(counts - n_ok * share) < 5 * sd).all(), (counts, n_ok * share, sd)
 
 
 def test_shapes_broadcast_like_numpy():
@@ -165,7 +206,8 @@ def test_shapes_broadcast_like_numpy():
     assert v.shape == (4, 5, 1, 3) and p.shape == (4, 5, 1)
     assert m.eval_angles(0.1, 0.2, np.zeros((2, 3)), 0.5).shape == (2, 3, 3)
     s = m.sample(wo, np.full((2, 1, 4), 0.5), h)
-    assert s.wi.shape == (2, 6, 3) and s.pdf.shape == (2, 6) and s.delta.shape == (2, 6)
+    assert s.wi.shape == (2, 6, 3) and s.pdf.shape == (2, 6) and s.lobe.shape == (2, 6)
+    assert m.is_delta(s.lobe).shape == (2, 6)
     # Non-contiguous and integer inputs are accepted (converted once).
     np.testing.assert_array_equal(m.eval_fs(wi[:, ::2, 0], wo[0]), m.eval_fs(np.ascontiguousarray(wi[:, ::2, 0]), wo[0]))
     np.testing.assert_array_equal(m.eval_fs([[0, 1, 0]], [0, 0, 1]), m.eval_fs([[0.0, 1.0, 0.0]], [0.0, 0.0, 1.0]))
@@ -183,6 +225,8 @@ def test_bad_input_raises_value_error_with_the_place():
         (lambda: m.eval_fs(wo, wo, 1.5), "h = 1.5: expected a value in [-1, 1]"),
         (lambda: m.sample(wo, [0.1, 0.2, 0.3]), "u: expected an array of shape (..., 4)"),
         (lambda: m.sample(wo, [0.1, 0.2, 1.0, 0.3]), "u[0, 2] = 1: expected a uniform in [0, 1)"),
+        (lambda: m.is_delta([0, 4]), "lobe indices must be in [-1, 3]"),
+        (lambda: m.is_delta([0.5]), "expected integer lobe indices"),
         (lambda: fl.Model("nope"), "nope"),
         (lambda: fl.Chiang(beta_m=7), "`beta_m` = 7 is out of range"),
         (lambda: fl.Chiang(nope=1), "nope"),

@@ -28,7 +28,8 @@ Conventions (``docs/theory/conventions.md`` in the repository):
 Tools, each running the code of the command of the same name: :func:`render`, :func:`measure`
 (the goniophotometer), :func:`compare` (image metrics), :func:`check` (the validation harness),
 :mod:`fiberlab.hair` (``.hair`` strands as arrays, the hair generator) and
-:mod:`fiberlab.frames` (Mitsuba 3's hair frame).
+:mod:`fiberlab.frames` (Mitsuba 3's hair frame); :mod:`fiberlab.mitsuba` registers any model as a
+Mitsuba 3 BSDF.
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ from . import _native
 __version__ = _native.__version__
 
 __all__ = ["Model", "Sample", "load_dict", "models", "directions_from_angles", "render", "read_exr", "scene_toml", "fit",
-           "measure", "compare", "check", "hair", "frames"]
+           "measure", "compare", "check", "hair", "frames", "mitsuba"]
 
 
 class Sample(NamedTuple):
@@ -55,8 +56,10 @@ class Sample(NamedTuple):
     """``f_s · cos θ_i / pdf``, ``(..., 3)`` (zero where sampling failed)."""
     pdf: np.ndarray
     """Density of ``wi`` in sr⁻¹, ``(...)`` (zero for a failed sample)."""
-    delta: np.ndarray
-    """True where the sample comes from a delta lobe (its pdf is not a density)."""
+    lobe: np.ndarray
+    """Which lobe drew ``wi``: int32 indices into :attr:`Model.lobes`, ``(...)`` (−1 for a
+    failed sample). :meth:`Model.is_delta` tells which samples lie on a delta lobe (their pdf
+    is not a density)."""
 
 
 def models() -> list:
@@ -136,6 +139,31 @@ class Model:
         (``"near"`` when f_s depends on h) and ``lobes`` (``"smooth"`` or ``"delta"``)."""
         return self._native.flags
 
+    @property
+    def lobes(self) -> tuple:
+        """Names of the lobes :meth:`sample` chooses among, in the order of
+        :attr:`Sample.lobe` (e.g. ``("R", "TT", "TRT", "TRRT+")`` for ``chiang``,
+        ``("diffuse", "specular")`` for ``kajiya-kay``)."""
+        return tuple(name for name, _ in self._native.lobes)
+
+    @property
+    def lobe_delta(self) -> tuple:
+        """Per lobe of :attr:`lobes`: whether it is a delta lobe (all its light leaves on the
+        specular cone; pdf 0, weight the lobe's throughput)."""
+        return tuple(delta for _, delta in self._native.lobes)
+
+    def is_delta(self, lobe) -> np.ndarray:
+        """Whether each lobe index (e.g. :attr:`Sample.lobe`) names a delta lobe; −1 (a failed
+        sample) is not. Same shape as ``lobe``."""
+        idx = np.asarray(lobe)
+        if not np.issubdtype(idx.dtype, np.integer):
+            raise ValueError(f"is_delta: expected integer lobe indices, got dtype {idx.dtype}")
+        n = len(self.lobe_delta)
+        if idx.size and (idx.min() < -1 or idx.max() >= n):
+            raise ValueError(f"is_delta: lobe indices must be in [-1, {n - 1}] ({n} lobes: {self.lobes})")
+        table = np.array(self.lobe_delta + (False,), dtype=bool)  # index -1 → False
+        return table[idx]
+
     def __repr__(self) -> str:
         return repr(self._native)
 
@@ -174,17 +202,18 @@ class Model:
 
     def sample(self, wo, u, h=None) -> Sample:
         """Importance-samples ω_i given ``wo``: ``u`` has shape ``(..., 4)``, uniforms in
-        [0, 1) (two 2D pairs, as the renderer uses them). Returns a :class:`Sample`."""
+        [0, 1) (two 2D pairs, as the renderer uses them). Returns a :class:`Sample`
+        ``(wi, weight, pdf, lobe)``; ``weight = f_s · cos θ_i / pdf``."""
         wo = _as_directions("wo", wo)
         uu = np.asarray(u, dtype=np.float64)
         if uu.ndim == 0 or uu.shape[-1] != 4:
             raise ValueError(f"u: expected an array of shape (..., 4), got shape {uu.shape}")
         hh = np.zeros(()) if h is None else np.asarray(h, dtype=np.float64)
         batch = _batch([("wo", wo.shape[:-1]), ("u", uu.shape[:-1]), ("h", hh.shape)])
-        wi, weight, pdf, delta = _call(
+        wi, weight, pdf, lobe = _call(
             batch, self._native.sample, _flatten(batch, wo, 3), _flatten(batch, uu, 4), _flatten(batch, hh, None)
         )
-        return Sample(wi.reshape(batch + (3,)), weight.reshape(batch + (3,)), pdf.reshape(batch), delta.reshape(batch))
+        return Sample(wi.reshape(batch + (3,)), weight.reshape(batch + (3,)), pdf.reshape(batch), lobe.reshape(batch))
 
 
 def directions_from_angles(theta, phi) -> np.ndarray:
@@ -405,4 +434,5 @@ for _spec in models():
     __all__.append(_make.__name__)
 del _spec, _make
 
-from . import frames, hair  # noqa: E402  (submodules: fl.frames, fl.hair)
+# Submodules: fl.frames, fl.hair, fl.mitsuba (which imports Mitsuba only when registering).
+from . import frames, hair, mitsuba  # noqa: E402

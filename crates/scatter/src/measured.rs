@@ -279,8 +279,9 @@ impl Measured {
         let (nt, np) = (self.table.bins_theta, self.table.bins_phi);
         let c = &self.cdf[k];
         let mut mass = 0.0;
-        let rows: Box<dyn Iterator<Item = usize>> = if shift > 0.0 { Box::new((0..nt).rev()) } else { Box::new(0..nt) };
-        for row in rows {
+        // Walk from the pole the shift pushes past toward the equator (no allocation per pdf call).
+        for step in 0..nt {
+            let row = if shift > 0.0 { nt - 1 - step } else { step };
             let (fraction, _) = self.row_beyond_pole(row, shift);
             if fraction <= 0.0 {
                 break;

@@ -426,3 +426,112 @@ fn finite_everywhere_including_grazing_and_the_rim() {
     assert_eq!(t.azimuthal(0.2, f64::NAN, 0.0), Rgb::ZERO);
     assert_eq!(t.azimuth_pdf(f64::NAN, 0.2, 0.0), 0.0);
 }
+
+#[test]
+fn longitudinal_marginal_agrees_with_the_analog_walk() {
+    // Averaged over h' (each offset weighted by its scattered fraction, trapezoid in h'),
+    // the profiles weighted by N have the walk's marginal exit profile.
+    let (sigma_s, sigma_a, g) = (2.0, 0.3, 0.5);
+    let t = MedullaTables::shared(&params(sigma_s, sigma_a, g), &Resolution::default()).unwrap();
+    let res = *t.resolution();
+    let a = 3;
+    let theta_t = t.inclination_node(a);
+    let sectors = 12;
+    let nth = res.exit_inclinations;
+    let dth = PI / (nth - 1) as f64;
+    let rays = 60_000;
+    let (mut walk, mut table) = (vec![0.0; sectors], vec![0.0; sectors]);
+    let sector_of = |k: usize| (k * sectors / nth).min(sectors - 1);
+    for i in 0..res.offsets {
+        let h = t.offset_node(i);
+        let weight = if i == 0 || i == res.offsets - 1 { 0.5 } else { 1.0 };
+        let s = t.scattered_fraction(theta_t, h);
+        if s == 0.0 {
+            continue;
+        }
+        // The analog walk scatters with probability S by itself.
+        let per_ray = weight / rays as f64;
+        trace_walks(&params(sigma_s, 0.0, g), theta_t, h, rays, 100 + i as u64, |e| {
+            let w = per_ray * (-sigma_a * e.path_length).exp();
+            let y = (e.theta_o + FRAC_PI_2) / dth;
+            let k = (y as usize).min(nth - 2);
+            let f = y - k as f64;
+            walk[sector_of(k)] += w * (1.0 - f);
+            walk[sector_of(k + 1)] += w * f;
+        });
+        // Table: ∫ N(φ) M(θ_o | φ) dφ at the θ_o nodes, times the node's trapezoid width.
+        let nphi = 144;
+        for k in 0..nth {
+            let x = t.exit_inclination_node(k);
+            let width = if k == 0 || k == nth - 1 { 0.5 * dth } else { dth };
+            let joint: f64 = (0..nphi)
+                .map(|j| {
+                    let p = -PI + (j as f64 + 0.5) * TAU / nphi as f64;
+                    t.azimuthal(theta_t, h, p)[0] * t.longitudinal(theta_t, p, x)[0] * TAU / nphi as f64
+                })
+                .sum();
+            table[sector_of(k)] += weight * joint * width;
+        }
+    }
+    let total: f64 = walk.iter().sum();
+    for (s, (&w, &m)) in walk.iter().zip(&table).enumerate() {
+        // Walk noise (≈ Poisson in the sector's share of 15 × 60 000 rays) plus a 3 % margin
+        // of the total for the tables' own noise and the φ-blend's tent smoothing.
+        let noise = 4.0 * (w * total / (15.0 * rays as f64)).sqrt() + 0.03 * total / sectors as f64;
+        assert!((w - m).abs() < noise, "sector {s}: walk {w} tables {m} (allowed {noise}); {walk:?} {table:?}");
+    }
+}
+
+#[test]
+fn backward_and_forward_profiles_follow_the_walk() {
+    // The profiles tabulated at several |φ_q| carry the correlation of exit azimuth and
+    // inclination: in a thin medium light sent back (|φ_q| < π/3) leaves with θ_o far from
+    // forward light's (|φ_q| > 2π/3). Mean θ_o of each group, h'-averaged over the offset
+    // nodes, tables against the analog walk.
+    for (sigma_s, g) in [(1.5, 0.3), (0.3, 0.7), (0.3, -0.5)] {
+        let t = MedullaTables::shared(&params(sigma_s, 0.0, g), &Resolution::default()).unwrap();
+        let res = *t.resolution();
+        let theta_t = t.inclination_node(5);
+        let groups = |phi: f64| {
+            if phi.abs() < PI / 3.0 {
+                Some(0)
+            } else if phi.abs() > 2.0 * PI / 3.0 {
+                Some(1)
+            } else {
+                None
+            }
+        };
+        let (mut walk, mut table) = ([[0.0; 2]; 2], [[0.0; 2]; 2]);
+        let nphi = 144;
+        let nth = 180;
+        for i in 1..res.offsets - 1 {
+            let h = t.offset_node(i);
+            trace_walks(&params(sigma_s, 0.0, g), theta_t, h, 40_000, 300 + i as u64, |e| {
+                if let Some(k) = groups(e.phi_q) {
+                    walk[k][0] += e.theta_o;
+                    walk[k][1] += 1.0;
+                }
+            });
+            for j in 0..nphi {
+                let p = -PI + (j as f64 + 0.5) * TAU / nphi as f64;
+                let Some(k) = groups(p) else { continue };
+                let n = t.azimuthal(theta_t, h, p)[0];
+                for m in 0..nth {
+                    let x = -FRAC_PI_2 + (m as f64 + 0.5) * PI / nth as f64;
+                    let w = n * t.longitudinal(theta_t, p, x)[0];
+                    table[k][0] += w * x;
+                    table[k][1] += w;
+                }
+            }
+        }
+        let mean = |a: [f64; 2]| a[0] / a[1];
+        let (wb, wf, tb, tf) = (mean(walk[0]), mean(walk[1]), mean(table[0]), mean(table[1]));
+        let what = format!("σ_s {sigma_s} g {g} θ_t {theta_t}: walk {wb} {wf} tables {tb} {tf}");
+        // Walk noise of a group mean: ≲ 0.6/√(15·40 000 / 3) ≈ 1.3e-3 rad.
+        assert!((wb - tb).abs() < 0.02 && (wf - tf).abs() < 0.02, "{what}");
+        if sigma_s < 1.0 {
+            // Thin media: a clear difference between the groups, which the tables keep.
+            assert!((wf - wb).abs() > 0.15 && (tf - tb) * (wf - wb) > 0.0, "{what}");
+        }
+    }
+}

@@ -36,11 +36,14 @@
 //! (one per colour channel) is applied exactly, as `exp(−σ_a·L)` of each path's length `L`.
 //!
 //! At the exit the tables record
-//! * the exit azimuth `φ_q ∈ (−π, π]`, measured as the fiber models measure φ
-//!   (`normal_plane.rs`: φ = 0 is backscatter): `φ_q = π` is a ray leaving in its entry
-//!   direction's azimuth, `φ_q = 0` one sent straight back; positive angles turn the way a
-//!   ray entering at `h' > 0` turns when it bends toward the axis, so the tables have the
-//!   symmetry `N(h', φ_q) = N(−h', −φ_q)` (enforced by averaging mirror pairs);
+//! * the exit azimuth `φ_q = π + ψ` wrapped to `(−π, π]`, measured as the fiber models
+//!   measure φ (`normal_plane.rs`: φ = 0 is backscatter, π straight through), where ψ is
+//!   the azimuth of the exit direction's projection minus the entry direction's,
+//!   counter-clockwise in the local `(x, y)` frame above. A ray at `h' > 0` turning toward
+//!   the axis has ψ < 0, so φ_q just below π — the same orientation as the unscattered
+//!   `Φ(1, h) = π − 2(γ − γ_t)`, whose refractions turn a ray at `h > 0` toward the axis.
+//!   The tables have the symmetry `N(h', φ_q) = N(−h', −φ_q)` (enforced by averaging
+//!   mirror pairs);
 //! * the exit inclination `θ_o` of the propagation direction, with the sign of `θ_t`
 //!   (an unscattered ray would leave with `θ_o = θ_t`); `θ_t → −θ_t` maps `θ_o → −θ_o`, so
 //!   only `θ_t ≥ 0` is tabulated;
@@ -61,14 +64,18 @@
 //!   densities, so the square-root edge of `S` at `|h'| → 1` is exact;
 //! * the longitudinal exit profile `M(θ_t, θ_o | φ_q)` (rad⁻¹ in `θ_o`, normalised:
 //!   `∫ M dθ_o = 1`; [`MedullaTables::longitudinal`]), averaged over `h'` (weighted by `S`,
-//!   as the light entering the medulla is uniform in `h'`) and blended between a backward
-//!   profile `M_b` and a forward profile `M_f` with the weight `t = |φ_q|/π`:
-//!   `M = (1 − t)·M_b + t·M_f`, the form Yan et al. 2017 use. Each exit contributes to `M_b`
-//!   with weight `1 − t` and to `M_f` with weight `t` of its own `φ_q`, so the blend's
-//!   marginal over `φ_q` is the exact marginal exit profile, and the two profiles carry the
-//!   main correlation between the exit azimuth and inclination (light sent back by one event
-//!   leaves near `θ_o ≈ −θ_t`, forward light near `θ_o ≈ θ_t`). A joint `(h', φ_q, θ_o)`
-//!   table would be 30–70 times larger and far noisier for the same walks, and the fur model
+//!   as the light entering the medulla is uniform in `h'`), tabulated at a few nodes of
+//!   `|φ_q| ∈ [0, π]` ([`Resolution::profile_azimuths`], default 5: every 45°) and
+//!   interpolated linearly between them. Yan et al. 2017 blend a backward and a forward
+//!   profile with the weight `|φ_q|/π`, which is this form with 2 nodes. Each exit goes to
+//!   the two nodes nearest its own `|φ_q|` with tent weights, so the profiles weighted by `N`
+//!   reproduce the exact marginal exit profile for any number of nodes. Why more than 2: the
+//!   exit inclination depends strongly on the exit azimuth in thin media (σ_s = 0.3, g = 0.7,
+//!   θ_t = 40°: light leaving with `|φ_q| < 60°` has mean θ_o = 0.29 rad, with `|φ_q| > 120°`
+//!   0.48 rad, by the analog walk); 2 profile nodes give 0.39 and 0.45, 5 give 0.30 and 0.48
+//!   (test `backward_and_forward_profiles_follow_the_walk`, which fails with 2). A joint
+//!   `(h', φ_q, θ_o)` table would be ~20 times larger and far noisier for the same walks, and
+//!   the fur model
 //!   integrates over `h'` anyway;
 //! * the mean path length `L̄(θ_t, h')` without absorption ([`MedullaTables::mean_path_length`]).
 //!
@@ -93,16 +100,23 @@
 //! exactly to the deposited mass. [`trace_walks`] is the plain analog walk (one exit record per
 //! ray, unscattered rays counted apart), which the tests use as an independent estimator.
 //!
-//! # Resolutions and cost
-//! [`Resolution::default`]: 10 nodes in `sinθ_t ∈ [0, 0.9]` (θ_t up to 64°, which covers
-//! fibers of index ≥ 1.12; beyond, the last node is used), 33 in `h' ∈ [−1, 1]`, 72 in φ_q
-//! (5°), 61 in θ_o (3°), and a number of walks per `(θ_t, h')` node that falls with σ_s
-//! ([`Resolution::walks_for`]) so the tables take about the same time for thin and thick
-//! media: about 0.3–1 s on one core, with rayon across nodes. The arrays hold
-//! 3·10·33·72 + 12·10·61 ≈ 80 000 numbers (≈ 0.6 MB). Random numbers: SplitMix64, one stream
-//! per node keyed by the node's index, so the result does not depend on thread count.
-//! [`MedullaTables::shared`] keeps the last [`CACHE_ENTRIES`] tables built in the process,
-//! keyed by parameters and resolution, so rendering and χ² tests do not regenerate them.
+//! # Resolutions, cost and noise
+//! [`Resolution::default`]: 8 nodes in `sinθ_t ∈ [0, 0.9]` (θ_t up to 64°, which covers
+//! fibers of index ≥ 1.12; beyond, the last node is used), 17 in `h' ∈ [−1, 1]`, 72 in φ_q
+//! (5°), 37 in θ_o (5°), 5 in `|φ_q|` for the θ_o profiles, and a number of walks per
+//! `(θ_t, h')` node that falls with σ_s ([`Resolution::walks_for`]) so the build costs about
+//! the same for thin and thick media: 0.7–0.9 s of CPU time for σ_s = 0.5 … 20 (user time of
+//! `fiberlab medulla-tables`, files included; rayon spreads the nodes over the cores). The
+//! densities hold 3·8·17·72 + 3·8·5·37 ≈ 34 000 numbers (≈ 0.7 MB in memory with the
+//! channel means and cumulative sums). RMS relative deviation of the node values from tables
+//! with 16 times more walks, `N` / `M`: 2.7 % / 1.2 % (σ_s = 0.5, g = 0), 4.9 % / 2.0 %
+//! (σ_s = 2, g = 0.44), 4.2 % / 2.4 % (σ_s = 2, g = 0.8), 6.6 % / 4.1 % (σ_s = 8, g = 0.4),
+//! 9.2 % / 8.5 % (σ_s = 20, g = 0.4); integrals over φ_q or h' average most of it out. Pass
+//! more walks ([`Resolution::walks`]) for smoother tables.
+//! Random numbers: SplitMix64, one stream per node keyed by the node's index, so the result
+//! does not depend on thread count. [`MedullaTables::shared`] keeps the last
+//! [`CACHE_ENTRIES`] tables built in the process, keyed by parameters and resolution, so
+//! rendering and χ² tests do not regenerate them.
 
 use crate::params::{ParameterError, Range};
 use fiberlab_math::split_mix::SplitMix64;
@@ -130,6 +144,8 @@ pub const SMALL_DEPOSIT: f64 = 1e-3;
 pub const MAX_EVENTS: u32 = 1_000_000;
 /// How many tables [`MedullaTables::shared`] keeps.
 pub const CACHE_ENTRIES: usize = 32;
+/// Roberts' R₃ increments `(1/ϕ₃, 1/ϕ₃², 1/ϕ₃³)`, ϕ₃ the real root of `x⁴ = x + 1`.
+const R3: [f64; 3] = [0.819_172_513_396_164_4, 0.671_043_606_703_789_2, 0.549_700_477_901_970_3];
 /// Seed of the walks' random streams.
 const SEED: u64 = 0x4D45_4455_4C4C_4131;
 
@@ -200,13 +216,24 @@ pub struct Resolution {
     pub azimuths: usize,
     /// Nodes in `θ_o`, uniform over `[−π/2, π/2]` (both ends included).
     pub exit_inclinations: usize,
+    /// Nodes in `|φ_q|`, uniform over `[0, π]`, at which the θ_o profile is tabulated
+    /// (2: Yan et al. 2017's blend of a backward and a forward profile).
+    pub profile_azimuths: usize,
     /// Walks per `(θ_t, h')` node; `None`: [`Resolution::walks_for`].
     pub walks: Option<usize>,
 }
 
 impl Default for Resolution {
     fn default() -> Self {
-        Self { inclinations: 8, max_sin_theta_t: 0.9, offsets: 17, azimuths: 72, exit_inclinations: 61, walks: None }
+        Self {
+            inclinations: 8,
+            max_sin_theta_t: 0.9,
+            offsets: 17,
+            azimuths: 72,
+            exit_inclinations: 37,
+            profile_azimuths: 5,
+            walks: None,
+        }
     }
 }
 
@@ -237,6 +264,9 @@ impl Resolution {
         if !(5..=721).contains(&self.exit_inclinations) {
             return refuse("exit_inclinations", self.exit_inclinations.to_string(), "5..=721");
         }
+        if !(2..=181).contains(&self.profile_azimuths) {
+            return refuse("profile_azimuths", self.profile_azimuths.to_string(), "2..=181");
+        }
         if let Some(w) = self.walks {
             if !(16..=1 << 22).contains(&w) {
                 return refuse("walks", w.to_string(), "16..=4194304 per node");
@@ -244,6 +274,13 @@ impl Resolution {
             if w * self.inclinations * self.offsets > 1 << 28 {
                 return refuse("walks", w.to_string(), "walks × inclinations × offsets ≤ 2^28");
             }
+        }
+        if 3 * self.inclinations * self.profile_azimuths * self.exit_inclinations > 1 << 24 {
+            return refuse(
+                "profile_azimuths",
+                self.profile_azimuths.to_string(),
+                "3 × inclinations × profile_azimuths × exit_inclinations ≤ 2^24",
+            );
         }
         if 3 * self.inclinations * self.offsets * self.azimuths > 1 << 24 {
             return refuse("azimuths", self.azimuths.to_string(), "3 × inclinations × offsets × azimuths ≤ 2^24");
@@ -462,10 +499,8 @@ impl LinearSlices {
 struct NodeTally {
     /// `3 × azimuths` deposited weights.
     azimuth: Vec<f64>,
-    /// `3 × exit_inclinations`, weights `1 − |φ_q|/π`.
-    backward: Vec<f64>,
-    /// `3 × exit_inclinations`, weights `|φ_q|/π`.
-    forward: Vec<f64>,
+    /// `3 × profile_azimuths × exit_inclinations`, tent weights in `|φ_q|`.
+    profiles: Vec<f64>,
     /// `Σ w·L` without absorption.
     length: f64,
     abandoned: u64,
@@ -482,21 +517,19 @@ pub struct MedullaTables {
     azimuth: LinearSlices,
     /// Channel mean of `azimuth`: slice `a·offsets + i`.
     azimuth_mean: LinearSlices,
-    /// Normalised backward / forward profiles per channel: slice `c·inclinations + a`.
-    backward: LinearSlices,
-    forward: LinearSlices,
-    /// Channel means of the normalised profiles: slice `a`.
-    backward_mean: LinearSlices,
-    forward_mean: LinearSlices,
+    /// Normalised θ_o profiles per channel: slice `(c·inclinations + a)·profile_azimuths + q`.
+    profiles: LinearSlices,
+    /// Channel means of the normalised profiles: slice `a·profile_azimuths + q`.
+    profiles_mean: LinearSlices,
     /// Mean path length per node: `a·offsets + i`.
     length: Vec<f64>,
 }
 
-type CacheKey = [u64; 12];
-type CacheSlot = Arc<OnceLock<Arc<MedullaTables>>>;
+type CacheKey = [u64; 13];
+type Cache = Mutex<Vec<(CacheKey, Arc<MedullaTables>)>>;
 
-fn cache() -> &'static Mutex<Vec<(CacheKey, CacheSlot)>> {
-    static CACHE: OnceLock<Mutex<Vec<(CacheKey, CacheSlot)>>> = OnceLock::new();
+fn cache() -> &'static Cache {
+    static CACHE: OnceLock<Cache> = OnceLock::new();
     CACHE.get_or_init(|| Mutex::new(Vec::new()))
 }
 
@@ -509,8 +542,9 @@ impl MedullaTables {
         Ok(Self::generate(params, *resolution))
     }
 
-    /// The tables for these parameters from the process-wide cache, built on first use
-    /// (concurrent callers of the same key wait for one build).
+    /// The tables for these parameters from the process-wide cache (the last
+    /// [`CACHE_ENTRIES`] used), built on first use. No lock is held while building, so it may
+    /// be called from inside rayon tasks; concurrent first callers may each build.
     pub fn shared(params: &MedullaParams, resolution: &Resolution) -> Result<Arc<Self>, MedullaError> {
         let params = MedullaParams::new(params.sigma_s, params.sigma_a, params.g)?;
         resolution.validate()?;
@@ -528,24 +562,34 @@ impl MedullaTables {
             r.exit_inclinations as u64,
             r.walks.map_or(0, |w| w as u64),
             u64::from(r.walks.is_some()),
+            r.profile_azimuths as u64,
         ];
-        let slot = {
-            let mut entries = cache().lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-            if let Some(k) = entries.iter().position(|(k, _)| *k == key) {
-                let entry = entries.remove(k);
-                let slot = entry.1.clone();
-                entries.push(entry);
-                slot
-            } else {
-                if entries.len() >= CACHE_ENTRIES {
-                    entries.remove(0);
-                }
-                let slot: CacheSlot = Arc::default();
-                entries.push((key, slot.clone()));
-                slot
-            }
+        let lock = || cache().lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let find = |entries: &mut Vec<(CacheKey, Arc<Self>)>| {
+            // Most recently used last.
+            let k = entries.iter().position(|(k, _)| *k == key)?;
+            let entry = entries.remove(k);
+            let tables = entry.1.clone();
+            entries.push(entry);
+            Some(tables)
         };
-        Ok(slot.get_or_init(|| Arc::new(Self::generate(params, *resolution))).clone())
+        if let Some(tables) = find(&mut lock()) {
+            return Ok(tables);
+        }
+        // Built without holding the lock: a build runs rayon tasks, and the thread waiting for
+        // them may meanwhile run another task that asks for the same tables; a held lock would
+        // deadlock it. Concurrent first callers may each build (identical) tables; the first
+        // stored is kept.
+        let built = Arc::new(Self::generate(params, *resolution));
+        let mut entries = lock();
+        if let Some(tables) = find(&mut entries) {
+            return Ok(tables);
+        }
+        if entries.len() >= CACHE_ENTRIES {
+            entries.remove(0);
+        }
+        entries.push((key, built.clone()));
+        Ok(built)
     }
 
     fn generate(params: MedullaParams, res: Resolution) -> Self {
@@ -581,36 +625,36 @@ impl MedullaTables {
         for (k, v) in azimuth_mean.iter_mut().enumerate() {
             *v = (0..3).map(|c| azimuth[c * na * ni * nphi + k]).sum::<f64>() / 3.0;
         }
-        // Longitudinal profiles: h'-average weighted by S (trapezoid in h'), per channel.
+        // Longitudinal profiles: h'-average weighted by S (trapezoid in h'), per channel and
+        // |φ_q| node, each normalised over θ_o.
+        let nq = res.profile_azimuths;
         let trapezoid = |k: usize, n: usize| if k == 0 || k == n - 1 { 0.5 } else { 1.0 };
-        let mut profiles = [vec![0.0; 3 * na * nth], vec![0.0; 3 * na * nth]];
+        let mut profiles = vec![0.0; 3 * na * nq * nth];
         for a in 0..na {
             let theta_t = inclination_node(&res, a);
             for i in 0..ni {
                 let w = trapezoid(i, ni) * scattered_fraction(params.sigma_s, theta_t, offset_node(&res, i));
                 let t = &tallies[a * ni + i];
                 for c in 0..3 {
-                    for k in 0..nth {
-                        profiles[0][(c * na + a) * nth + k] += w * t.backward[c * nth + k];
-                        profiles[1][(c * na + a) * nth + k] += w * t.forward[c * nth + k];
+                    for q in 0..nq {
+                        let to = ((c * na + a) * nq + q) * nth;
+                        let from = (c * nq + q) * nth;
+                        for k in 0..nth {
+                            profiles[to + k] += w * t.profiles[from + k];
+                        }
                     }
                 }
             }
         }
-        for p in &mut profiles {
-            for s in 0..3 * na {
-                let slice = &mut p[s * nth..(s + 1) * nth];
-                let total: f64 = slice.iter().sum();
-                for (k, v) in slice.iter_mut().enumerate() {
-                    *v = if total > 0.0 { *v / (total * dth * trapezoid(k, nth)) } else { 0.0 };
-                }
+        for slice in profiles.chunks_mut(nth) {
+            let total: f64 = slice.iter().sum();
+            for (k, v) in slice.iter_mut().enumerate() {
+                *v = if total > 0.0 { *v / (total * dth * trapezoid(k, nth)) } else { 0.0 };
             }
         }
-        let mean_of = |p: &[f64]| -> Vec<f64> {
-            (0..na * nth).map(|k| (0..3).map(|c| p[c * na * nth + k]).sum::<f64>() / 3.0).collect()
-        };
-        let (backward_mean, forward_mean) = (mean_of(&profiles[0]), mean_of(&profiles[1]));
-        let [backward, forward] = profiles;
+        let per_channel = na * nq * nth;
+        let profiles_mean: Vec<f64> =
+            (0..per_channel).map(|k| (0..3).map(|c| profiles[c * per_channel + k]).sum::<f64>() / 3.0).collect();
         let phi_grid = |v| LinearSlices::new(nphi, true, -PI, dphi, v);
         let theta_grid = |v| LinearSlices::new(nth, false, -FRAC_PI_2, dth, v);
         Self {
@@ -620,10 +664,8 @@ impl MedullaTables {
             abandoned: tallies.iter().map(|t| t.abandoned).sum(),
             azimuth: phi_grid(azimuth),
             azimuth_mean: phi_grid(azimuth_mean),
-            backward: theta_grid(backward),
-            forward: theta_grid(forward),
-            backward_mean: theta_grid(backward_mean),
-            forward_mean: theta_grid(forward_mean),
+            profiles: theta_grid(profiles),
+            profiles_mean: theta_grid(profiles_mean),
             length,
         }
     }
@@ -666,7 +708,7 @@ impl MedullaTables {
     /// The `θ_o` of exit-inclination node `k`.
     #[must_use]
     pub fn exit_inclination_node(&self, k: usize) -> f64 {
-        -FRAC_PI_2 + k as f64 * self.backward.step
+        -FRAC_PI_2 + k as f64 * self.profiles.step
     }
 
     /// Closed-form probability of at least one scattering event on the chord:
@@ -747,9 +789,10 @@ impl MedullaTables {
         (pdf > 0.0).then_some((phi, pdf))
     }
 
-    /// Corners in `sinθ_t` and the blend weight `t = |φ_q|/π` of the longitudinal profile.
+    /// Corners `(slice within a channel, weight)` of the longitudinal profile: bilinear in
+    /// `sinθ_t` and `|φ_q|`.
     #[inline]
-    fn profile_corners(&self, theta_t: f64, phi_q: f64) -> Option<[(usize, f64); 2]> {
+    fn profile_corners(&self, theta_t: f64, phi_q: f64) -> Option<[(usize, f64); 4]> {
         if !theta_t.is_finite() || !phi_q.is_finite() {
             return None;
         }
@@ -758,24 +801,25 @@ impl MedullaTables {
             .min((res.inclinations - 1) as f64);
         let a = (ua as usize).min(res.inclinations - 2);
         let fa = ua - a as f64;
-        Some([(a, 1.0 - fa), (a + 1, fa)])
+        let nq = res.profile_azimuths;
+        let (q, fq) = profile_cell(nq, wrap_pi(phi_q));
+        Some([
+            (a * nq + q, (1.0 - fa) * (1.0 - fq)),
+            (a * nq + q + 1, (1.0 - fa) * fq),
+            ((a + 1) * nq + q, fa * (1.0 - fq)),
+            ((a + 1) * nq + q + 1, fa * fq),
+        ])
     }
 
     /// Longitudinal exit profile `M(θ_t, θ_o | φ_q)` (rad⁻¹ in `θ_o`, `∫ M dθ_o = 1`) per
-    /// channel: `(1 − t)·M_b + t·M_f`, `t = |φ_q|/π`, interpolated linearly in `sinθ_t`.
+    /// channel, interpolated linearly in `sinθ_t` and in `|φ_q|` between the profile nodes.
     #[must_use]
     pub fn longitudinal(&self, theta_t: f64, phi_q: f64, theta_o: f64) -> Rgb {
         let Some(corners) = self.profile_corners(theta_t, phi_q) else { return Rgb::ZERO };
-        let t = wrap_pi(phi_q).abs() / PI;
         let x = if theta_t < 0.0 { -theta_o } else { theta_o };
-        let na = self.resolution.inclinations;
+        let per_channel = self.resolution.inclinations * self.resolution.profile_azimuths;
         Rgb(std::array::from_fn(|c| {
-            corners
-                .iter()
-                .map(|&(a, w)| {
-                    w * ((1.0 - t) * self.backward.value(c * na + a, x) + t * self.forward.value(c * na + a, x))
-                })
-                .sum::<f64>()
+            corners.iter().map(|&(k, w)| w * self.profiles.value(c * per_channel + k, x)).sum::<f64>()
         }))
     }
 
@@ -784,30 +828,12 @@ impl MedullaTables {
     #[must_use]
     pub fn inclination_pdf(&self, theta_t: f64, phi_q: f64, theta_o: f64) -> f64 {
         let Some(corners) = self.profile_corners(theta_t, phi_q) else { return 0.0 };
-        let t = wrap_pi(phi_q).abs() / PI;
         let x = if theta_t < 0.0 { -theta_o } else { theta_o };
-        let masses = self.profile_masses(&corners, t);
-        let total: f64 = masses.iter().sum();
+        let total: f64 = corners.iter().map(|&(k, w)| w * self.profiles_mean.mass(k)).sum();
         if total.is_nan() || total <= 0.0 {
             return 0.0;
         }
-        let value = corners
-            .iter()
-            .map(|&(a, w)| w * ((1.0 - t) * self.backward_mean.value(a, x) + t * self.forward_mean.value(a, x)))
-            .sum::<f64>();
-        value / total
-    }
-
-    /// Masses of the four mixture components (corner × backward/forward) of the sampled profile.
-    #[inline]
-    fn profile_masses(&self, corners: &[(usize, f64); 2], t: f64) -> [f64; 4] {
-        let [(a0, w0), (a1, w1)] = *corners;
-        [
-            w0 * (1.0 - t) * self.backward_mean.mass(a0),
-            w0 * t * self.forward_mean.mass(a0),
-            w1 * (1.0 - t) * self.backward_mean.mass(a1),
-            w1 * t * self.forward_mean.mass(a1),
-        ]
+        corners.iter().map(|&(k, w)| w * self.profiles_mean.value(k, x)).sum::<f64>() / total
     }
 
     /// Draws `θ_o` given `(θ_t, φ_q)` from one uniform `u ∈ [0, 1)`; returns it with its
@@ -815,10 +841,9 @@ impl MedullaTables {
     #[must_use]
     pub fn sample_inclination(&self, theta_t: f64, phi_q: f64, u: f64) -> Option<(f64, f64)> {
         let corners = self.profile_corners(theta_t, phi_q)?;
-        let t = wrap_pi(phi_q).abs() / PI;
-        let (k, v) = pick(&self.profile_masses(&corners, t), u)?;
-        let a = corners[k / 2].0;
-        let x = if k % 2 == 0 { self.backward_mean.sample(a, v)? } else { self.forward_mean.sample(a, v)? };
+        let masses = corners.map(|(k, w)| w * self.profiles_mean.mass(k));
+        let (k, v) = pick(&masses, u)?;
+        let x = self.profiles_mean.sample(corners[k].0, v)?;
         let theta_o = if theta_t < 0.0 { -x } else { x };
         let pdf = self.inclination_pdf(theta_t, phi_q, theta_o);
         (pdf > 0.0).then_some((theta_o, pdf))
@@ -851,6 +876,15 @@ fn pick(masses: &[f64], u: f64) -> Option<(usize, f64)> {
     None
 }
 
+/// The cell of `|φ_q|` among `nodes` uniform profile nodes over `[0, π]` and the fraction
+/// across it.
+#[inline]
+fn profile_cell(nodes: usize, phi_q: f64) -> (usize, f64) {
+    let u = (phi_q.abs() / PI).min(1.0) * (nodes - 1) as f64;
+    let q = (u as usize).min(nodes - 2);
+    (q, (u - q as f64).clamp(0.0, 1.0))
+}
+
 fn inclination_node(res: &Resolution, a: usize) -> f64 {
     (res.max_sin_theta_t * a as f64 / (res.inclinations - 1) as f64).asin()
 }
@@ -872,14 +906,9 @@ fn scattered_fraction(sigma_s: f64, theta_t: f64, h: f64) -> f64 {
 
 /// The walks of one node with the expected-value escape estimator (module documentation).
 fn walk_node(params: &MedullaParams, res: &Resolution, theta_t: f64, h: f64, walks: usize, node: u64) -> NodeTally {
-    let (nphi, nth) = (res.azimuths, res.exit_inclinations);
-    let mut tally = NodeTally {
-        azimuth: vec![0.0; 3 * nphi],
-        backward: vec![0.0; 3 * nth],
-        forward: vec![0.0; 3 * nth],
-        length: 0.0,
-        abandoned: 0,
-    };
+    let (nphi, nth, nq) = (res.azimuths, res.exit_inclinations, res.profile_azimuths);
+    let mut tally =
+        NodeTally { azimuth: vec![0.0; 3 * nphi], profiles: vec![0.0; 3 * nq * nth], length: 0.0, abandoned: 0 };
     let sigma_s = params.sigma_s;
     if sigma_s <= 0.0 {
         return tally;
@@ -899,29 +928,36 @@ fn walk_node(params: &MedullaParams, res: &Resolution, theta_t: f64, h: f64, wal
         let y = ((theta_o + FRAC_PI_2) / dth).clamp(0.0, (nth - 1) as f64);
         let k0 = (y as usize).min(nth - 2);
         let fk = y - k0 as f64;
-        let t = phi_q.abs() / PI;
+        let (q0, fq) = profile_cell(nq, phi_q);
         for (c, &sa) in sigma_a.iter().enumerate() {
             let wc = w * (-sa * length).exp();
             tally.azimuth[c * nphi + j0] += wc * (1.0 - fj);
             tally.azimuth[c * nphi + j1] += wc * fj;
-            let (b, f) = (wc * (1.0 - t), wc * t);
-            tally.backward[c * nth + k0] += b * (1.0 - fk);
-            tally.backward[c * nth + k0 + 1] += b * fk;
-            tally.forward[c * nth + k0] += f * (1.0 - fk);
-            tally.forward[c * nth + k0 + 1] += f * fk;
+            for (q, wq) in [(q0, wc * (1.0 - fq)), (q0 + 1, wc * fq)] {
+                let row = &mut tally.profiles[(c * nq + q) * nth..(c * nq + q + 1) * nth];
+                row[k0] += wq * (1.0 - fk);
+                row[k0 + 1] += wq * fk;
+            }
         }
         tally.length += w * length;
     };
     let (start, dir, chord) = entry(theta_t, h);
     let scattered = -(-sigma_s * chord).exp_m1();
     let mut rng = SplitMix64::stream(SEED, node);
-    for _ in 0..walks {
+    // The first event's three dimensions (where on the chord, and the new direction) come
+    // from a randomly shifted Kronecker sequence (Roberts' R₃), which stratifies them: in a
+    // thin medium nearly all the light is scattered once, so this removes most of the noise.
+    let shift = [rng.next_f64(), rng.next_f64(), rng.next_f64()];
+    for k in 0..walks {
+        let first: [f64; 3] = std::array::from_fn(|c| (shift[c] + (k as f64) * R3[c]).fract());
         // First event forced onto the chord: the flight's exponential truncated to it.
-        let t = -(-rng.next_f64() * scattered).ln_1p() / sigma_s;
+        let t = -(-first[0] * scattered).ln_1p() / sigma_s;
         let (mut p, mut d, mut length) = (start + dir * t.min(chord), dir, t.min(chord));
         let (mut w, mut analog, mut events) = (1.0f64, false, 1u32);
+        let mut direction = Some([first[1], first[2]]);
         loop {
-            d = henyey_greenstein(params.g, d, rng.next_f64(), rng.next_f64());
+            let [u1, u2] = direction.take().unwrap_or_else(|| [rng.next_f64(), rng.next_f64()]);
+            d = henyey_greenstein(params.g, d, u1, u2);
             let wall = distance_to_wall(p, d);
             let u = rng.next_f64();
             let t = if analog {

@@ -20,8 +20,8 @@ pub mod bravais;
 pub mod frame;
 pub mod fresnel;
 pub mod special;
-pub mod split_mix;
 pub mod spectrum;
+pub mod split_mix;
 
 pub use frame::{FiberFrame, relative_phi, wrap_pi};
 pub use glam::DVec3;

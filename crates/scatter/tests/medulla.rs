@@ -1,8 +1,9 @@
 //! Tests of the medulla tables (`hair::medulla`): the walk against the closed-form scattered
 //! fraction, energy without absorption, slice integrals, the (h', φ) symmetry, the effect of
-//! the phase function's anisotropy, the thin-medium limit against an independent
-//! single-scattering quadrature, the plain analog walk against the tables, determinism across
-//! thread counts, χ² of the samplers against their densities, and bad input.
+//! the phase function's anisotropy, the thin-medium limit (exit azimuths and inclinations)
+//! against an independent single-scattering quadrature, the plain analog walk against the
+//! tables (escape, azimuths, inclination profiles), determinism across thread counts, χ² of
+//! the samplers against their densities, and bad input.
 
 use fiberlab_check::chi2::{Chi2Config, chi2_test};
 use fiberlab_math::frame::{direction_from_sin_cos, phi, theta};
@@ -534,4 +535,73 @@ fn backward_and_forward_profiles_follow_the_walk() {
             assert!((wf - wb).abs() > 0.15 && (tf - tb) * (wf - wb) > 0.0, "{what}");
         }
     }
+}
+
+/// Single scattering as a joint density in (φ_q, θ_o) per unit φ_q and unit θ_o.
+fn single_scattering_joint(sigma_s: f64, g: f64, theta_t: f64, h: f64, phi_q: f64, theta_o: f64) -> f64 {
+    let half = (1.0 - h * h).sqrt();
+    let start = DVec3::new(-half, h, 0.0);
+    let dir = DVec3::new(theta_t.cos(), 0.0, theta_t.sin());
+    let chord = 2.0 * half / theta_t.cos();
+    let psi = phi_q - PI;
+    let w = DVec3::new(theta_o.cos() * psi.cos(), theta_o.cos() * psi.sin(), theta_o.sin());
+    let nt = 32;
+    let mut sum = 0.0;
+    for a in 0..nt {
+        let t = (a as f64 + 0.5) * chord / nt as f64;
+        let l = wall(start + dir * t, w);
+        sum += sigma_s * (-sigma_s * t).exp() * hg(g, w.dot(dir)) * theta_o.cos() * (-sigma_s * l).exp();
+    }
+    sum * chord / nt as f64
+}
+
+#[test]
+fn thin_medium_exit_inclinations_match_single_scattering_quadrature() {
+    // h'-averaged exit-inclination profile (weights as the tables': trapezoid over the
+    // offset nodes times the scattered fraction), in 6 sectors of θ_o, against quadrature.
+    let (sigma_s, g) = (0.01, 0.7);
+    let res = Resolution { walks: Some(1 << 14), ..Resolution::default() };
+    let t = MedullaTables::new(&params(sigma_s, 0.0, g), &res).unwrap();
+    let theta_t = t.inclination_node(5);
+    let (nth, nphi) = (res.exit_inclinations, 72);
+    let dth = PI / (nth - 1) as f64;
+    let sectors = 6;
+    let sector_of = |k: usize| (k * sectors / nth).min(sectors - 1);
+    let (mut table, mut quad) = (vec![0.0; sectors], vec![0.0; sectors]);
+    for i in 1..res.offsets - 1 {
+        let h = t.offset_node(i);
+        for k in 0..nth {
+            let x = t.exit_inclination_node(k);
+            let width = if k == 0 || k == nth - 1 { 0.5 * dth } else { dth };
+            for j in 0..nphi {
+                let p = -PI + (j as f64 + 0.5) * TAU / nphi as f64;
+                table[sector_of(k)] +=
+                    t.azimuthal(theta_t, h, p)[0] * t.longitudinal(theta_t, p, x)[0] * width * TAU / nphi as f64;
+            }
+            // Quadrature of the tent around node k (what the node's value stands for).
+            let sub = 6;
+            for m in 0..2 * sub {
+                let y = x + (-1.0 + (m as f64 + 0.5) / sub as f64) * dth;
+                if y.abs() >= FRAC_PI_2 {
+                    continue;
+                }
+                let tent = 1.0 - ((y - x) / dth).abs();
+                for j in 0..nphi {
+                    let p = -PI + (j as f64 + 0.5) * TAU / nphi as f64;
+                    quad[sector_of(k)] +=
+                        tent * single_scattering_joint(sigma_s, g, theta_t, h, p, y) * (dth / sub as f64) * TAU
+                            / nphi as f64;
+                }
+            }
+        }
+    }
+    let total: f64 = quad.iter().sum();
+    for s in 0..sectors {
+        assert!(
+            (table[s] - quad[s]).abs() < 0.03 * quad[s] + 0.01 * total,
+            "θ_t {theta_t}, sector {s}: tables {table:?} quadrature {quad:?}"
+        );
+    }
+    // Forward scattering keeps the inclination: most light leaves on the side of θ_t.
+    assert!(quad[3..].iter().sum::<f64>() > 0.7 * total, "{quad:?}");
 }

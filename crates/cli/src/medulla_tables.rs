@@ -1,7 +1,8 @@
 //! `fiberlab medulla-tables`: builds the medulla scattering tables of one medium
 //! (`fiberlab_scatter::hair::medulla`) and writes their slices as CSV, with a figure:
-//! * `PREFIX_azimuthal.csv`: `theta_t_deg,h,phi_q_deg,n_r,n_g,n_b` — the azimuthal exit
-//!   density N (1/rad) at every node;
+//! * `PREFIX_azimuthal.csv`: `theta_t_deg,h,phi_q_deg,n_r,n_g,n_b,mean_path_length` — the
+//!   azimuthal exit density N (1/rad) and the mean path length of that light (without
+//!   absorption, unit medulla radius) at every node;
 //! * `PREFIX_longitudinal.csv`: `theta_t_deg,phi_q_deg,theta_o_deg,m_r,m_g,m_b` — the
 //!   normalised exit-inclination profile M (1/rad) at every node;
 //! * `PREFIX_fractions.csv`: `theta_t_deg,h,scattered,escaping_r,escaping_g,escaping_b,mean_path_length`;
@@ -65,7 +66,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let r = *tables.resolution();
     let channels = |v: Rgb| format!("{:.9e},{:.9e},{:.9e}", v[0], v[1], v[2]);
 
-    let mut azimuthal = String::from("theta_t_deg,h,phi_q_deg,n_r,n_g,n_b\n");
+    let mut azimuthal = String::from("theta_t_deg,h,phi_q_deg,n_r,n_g,n_b,mean_path_length\n");
     let mut fractions = String::from("theta_t_deg,h,scattered,escaping_r,escaping_g,escaping_b,mean_path_length\n");
     for a in 0..r.inclinations {
         let theta_t = tables.inclination_node(a);
@@ -74,7 +75,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             for j in 0..r.azimuths {
                 let p = tables.azimuth_node(j);
                 let n = tables.azimuthal(theta_t, h, p);
-                writeln!(azimuthal, "{:.6},{h:.6},{:.6},{}", theta_t.to_degrees(), p.to_degrees(), channels(n))?;
+                let l = tables.mean_path_length_toward(theta_t, h, p);
+                writeln!(
+                    azimuthal,
+                    "{:.6},{h:.6},{:.6},{},{l:.9e}",
+                    theta_t.to_degrees(),
+                    p.to_degrees(),
+                    channels(n)
+                )?;
             }
             writeln!(
                 fractions,

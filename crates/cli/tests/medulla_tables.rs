@@ -26,7 +26,7 @@ fn writes_slices_that_integrate_to_the_escaping_fraction() {
     let (h_az, az) = rows(&dir.path().join("m_azimuthal.csv"));
     let (h_fr, fr) = rows(&dir.path().join("m_fractions.csv"));
     let (h_lo, lo) = rows(&dir.path().join("m_longitudinal.csv"));
-    assert_eq!(h_az, "theta_t_deg,h,phi_q_deg,n_r,n_g,n_b");
+    assert_eq!(h_az, "theta_t_deg,h,phi_q_deg,n_r,n_g,n_b,mean_path_length");
     assert_eq!(h_fr, "theta_t_deg,h,scattered,escaping_r,escaping_g,escaping_b,mean_path_length");
     assert_eq!(h_lo, "theta_t_deg,phi_q_deg,theta_o_deg,m_r,m_g,m_b");
     assert!(std::fs::metadata(dir.path().join("m.png")).unwrap().len() > 1000);

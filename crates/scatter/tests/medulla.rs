@@ -192,6 +192,11 @@ fn hg(g: f64, mu: f64) -> f64 {
 /// chord (density σ_s e^{−σ_s t}), into ω with the HG phase, and leaves unscattered; the
 /// density per unit exit azimuth φ_q, with dω = cosθ_o dθ_o dψ, ψ = φ_q − π.
 fn single_scattering_density(sigma_s: f64, sigma_a: f64, g: f64, theta_t: f64, h: f64, phi_q: f64) -> f64 {
+    single_scattering_moment(sigma_s, sigma_a, g, theta_t, h, phi_q, 0)
+}
+
+/// [`single_scattering_density`] weighted by the path length to the power `moment`.
+fn single_scattering_moment(sigma_s: f64, sigma_a: f64, g: f64, theta_t: f64, h: f64, phi_q: f64, moment: i32) -> f64 {
     let half = (1.0 - h * h).sqrt();
     let start = DVec3::new(-half, h, 0.0);
     let dir = DVec3::new(theta_t.cos(), 0.0, theta_t.sin());
@@ -211,7 +216,8 @@ fn single_scattering_density(sigma_s: f64, sigma_a: f64, g: f64, theta_t: f64, h
                 * hg(g, w.dot(dir))
                 * th.cos()
                 * (-sigma_s * l).exp()
-                * (-sigma_a * (t + l)).exp();
+                * (-sigma_a * (t + l)).exp()
+                * (t + l).powi(moment);
         }
     }
     sum * (chord / nt as f64) * (PI / no as f64)
@@ -604,4 +610,34 @@ fn thin_medium_exit_inclinations_match_single_scattering_quadrature() {
     }
     // Forward scattering keeps the inclination: most light leaves on the side of θ_t.
     assert!(quad[3..].iter().sum::<f64>() > 0.7 * total, "{quad:?}");
+}
+
+#[test]
+fn thin_medium_path_lengths_match_single_scattering_quadrature() {
+    // Mean path length of the light leaving toward each 30° sector: Σ_j N_j L̄_j / Σ_j N_j
+    // over the sector's nodes against the ratio of quadratures of L·density and density.
+    let (sigma_s, g) = (0.01, 0.3);
+    let res = Resolution { inclinations: 2, offsets: 5, walks: Some(1 << 16), ..Resolution::default() };
+    let t = MedullaTables::new(&params(sigma_s, 0.0, g), &res).unwrap();
+    let per_sector = res.azimuths / 12;
+    for (a, i) in [(0, 2), (1, 3)] {
+        let (theta_t, h) = (t.inclination_node(a), t.offset_node(i));
+        let mut overall = (0.0, 0.0);
+        for sector in 0..12 {
+            let (mut tn, mut tl, mut q0, mut q1) = (0.0, 0.0, 0.0, 0.0);
+            for j in sector * per_sector..(sector + 1) * per_sector {
+                let p = t.azimuth_node(j);
+                let n = t.azimuthal(theta_t, h, p)[0];
+                tn += n;
+                tl += n * t.mean_path_length_toward(theta_t, h, p);
+                q0 += single_scattering_moment(sigma_s, 0.0, g, theta_t, h, p, 0);
+                q1 += single_scattering_moment(sigma_s, 0.0, g, theta_t, h, p, 1);
+            }
+            let (table, quad) = (tl / tn, q1 / q0);
+            overall = (overall.0 + tl, overall.1 + tn);
+            assert!((table - quad).abs() < 0.05 * quad, "θ {theta_t} h {h} sector {sector}: {table} vs {quad}");
+        }
+        let mean = t.mean_path_length(theta_t, h);
+        assert!((overall.0 / overall.1 - mean).abs() < 0.02 * mean, "{} {mean}", overall.0 / overall.1);
+    }
 }

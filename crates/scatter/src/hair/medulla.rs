@@ -77,7 +77,8 @@
 //!   `(h', φ_q, θ_o)` table would be ~20 times larger and far noisier for the same walks, and
 //!   the fur model
 //!   integrates over `h'` anyway;
-//! * the mean path length `L̄(θ_t, h')` without absorption ([`MedullaTables::mean_path_length`]).
+//! * the mean path length `L̄(θ_t, h')` without absorption ([`MedullaTables::mean_path_length`]),
+//!   and per exit azimuth ([`MedullaTables::mean_path_length_toward`]).
 //!
 //! # Importance sampling with exact densities
 //! [`MedullaTables::sample_azimuth`] draws `φ_q` given `(θ_t, h')` from the channel mean of
@@ -503,6 +504,9 @@ struct NodeTally {
     profiles: Vec<f64>,
     /// `Σ w·L` without absorption.
     length: f64,
+    /// Per φ_q node (tent weights), `Σ w` and `Σ w·L` without absorption.
+    weight_phi: Vec<f64>,
+    length_phi: Vec<f64>,
     abandoned: u64,
 }
 
@@ -523,6 +527,8 @@ pub struct MedullaTables {
     profiles_mean: LinearSlices,
     /// Mean path length per node: `a·offsets + i`.
     length: Vec<f64>,
+    /// Mean path length per node and exit azimuth: slice `a·offsets + i`.
+    length_phi: LinearSlices,
 }
 
 type CacheKey = [u64; 13];
@@ -608,10 +614,17 @@ impl MedullaTables {
         // N/S per channel, symmetrised under (h', φ) → (−h', −φ).
         let mut azimuth = vec![0.0; 3 * na * ni * nphi];
         let mut length = vec![0.0; na * ni];
+        let mut length_phi = vec![0.0; na * ni * nphi];
         for a in 0..na {
             for i in 0..ni {
                 let (t, m) = (&tallies[a * ni + i], &tallies[a * ni + (ni - 1 - i)]);
                 length[a * ni + i] = 0.5 * (t.length + m.length) / n;
+                for j in 0..nphi {
+                    let mj = (nphi - j) % nphi;
+                    let weight = t.weight_phi[j] + m.weight_phi[mj];
+                    length_phi[(a * ni + i) * nphi + j] =
+                        if weight > 0.0 { (t.length_phi[j] + m.length_phi[mj]) / weight } else { length[a * ni + i] };
+                }
                 for c in 0..3 {
                     for j in 0..nphi {
                         let mirrored = m.azimuth[c * nphi + (nphi - j) % nphi];
@@ -667,6 +680,7 @@ impl MedullaTables {
             profiles: theta_grid(profiles),
             profiles_mean: theta_grid(profiles_mean),
             length,
+            length_phi: phi_grid(length_phi),
         }
     }
 
@@ -849,6 +863,15 @@ impl MedullaTables {
         (pdf > 0.0).then_some((theta_o, pdf))
     }
 
+    /// Mean path length inside the cylinder of the scattered light leaving at `φ_q`, from
+    /// `(θ_t, h')`, without absorption (radius 1): what Yan et al. 2017 tabulate to apply an
+    /// absorption `exp(−σ_a·L̄)` to tables built without one (an approximation: the tables
+    /// here apply `exp(−σ_a·L)` path by path).
+    #[must_use]
+    pub fn mean_path_length_toward(&self, theta_t: f64, h: f64, phi_q: f64) -> f64 {
+        self.corners(theta_t, h).map_or(0.0, |c| c.iter().map(|&(k, w)| w * self.length_phi.value(k, phi_q)).sum())
+    }
+
     /// Mean path length inside the cylinder of the scattered light at `(θ_t, h')`, without
     /// absorption (radius 1), interpolated bilinearly.
     #[must_use]
@@ -907,8 +930,14 @@ fn scattered_fraction(sigma_s: f64, theta_t: f64, h: f64) -> f64 {
 /// The walks of one node with the expected-value escape estimator (module documentation).
 fn walk_node(params: &MedullaParams, res: &Resolution, theta_t: f64, h: f64, walks: usize, node: u64) -> NodeTally {
     let (nphi, nth, nq) = (res.azimuths, res.exit_inclinations, res.profile_azimuths);
-    let mut tally =
-        NodeTally { azimuth: vec![0.0; 3 * nphi], profiles: vec![0.0; 3 * nq * nth], length: 0.0, abandoned: 0 };
+    let mut tally = NodeTally {
+        azimuth: vec![0.0; 3 * nphi],
+        profiles: vec![0.0; 3 * nq * nth],
+        length: 0.0,
+        weight_phi: vec![0.0; nphi],
+        length_phi: vec![0.0; nphi],
+        abandoned: 0,
+    };
     let sigma_s = params.sigma_s;
     if sigma_s <= 0.0 {
         return tally;
@@ -940,6 +969,10 @@ fn walk_node(params: &MedullaParams, res: &Resolution, theta_t: f64, h: f64, wal
             }
         }
         tally.length += w * length;
+        tally.weight_phi[j0] += w * (1.0 - fj);
+        tally.weight_phi[j1] += w * fj;
+        tally.length_phi[j0] += w * length * (1.0 - fj);
+        tally.length_phi[j1] += w * length * fj;
     };
     let (start, dir, chord) = entry(theta_t, h);
     let scattered = -(-sigma_s * chord).exp_m1();

@@ -462,13 +462,13 @@ impl LinearSlices {
     }
     #[inline]
     fn value(&self, slice: usize, x: f64) -> f64 {
-        match self.locate(x) {
-            Some((j, f)) => {
-                let v = &self.values[slice * self.nodes..(slice + 1) * self.nodes];
-                v[j] * (1.0 - f) + v[(j + 1) % self.nodes] * f
-            }
-            None => 0.0,
-        }
+        self.locate(x).map_or(0.0, |cell| self.value_in(slice, cell))
+    }
+    /// The value in a cell found by [`LinearSlices::locate`] (shared by several slices).
+    #[inline]
+    fn value_in(&self, slice: usize, (j, f): (usize, f64)) -> f64 {
+        let v = &self.values[slice * self.nodes..(slice + 1) * self.nodes];
+        v[j] * (1.0 - f) + v[(j + 1) % self.nodes] * f
     }
     #[inline]
     fn mass(&self, slice: usize) -> f64 {
@@ -772,10 +772,11 @@ impl MedullaTables {
     #[must_use]
     pub fn azimuthal(&self, theta_t: f64, h: f64, phi_q: f64) -> Rgb {
         let Some(corners) = self.corners(theta_t, h) else { return Rgb::ZERO };
+        let Some(cell) = self.azimuth.locate(phi_q) else { return Rgb::ZERO };
         let s = self.scattered_fraction(theta_t, h);
         let per_node = self.resolution.inclinations * self.resolution.offsets;
         Rgb(std::array::from_fn(|c| {
-            s * corners.iter().map(|&(k, w)| w * self.azimuth.value(c * per_node + k, phi_q)).sum::<f64>()
+            s * corners.iter().map(|&(k, w)| w * self.azimuth.value_in(c * per_node + k, cell)).sum::<f64>()
         }))
     }
 
@@ -831,9 +832,10 @@ impl MedullaTables {
     pub fn longitudinal(&self, theta_t: f64, phi_q: f64, theta_o: f64) -> Rgb {
         let Some(corners) = self.profile_corners(theta_t, phi_q) else { return Rgb::ZERO };
         let x = if theta_t < 0.0 { -theta_o } else { theta_o };
+        let Some(cell) = self.profiles.locate(x) else { return Rgb::ZERO };
         let per_channel = self.resolution.inclinations * self.resolution.profile_azimuths;
         Rgb(std::array::from_fn(|c| {
-            corners.iter().map(|&(k, w)| w * self.profiles.value(c * per_channel + k, x)).sum::<f64>()
+            corners.iter().map(|&(k, w)| w * self.profiles.value_in(c * per_channel + k, cell)).sum::<f64>()
         }))
     }
 

@@ -47,7 +47,7 @@
 //! * the exit inclination `θ_o` of the propagation direction, with the sign of `θ_t`
 //!   (an unscattered ray would leave with `θ_o = θ_t`); `θ_t → −θ_t` maps `θ_o → −θ_o`, so
 //!   only `θ_t ≥ 0` is tabulated;
-//! * the path length `L` inside the cylinder.
+//! * the path length `L` inside the cylinder, in medulla radii (times κ: in fiber radii).
 //!
 //! Rays that leave without scattering are not counted: the fur model carries them in its
 //! unscattered lobes with the transmittance `exp(−σ_s·chord)`.

@@ -13,6 +13,7 @@ mod files;
 mod fit;
 mod hair;
 mod measure;
+mod medulla_tables;
 mod memory_budget;
 mod merge;
 mod model_args;
@@ -48,6 +49,8 @@ enum Command {
     Bench(bench::Args),
     /// Virtual goniophotometer: measure f_s by ray tracing an explicit fiber.
     Measure(measure::Args),
+    /// Build the medulla scattering tables of one medium (random walk) and write CSV slices and a figure.
+    MedullaTables(medulla_tables::Args),
     /// Path-trace a scene (default: a head with generated hair) to EXR and PNG.
     Render(render::Args),
     /// Merge parts rendered with --tile I/N into one image (bit-exact).
@@ -85,6 +88,7 @@ fn main() {
         Command::Plot(a) => plot::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Measure(a) => measure::run(a),
+        Command::MedullaTables(a) => medulla_tables::run(a),
         Command::Render(a) => render::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Hair(a) => hair::run(a),

@@ -21,6 +21,7 @@ pub mod frame;
 pub mod fresnel;
 pub mod special;
 pub mod spectrum;
+pub mod split_mix;
 
 pub use frame::{FiberFrame, relative_phi, wrap_pi};
 pub use glam::DVec3;

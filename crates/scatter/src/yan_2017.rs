@@ -20,7 +20,7 @@
 //! | `alpha` | degrees at the edge, radians in [`YanFurParams`] | 3 | [−20, 20] cuticle tilt, > 0 puts R toward the root |
 //! | `beta_m` | degrees | 10 | (0, 60] longitudinal standard deviation of R |
 //! | `beta_n` | degrees | 10 | (0, 60] azimuthal standard deviation of R |
-//! | `lobes` | — | r,tt,trt | subset of r, tt, trt, tts, trts |
+//! | `lobes` | — | r,tt,trt | subset of r, tt, trt (tts, trts once the medulla tables exist) |
 //! | `field` | — | near | `near` (value at h) or `far` (average over h, [`YanFur::eval_far`]) |
 //!
 //! No preset: no published table of per-animal parameters has been checked here, so the
@@ -86,9 +86,10 @@
 //!
 //! # The scattered lobes TT^s, TRT^s (not yet available)
 //! They need the medulla tables (a random walk in an index-matched scattering cylinder per
-//! (σ_s, σ_a, g)), which this crate does not have yet. `lobes` accepts `tts` and `trts`, and
-//! construction refuses them with [`YanFurError::ScatteredLobesUnavailable`] instead of
-//! silently dropping them. What they must carry is known exactly:
+//! (σ_s, σ_a, g)), which this crate does not have yet. The registry's `lobes` refuses `tts`
+//! and `trts` (not among its choices yet), and typed construction with them enabled in
+//! [`YanFurParams::lobes`] fails with [`YanFurError::ScatteredLobesUnavailable`]: never a
+//! silent drop. What they must carry is known exactly:
 //! [`YanFur::energy_budget`] splits the light entering at (θ_o, h) into the three lobes, the
 //! part that scatters in the medulla, the unscattered orders p ≥ 3 (which neither paper
 //! models) and the absorbed rest.
@@ -121,6 +122,9 @@ use thiserror::Error;
 /// Lobe names of `lobes=`, in order: the unscattered R, TT, TRT, then the medulla-scattered
 /// TT^s, TRT^s.
 pub const LOBE_NAMES: [&str; 5] = ["r", "tt", "trt", "tts", "trts"];
+/// The lobes `lobes=` accepts today: the unscattered ones (the registry extends this to all of
+/// [`LOBE_NAMES`] when the medulla tables exist).
+const AVAILABLE_LOBES: [&str; 3] = ["r", "tt", "trt"];
 /// σ_c^a when neither `sigma_c_a` nor `color` is given (a light brown, per unit radius).
 pub const DEFAULT_SIGMA_C_A: Rgb = Rgb::new(0.3, 0.5, 0.9);
 /// Valid absorption and scattering coefficients (per unit radius).
@@ -212,10 +216,10 @@ const PARAMS: [ParamSpec; 13] = [
     },
     ParamSpec {
         key: "lobes",
-        kind: ParamKind::Subset(&LOBE_NAMES),
+        kind: ParamKind::Subset(&AVAILABLE_LOBES),
         unit: "",
         default: "r,tt,trt",
-        doc: "lobes to include (tts, trts: medulla-scattered, need the medulla tables)",
+        doc: "lobes to include (the medulla-scattered tts, trts need the medulla tables, not available yet)",
     },
     ParamSpec {
         key: "field",
@@ -585,14 +589,14 @@ impl YanFur {
         let theta_i = sin_theta(wi).atan2(cos_theta(wi));
         let dphi = phi(wi) - phi(wo);
         let (mut g, mut pdf) = (Rgb::ZERO, 0.0);
-        for p in 0..3 {
+        for (p, w_p) in w.iter().enumerate() {
             if !self.enabled[p] {
                 continue;
             }
             let m = self.longitudinal(p, theta_i, sin_o, cos_o);
             let n = wrapped_gaussian(self.beta_n[p], dphi - exit_azimuth(p, hit.gamma_o, hit.gamma_t));
             g += hit.a[p] * (m * n);
-            pdf += w[p] * m * n;
+            pdf += w_p * m * n;
         }
         (g, pdf)
     }

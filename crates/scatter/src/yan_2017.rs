@@ -106,6 +106,39 @@
 //!   alone the lossless camera-side furnace is `A_0 + A_1 + A_2 < 1` (the orders p ≥ 3 and the
 //!   medulla-scattered light are missing).
 //! * At exactly grazing light (cosθ_i = 0) `eval` divides by [`crate::MIN_COS`].
+//!
+//! # Example: a value pinned by the closed form
+//! Untilted, one interface, at h = 0 and with ω_i = ω_o at θ = 0 (backscatter, φ = 0): γ_o = γ_t
+//! = 0, `Φ(p, 0) = pπ`, the Fresnel reflectance is the normal-incidence `f = ((η − 1)/(η + 1))²`,
+//! and the segment through the axis crosses 2(1 − κ) of cortex and 2κ of medulla, so
+//! `T = exp(−2(1 − κ)σ_c^a − 2κ(σ_m^s + σ_m^a))`. With β_m = 6° the Gaussians end at least 10
+//! standard deviations inside [−π/2, π/2], so their truncation is below 10⁻²².
+//! ```
+//! use fiberlab_math::{Rgb, frame::direction};
+//! use fiberlab_scatter::ScatteringFunction;
+//! use fiberlab_scatter::yan_2017::{CortexAbsorption, YanFur, YanFurParams};
+//! use std::f64::consts::PI;
+//!
+//! let (eta, kappa, s_c, s_s, s_a) = (1.55f64, 0.6, 0.4, 1.5, 0.2);
+//! let (beta, beta_n) = (6f64.to_radians(), 10f64.to_radians());
+//! let fiber = YanFur::new(YanFurParams {
+//!     absorption: CortexAbsorption::SigmaA(Rgb::splat(s_c)),
+//!     kappa, sigma_m_s: s_s, sigma_m_a: s_a, alpha: 0.0, layers: 1.0,
+//!     beta_m: beta, beta_n, ..YanFurParams::default()
+//! })?;
+//! let w = direction(0.0, 0.3);
+//! let got = fiber.eval(w, w, 0.0)[0];
+//!
+//! let g = |s: f64, x: f64| (-0.5 * (x / s).powi(2)).exp() / (s * (2.0 * PI).sqrt());
+//! let wrapped = |s: f64, x: f64| (-3..=3).map(|k| g(s, x + 2.0 * PI * k as f64)).sum::<f64>();
+//! let f = ((eta - 1.0) / (eta + 1.0)).powi(2);
+//! let t = (-2.0 * (1.0 - kappa) * s_c - 2.0 * kappa * (s_s + s_a)).exp();
+//! let want = f * g(beta, 0.0) * wrapped(beta_n, 0.0)                                     // R
+//!     + (1.0 - f).powi(2) * t * g(0.5 * beta, 0.0) * wrapped(beta_n * 2f64.sqrt(), PI)    // TT
+//!     + (1.0 - f).powi(2) * f * t * t * g(1.5 * beta, 0.0) * wrapped(beta_n * 3f64.sqrt(), 0.0); // TRT
+//! assert!((got - want).abs() < 1e-12 * want, "{got} vs {want}");
+//! # Ok::<(), fiberlab_scatter::yan_2017::YanFurError>(())
+//! ```
 
 use crate::hair::attenuation::{chord_lengths, first_transmission, next_order, surface_fresnel};
 use crate::hair::normal_plane::exit_azimuth;

@@ -20,6 +20,7 @@ pub mod bravais;
 pub mod frame;
 pub mod fresnel;
 pub mod special;
+pub mod split_mix;
 pub mod spectrum;
 
 pub use frame::{FiberFrame, relative_phi, wrap_pi};

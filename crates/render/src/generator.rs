@@ -142,33 +142,8 @@ pub struct GeneratorError {
     pub expected: &'static str,
 }
 
-/// SplitMix64 (Steele, Lea & Flood 2014): small, fast, and fixed forever.
-#[derive(Clone, Debug)]
-pub struct SplitMix64(u64);
-
-impl SplitMix64 {
-    /// A generator from a seed.
-    #[must_use]
-    pub fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    pub fn next_f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-    /// Uniform in the unit ball's bounding cube, centred: each component in [−1, 1).
-    pub fn next_signed_vec(&mut self) -> DVec3 {
-        DVec3::new(self.next_f64(), self.next_f64(), self.next_f64()) * 2.0 - 1.0
-    }
-}
+/// The strands' generator (moved to `fiberlab_math::split_mix`, shared with the medulla tables).
+pub use fiberlab_math::split_mix::SplitMix64;
 
 impl HairParams {
     /// Checks every parameter's range.

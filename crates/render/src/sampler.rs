@@ -5,14 +5,7 @@
 //! pair, and pairs are decorrelated from each other. The value of any sample depends only on
 //! (pixel, sample index, dimension, seed), never on threads or order.
 
-/// 64-bit finalizer of SplitMix64 (a bijective avalanche hash).
-#[must_use]
-#[inline]
-pub fn mix64(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
+pub use fiberlab_math::split_mix::mix64;
 
 /// Samples of one pixel: call [`PixelSampler::start`] for each sample index, then draw 2D
 /// points in a fixed order.

@@ -119,7 +119,7 @@ use crate::hair::parameters;
 use crate::hair::roughness::{lobe_variances, logistic_scale};
 use crate::hair::tilt::{lobe_tilts, rotate};
 use crate::params::{ParamSet, ParamSpec, parameter_error};
-use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
+use crate::{Field, LobeInfo, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
 use fiberlab_math::special::{logistic, logistic_cdf, safe_sqrt, sample_trimmed_logistic};
 use fiberlab_math::{DVec3, Rgb};
@@ -307,6 +307,11 @@ impl ScatteringFunction for Chiang {
         (g / cos_theta(wi).max(MIN_COS), pdf)
     }
 
+    /// `R`, `TT`, `TRT` (index p) and `TRRT+`, the residual of every order p ≥ 3.
+    fn lobes(&self) -> Vec<LobeInfo> {
+        ["R", "TT", "TRT", "TRRT+"].map(LobeInfo::smooth).to_vec()
+    }
+
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {
         let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
         let hit = hit_attenuation(self.params.eta, self.sigma_a, sin_o, cos_o, h);
@@ -336,6 +341,6 @@ impl ScatteringFunction for Chiang {
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
-        Some(Sample { wi, weight: g / pdf, pdf, delta: false })
+        Some(Sample { wi, weight: g / pdf, pdf, delta: false, lobe: p as u8 })
     }
 }

@@ -117,7 +117,7 @@ use crate::hair::parameters;
 use crate::hair::roughness::{azimuthal_sigma, lobe_variance, longitudinal_variance};
 use crate::hair::tilt::{lobe_tilts, rotate};
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
-use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
+use crate::{Field, LobeInfo, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
 use fiberlab_math::special::{safe_sqrt, wrapped_gaussian};
 use fiberlab_math::{DVec3, Rgb, bravais};
@@ -637,6 +637,20 @@ impl ScatteringFunction for Deon {
         (g / cos_theta(wi).max(MIN_COS), pdf)
     }
 
+    /// The explicit lobes p < p_max (`R`, `TT`, `TRT`, `TRRT`, then `p4`, `p5`, …) and the
+    /// residual of the orders p ≥ p_max (`p≥3` for p_max = 3), index p.
+    fn lobes(&self) -> Vec<LobeInfo> {
+        const EXPLICIT: [&str; 16] =
+            ["R", "TT", "TRT", "TRRT", "p4", "p5", "p6", "p7", "p8", "p9", "p10", "p11", "p12", "p13", "p14", "p15"];
+        const RESIDUAL: [&str; 16] = [
+            "p≥1", "p≥2", "p≥3", "p≥4", "p≥5", "p≥6", "p≥7", "p≥8", "p≥9", "p≥10", "p≥11", "p≥12", "p≥13", "p≥14",
+            "p≥15", "p≥16",
+        ];
+        let mut lobes: Vec<LobeInfo> = EXPLICIT[..self.p_max].iter().copied().map(LobeInfo::smooth).collect();
+        lobes.push(LobeInfo::smooth(RESIDUAL[self.p_max - 1]));
+        lobes
+    }
+
     fn sample(&self, wo: DVec3, _h: f64, u: [f64; 4]) -> Option<Sample> {
         let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
         let rows_o = row_position(cos_o);
@@ -674,6 +688,6 @@ impl ScatteringFunction for Deon {
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
-        Some(Sample { wi, weight: g / pdf, pdf, delta: false })
+        Some(Sample { wi, weight: g / pdf, pdf, delta: false, lobe: p as u8 })
     }
 }

@@ -59,6 +59,25 @@ pub struct Sample {
     pub pdf: f64,
     /// True when `wi` was drawn from a delta lobe (no MIS with light sampling).
     pub delta: bool,
+    /// Which lobe drew `wi`: an index into [`ScatteringFunction::lobes`].
+    pub lobe: u8,
+}
+
+/// One lobe a model's sampler chooses among (see [`ScatteringFunction::lobes`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LobeInfo {
+    /// Short name, e.g. `R`, `TT`, `diffuse`.
+    pub name: &'static str,
+    /// Samples from this lobe have [`Sample::delta`] set.
+    pub delta: bool,
+}
+
+impl LobeInfo {
+    /// A lobe with a density (not delta).
+    #[must_use]
+    pub const fn smooth(name: &'static str) -> Self {
+        Self { name, delta: false }
+    }
 }
 
 /// Value of a delta lobe on its cone at relative azimuth φ, see [`ScatteringFunction::cone`].
@@ -90,6 +109,13 @@ pub trait ScatteringFunction: Send + Sync {
     /// Draws `ω_i` given `ω_o` and `h` from four independent uniforms in [0, 1).
     /// `None` when no direction can be produced (zero-valued lobe).
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample>;
+
+    /// The lobes [`ScatteringFunction::sample`] chooses among, in the order of
+    /// [`Sample::lobe`]. The default is one lobe, `all`, delta exactly when the model is
+    /// [`Lobes::Delta`].
+    fn lobes(&self) -> Vec<LobeInfo> {
+        vec![LobeInfo { name: "all", delta: self.properties().lobes == Lobes::Delta }]
+    }
 
     /// For [`Lobes::Delta`] models: the lobe at relative azimuth `phi` (φ_o − φ_i) for a
     /// viewer at inclination `theta_o`. Smooth models return zero.

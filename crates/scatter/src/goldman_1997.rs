@@ -17,7 +17,7 @@
 
 use crate::kajiya_kay_1989::{self, KajiyaKay, KajiyaKayError, KajiyaKayParams, theta_of};
 use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
-use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
+use crate::{Field, LobeInfo, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, relative_phi};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{PI, TAU};
@@ -210,6 +210,11 @@ impl ScatteringFunction for Goldman {
         let (ti, _, ci) = theta_of(wi);
         let (to, _, _) = theta_of(wo);
         self.kk.theta_pdf(ti, ci, to) * self.phi_pdf(relative_phi(wi, wo)) / cos_theta(wi).max(1e-8)
+    }
+
+    /// Kajiya–Kay's `diffuse` and `specular` (the θ part of the sampler is theirs).
+    fn lobes(&self) -> Vec<LobeInfo> {
+        crate::kajiya_kay_1989::KAJIYA_KAY_LOBES.to_vec()
     }
 
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {

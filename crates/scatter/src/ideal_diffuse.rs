@@ -12,7 +12,7 @@
 
 use crate::params::{AlbedoParams, ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::{cos_theta_direction, cos_theta_pdf};
-use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
+use crate::{Field, LobeInfo, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::cos_theta;
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{PI, TAU};
@@ -89,8 +89,12 @@ impl ScatteringFunction for IdealDiffuse {
         cos_theta_pdf(cos_theta(wi))
     }
 
+    fn lobes(&self) -> Vec<LobeInfo> {
+        vec![LobeInfo::smooth("diffuse")]
+    }
+
     fn sample(&self, _wo: DVec3, _h: f64, u: [f64; 4]) -> Option<Sample> {
         let wi = cos_theta_direction(u[0], u[1], TAU * u[2]);
-        Some(Sample { wi, weight: self.albedo, pdf: cos_theta_pdf(cos_theta(wi)), delta: false })
+        Some(Sample { wi, weight: self.albedo, pdf: cos_theta_pdf(cos_theta(wi)), delta: false, lobe: 0 })
     }
 }

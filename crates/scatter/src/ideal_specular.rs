@@ -20,7 +20,9 @@
 //! Sampling is exact: `φ = 2·asin(2ξ − 1)` (mirror) or `φ = π(2ξ − 1)` (uniform).
 
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
-use crate::{ConeValue, Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
+use crate::{
+    ConeValue, Field, LobeInfo, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction,
+};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta};
 use fiberlab_math::{DVec3, Rgb, fresnel};
 use std::f64::consts::{PI, TAU};
@@ -180,6 +182,10 @@ impl ScatteringFunction for IdealSpecular {
         0.0
     }
 
+    fn lobes(&self) -> Vec<LobeInfo> {
+        vec![LobeInfo { name: "specular", delta: true }]
+    }
+
     fn sample(&self, wo: DVec3, _h: f64, u: [f64; 4]) -> Option<Sample> {
         let phi_rel = match self.azimuth {
             Azimuth::Uniform => PI * (2.0 * u[0] - 1.0),
@@ -188,7 +194,7 @@ impl ScatteringFunction for IdealSpecular {
         let cos_o = cos_theta(wo);
         let wi = direction_from_sin_cos(-sin_theta(wo), cos_o, phi(wo) - phi_rel);
         let weight = Rgb::splat(self.attenuation(cos_o, phi_rel));
-        Some(Sample { wi, weight, pdf: 0.0, delta: true })
+        Some(Sample { wi, weight, pdf: 0.0, delta: true, lobe: 0 })
     }
 
     fn cone(&self, theta_o: f64, phi: f64) -> ConeValue {

@@ -24,7 +24,7 @@
 use crate::function::MIN_COS;
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::Tabulated1D;
-use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
+use crate::{Field, LobeInfo, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -190,14 +190,15 @@ impl KajiyaKay {
         w_d * diffuse + (1.0 - w_d) * specular
     }
 
-    /// Draws θ_i given θ_o: `u_lobe` picks the lobe, `(u1, u2)` place θ_i in it.
-    pub(crate) fn sample_theta(&self, theta_o: f64, u_lobe: f64, u1: f64, u2: f64) -> Option<f64> {
+    /// Draws θ_i given θ_o: `u_lobe` picks the lobe (0 diffuse, 1 specular, see
+    /// [`KAJIYA_KAY_LOBES`]), `(u1, u2)` place θ_i in it; returns θ_i and the lobe.
+    pub(crate) fn sample_theta(&self, theta_o: f64, u_lobe: f64, u1: f64, u2: f64) -> Option<(f64, u8)> {
         if u_lobe < self.diffuse_weight(theta_o) {
-            Some((u1.sqrt() * (TAU * u2).cos()).clamp(-1.0, 1.0).asin())
+            Some(((u1.sqrt() * (TAU * u2).cos()).clamp(-1.0, 1.0).asin(), 0))
         } else {
             let (a, b) = Self::lobe_range(theta_o);
             let (x, _) = self.lobe.sample_in(a, b, u1)?;
-            Some((x - theta_o).clamp(-FRAC_PI_2, FRAC_PI_2))
+            Some(((x - theta_o).clamp(-FRAC_PI_2, FRAC_PI_2), 1))
         }
     }
 
@@ -212,7 +213,7 @@ impl KajiyaKay {
         pdf: impl Fn(DVec3) -> f64,
     ) -> Option<Sample> {
         let theta_o = sin_theta(wo).atan2(cos_theta(wo));
-        let theta_i = self.sample_theta(theta_o, u[0], u[1], u[2])?;
+        let (theta_i, lobe) = self.sample_theta(theta_o, u[0], u[1], u[2])?;
         let (s, c) = theta_i.sin_cos();
         let wi = direction_from_sin_cos(s, c, phi(wo) - phi_rel);
         let pdf = pdf(wi);
@@ -220,9 +221,13 @@ impl KajiyaKay {
             return None;
         }
         let weight = eval(wi) * (cos_theta(wi) / pdf);
-        Some(Sample { wi, weight, pdf, delta: false })
+        Some(Sample { wi, weight, pdf, delta: false, lobe })
     }
 }
+
+/// The lobes of [`KajiyaKay::sample`] (and of the models that sample like it): the diffuse
+/// term and the specular cone.
+pub(crate) const KAJIYA_KAY_LOBES: [LobeInfo; 2] = [LobeInfo::smooth("diffuse"), LobeInfo::smooth("specular")];
 
 /// θ of a direction from its components (accurate at grazing angles).
 pub(crate) fn theta_of(w: DVec3) -> (f64, f64, f64) {
@@ -243,6 +248,10 @@ impl ScatteringFunction for KajiyaKay {
         let (ti, _, ci) = theta_of(wi);
         let (to, _, _) = theta_of(wo);
         self.theta_pdf(ti, ci, to) / (TAU * ci.max(MIN_COS))
+    }
+
+    fn lobes(&self) -> Vec<LobeInfo> {
+        KAJIYA_KAY_LOBES.to_vec()
     }
 
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {

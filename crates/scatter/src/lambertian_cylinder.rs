@@ -14,7 +14,7 @@
 
 use crate::params::{AlbedoParams, ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::cosine_hemisphere;
-use crate::{Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
+use crate::{Field, LobeInfo, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, phi, relative_phi};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::PI;
@@ -104,12 +104,16 @@ impl ScatteringFunction for LambertianCylinder {
         Self::density(wi, wo)
     }
 
+    fn lobes(&self) -> Vec<LobeInfo> {
+        vec![LobeInfo::smooth("diffuse")]
+    }
+
     fn sample(&self, wo: DVec3, _h: f64, u: [f64; 4]) -> Option<Sample> {
         // Offset across the visible width, and the surface normal it hits.
         let gamma = (2.0 * u[0] - 1.0).clamp(-1.0, 1.0).asin();
         let phi_n = phi(wo) + gamma;
         let n = DVec3::new(0.0, phi_n.cos(), phi_n.sin());
         let wi = cosine_hemisphere(n, DVec3::X, u[1], u[2]);
-        Some(Sample { wi, weight: self.albedo, pdf: Self::density(wi, wo), delta: false })
+        Some(Sample { wi, weight: self.albedo, pdf: Self::density(wi, wo), delta: false, lobe: 0 })
     }
 }

@@ -27,6 +27,6 @@ pub mod measured;
 pub mod yan_2017;
 
 pub use error::ModelError;
-pub use function::{ConeValue, Field, Lobes, MIN_COS, Properties, Sample, ScatteringFunction};
+pub use function::{ConeValue, Field, LobeInfo, Lobes, MIN_COS, Properties, Sample, ScatteringFunction};
 pub use model::{ALL_MODELS, MODELS, Model, ModelSpec, build, build_raw, find};
 pub use spec::{ExternalData, ModelInfo, Registered};

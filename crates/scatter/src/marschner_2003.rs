@@ -168,7 +168,9 @@ use crate::hair::normal_plane::{Caustic, NormalPlane, RootMode, representative};
 use crate::hair::parameters::ETA_RANGE;
 use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
 use crate::radiometry::{Quadrature, albedo};
-use crate::{Field, Lobes, MIN_COS, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
+use crate::{
+    Field, LobeInfo, Lobes, MIN_COS, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction,
+};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
 use fiberlab_math::special::{gaussian, normal_mass, sample_truncated_normal, wrapped_gaussian};
 use fiberlab_math::{DVec3, Rgb};
@@ -834,6 +836,11 @@ impl ScatteringFunction for Marschner {
         q / cos_theta(wi).max(MIN_COS)
     }
 
+    /// `R`, `TT`, `TRT` (index p); the glints belong to `TRT`.
+    fn lobes(&self) -> Vec<LobeInfo> {
+        ["R", "TT", "TRT"].map(LobeInfo::smooth).to_vec()
+    }
+
     fn sample(&self, wo: DVec3, _h: f64, u: [f64; 4]) -> Option<Sample> {
         let theta_r = sin_theta(wo).atan2(cos_theta(wo));
         let w = self.lobe_weights(theta_r);
@@ -874,7 +881,7 @@ impl ScatteringFunction for Marschner {
         let weight = self.eval(wi, wo, 0.0) * (cos_i * cos_i / q);
         let pdf = q / cos_i.max(MIN_COS);
         debug_assert!(weight.is_finite() && pdf.is_finite());
-        Some(Sample { wi, weight, pdf, delta: false })
+        Some(Sample { wi, weight, pdf, delta: false, lobe: lobe.p() as u8 })
     }
 }
 

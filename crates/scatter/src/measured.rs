@@ -46,7 +46,9 @@
 
 use crate::params::{ParamKind, ParamSet, ParamSpec};
 use crate::sampling::{cos_theta_direction, cos_theta_pdf};
-use crate::{ExternalData, Field, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
+use crate::{
+    ExternalData, Field, LobeInfo, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction,
+};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, relative_phi, theta};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -326,7 +328,16 @@ impl ScatteringFunction for Measured {
         (1.0 - DEFENSIVE) * self.table_pdf(wi, wo) + DEFENSIVE * cos_theta_pdf(cos_theta(wi))
     }
 
+    /// `table` (the measured slices) and `diffuse` (the ideal diffuse fiber's lobe that the
+    /// defensive fraction of the samples comes from).
+    fn lobes(&self) -> Vec<LobeInfo> {
+        vec![LobeInfo::smooth("table"), LobeInfo::smooth("diffuse")]
+    }
+
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {
+        // Lobe 0: the table; lobe 1: the ideal diffuse fiber's lobe (the defensive fraction,
+        // an empty slice, and the part of a bin beyond the pole).
+        let mut lobe = 1;
         let wi = if u[0] < DEFENSIVE {
             cos_theta_direction(u[1], u[2], TAU * u[3])
         } else {
@@ -346,6 +357,7 @@ impl ScatteringFunction for Measured {
                 let shift = self.table.theta_in[slice] - theta_o;
                 let theta_i = s.asin() + shift;
                 if theta_i.abs() <= FRAC_PI_2 {
+                    lobe = 0;
                     let rel = -PI + (j as f64 + u[3]) * TAU / np as f64;
                     let (si, ci) = theta_i.sin_cos();
                     direction_from_sin_cos(si, ci.max(0.0), phi(wo) + rel)
@@ -373,7 +385,7 @@ impl ScatteringFunction for Measured {
             return None;
         }
         let weight = self.eval(wi, wo, h) * (cos_theta(wi) / pdf);
-        Some(Sample { wi, weight, pdf, delta: false })
+        Some(Sample { wi, weight, pdf, delta: false, lobe })
     }
 }
 

@@ -3,7 +3,7 @@
 
 use crate::params::{ParamSet, RawValue};
 use crate::spec::{ModelInfo, Registered};
-use crate::{ConeValue, ModelError, Properties, Sample, ScatteringFunction};
+use crate::{ConeValue, LobeInfo, ModelError, Properties, Sample, ScatteringFunction};
 use fiberlab_math::{DVec3, Rgb};
 
 /// A registry entry: a model's [`ModelInfo`] (read through `Deref`: `spec.name`,
@@ -91,6 +91,9 @@ macro_rules! models {
             #[inline]
             fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {
                 match self { $(Model::$variant(m) => m.sample(wo, h, u),)* }
+            }
+            fn lobes(&self) -> Vec<LobeInfo> {
+                match self { $(Model::$variant(m) => m.lobes(),)* }
             }
             #[inline]
             fn cone(&self, theta_o: f64, phi: f64) -> ConeValue {

@@ -35,6 +35,7 @@ pub mod attenuation;
 pub mod backward_form;
 pub mod fiber;
 pub mod longitudinal;
+pub mod medulla;
 pub mod normal_plane;
 pub mod parameters;
 pub mod roughness;

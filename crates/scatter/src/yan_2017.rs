@@ -124,7 +124,8 @@
 //! let fiber = YanFur::new(YanFurParams {
 //!     absorption: CortexAbsorption::SigmaA(Rgb::splat(s_c)),
 //!     kappa, sigma_m_s: s_s, sigma_m_a: s_a, alpha: 0.0, layers: 1.0,
-//!     beta_m: beta, beta_n, ..YanFurParams::default()
+//!     beta_m: beta, beta_n, lobes: [true, true, true, false, false], // R, TT, TRT only
+//!     ..YanFurParams::default()
 //! })?;
 //! let w = direction(0.0, 0.3);
 //! let got = fiber.eval(w, w, 0.0)[0];
@@ -141,27 +142,33 @@
 //! ```
 
 use crate::hair::attenuation::{chord_lengths, first_transmission, next_order, surface_fresnel};
+use crate::hair::medulla::{MAX_SIGMA_A, MAX_SIGMA_S, MedullaError, MedullaParams, MedullaTables, Resolution};
 use crate::hair::normal_plane::exit_azimuth;
 use crate::hair::parameters::{ALPHA_RANGE, ETA, ETA_RANGE};
 use crate::hair::tilt::{marschner_ratio_tilts, rotate};
 use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
-use crate::{Field, Lobes, MIN_COS, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
-use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta};
+use crate::{
+    Field, LobeInfo, Lobes, MIN_COS, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction,
+};
+use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
 use fiberlab_math::special::{gaussian, normal_mass, safe_asin, safe_sqrt, sample_truncated_normal, wrapped_gaussian};
 use fiberlab_math::{DVec3, Rgb, bravais};
 use std::f64::consts::{FRAC_PI_2, PI};
+use std::sync::Arc;
 use thiserror::Error;
 
 /// Lobe names of `lobes=`, in order: the unscattered R, TT, TRT, then the medulla-scattered
 /// TT^s, TRT^s.
 pub const LOBE_NAMES: [&str; 5] = ["r", "tt", "trt", "tts", "trts"];
-/// The lobes `lobes=` accepts today: the unscattered ones (the registry extends this to all of
-/// [`LOBE_NAMES`] when the medulla tables exist).
-const AVAILABLE_LOBES: [&str; 3] = ["r", "tt", "trt"];
 /// σ_c^a when neither `sigma_c_a` nor `color` is given (a light brown, per unit radius).
 pub const DEFAULT_SIGMA_C_A: Rgb = Rgb::new(0.3, 0.5, 0.9);
-/// Valid absorption and scattering coefficients (per unit radius).
+/// Valid absorption coefficients (per unit radius).
 const SIGMA_RANGE: Range = Range::closed(0.0, f64::INFINITY);
+/// Valid medulla scattering coefficient per unit fiber radius: σ_m^s·κ (per unit medulla
+/// radius) must stay within the medulla tables' range, and κ < 1.
+const SIGMA_M_S_RANGE: Range = Range::closed(0.0, MAX_SIGMA_S);
+/// Valid medulla absorption coefficient per unit fiber radius (the tables' range).
+const SIGMA_M_A_RANGE: Range = Range::closed(0.0, MAX_SIGMA_A);
 /// Valid relative medulla radius κ.
 const KAPPA_RANGE: Range = Range::closed_open(0.0, 1.0);
 /// Valid Henyey–Greenstein anisotropy.
@@ -172,6 +179,9 @@ const LAYERS_RANGE: Range = Range::open_closed(0.0, 1000.0);
 const BETA_RANGE: Range = Range::open_closed(0.0, 60.0);
 /// Valid desired colour per channel.
 const COLOR_RANGE: Range = Range::open_closed(0.0, 1.0);
+/// Gauss–Legendre nodes of the far-field integration per standard deviation of the narrowest
+/// azimuthal Gaussian (measured error ≤ 1e−4 relative against brute force at 4).
+const FAR_NODES_PER_WIDTH: f64 = 4.0;
 /// Half-width, in standard deviations, of the Gaussian deviate drawn for the azimuth.
 const AZIMUTH_SAMPLE_SIGMAS: f64 = 12.0;
 
@@ -200,14 +210,14 @@ const PARAMS: [ParamSpec; 13] = [
     },
     ParamSpec {
         key: "sigma_m_s",
-        kind: ParamKind::Number(SIGMA_RANGE),
+        kind: ParamKind::Number(SIGMA_M_S_RANGE),
         unit: "1/radius",
         default: "1",
         doc: "medulla scattering coefficient",
     },
     ParamSpec {
         key: "sigma_m_a",
-        kind: ParamKind::Number(SIGMA_RANGE),
+        kind: ParamKind::Number(SIGMA_M_A_RANGE),
         unit: "1/radius",
         default: "0",
         doc: "medulla absorption coefficient",
@@ -249,10 +259,10 @@ const PARAMS: [ParamSpec; 13] = [
     },
     ParamSpec {
         key: "lobes",
-        kind: ParamKind::Subset(&AVAILABLE_LOBES),
+        kind: ParamKind::Subset(&LOBE_NAMES),
         unit: "",
-        default: "r,tt,trt",
-        doc: "lobes to include (the medulla-scattered tts, trts need the medulla tables, not available yet)",
+        default: "r,tt,trt,tts,trts",
+        doc: "lobes to include (tts, trts: light scattered in the medulla, from its random-walk tables)",
     },
     ParamSpec {
         key: "field",
@@ -330,7 +340,7 @@ impl Default for YanFurParams {
             alpha: 3f64.to_radians(),
             beta_m: 10f64.to_radians(),
             beta_n: 10f64.to_radians(),
-            lobes: [true, true, true, false, false],
+            lobes: [true; 5],
             field: Field::Near,
         }
     }
@@ -370,8 +380,8 @@ impl YanFurParams {
     pub fn validate(&self) -> Result<Rgb, ParameterError> {
         ETA_RANGE.check("eta", self.eta)?;
         KAPPA_RANGE.check("kappa", self.kappa)?;
-        SIGMA_RANGE.check("sigma_m_s", self.sigma_m_s)?;
-        SIGMA_RANGE.check("sigma_m_a", self.sigma_m_a)?;
+        SIGMA_M_S_RANGE.check("sigma_m_s", self.sigma_m_s)?;
+        SIGMA_M_A_RANGE.check("sigma_m_a", self.sigma_m_a)?;
         G_RANGE.check("g", self.g)?;
         LAYERS_RANGE.check("layers", self.layers)?;
         ALPHA_RANGE.check_degrees("alpha", self.alpha)?;
@@ -392,13 +402,11 @@ pub enum YanFurError {
     #[error(transparent)]
     Parameter(#[from] ParameterError),
     /// `lobes` enables no lobe.
-    #[error("yan-fur: `lobes` must name at least one of r, tt, trt")]
+    #[error("yan-fur: `lobes` must name at least one of r, tt, trt, tts, trts")]
     NoLobe,
-    /// A medulla-scattered lobe was asked for; its tables are not available yet.
-    #[error(
-        "yan-fur: `lobes` includes `{0}`, a medulla-scattered lobe, which needs the medulla tables (not available yet); use r, tt, trt"
-    )]
-    ScatteredLobesUnavailable(&'static str),
+    /// The medulla tables could not be built.
+    #[error("yan-fur: medulla tables: {0}")]
+    Medulla(#[from] MedullaError),
 }
 
 impl From<YanFurError> for ModelError {
@@ -466,8 +474,12 @@ pub fn interfaces_from_slab_layers(slab_layers: f64) -> f64 {
 pub struct EnergyBudget {
     /// `A_p` of R, TT, TRT.
     pub lobes: [Rgb; 3],
-    /// Fraction that scatters in the medulla (what TT^s, TRT^s and their higher orders carry).
+    /// Fraction that scatters in the medulla, on every pass (what scattered lobes of every
+    /// order would carry, absorption inside the medulla after scattering included).
     pub scattered: Rgb,
+    /// Masses `A_s·E` of the TT^s and TRT^s lobes (E the tables' escaping fraction; zero
+    /// without tables): the part of `scattered` the model returns.
+    pub scattered_lobes: [Rgb; 2],
     /// Unscattered orders p ≥ 3, `A_2 F_l T/(1 − F_l T)` (in neither paper's lobes).
     pub higher_orders: Rgb,
     /// The rest: absorbed in the cortex or the medulla.
@@ -487,6 +499,28 @@ struct FurHit {
     cortex: f64,
     core: f64,
     a: [Rgb; 3],
+    /// Signed inclination of the camera ray's refracted direction (sinθ_t = −sinθ_o/η).
+    theta_t: f64,
+    /// The refracted chord's offset over the medulla radius, `h′/κ` (NaN when the chord
+    /// misses the medulla).
+    h_medulla: f64,
+    /// Attenuation outside the medulla of TT^s, TRT^s (without the medulla's own N).
+    a_s: [Rgb; 2],
+    /// Escaping fraction of the medulla walk at (θ_t, h′/κ) (zero without tables).
+    escaping: Rgb,
+}
+
+impl FurHit {
+    /// Lobe masses: `A_p` for R, TT, TRT and `A_s·E` for TT^s, TRT^s.
+    fn masses(&self) -> [Rgb; 5] {
+        [self.a[0], self.a[1], self.a[2], self.a_s[0] * self.escaping, self.a_s[1] * self.escaping]
+    }
+
+    /// Azimuth offset of scattered lobe q (0: TT^s, 1: TRT^s): the refracted entry direction,
+    /// turned by an internal reflection for TRT^s.
+    fn scattered_shift(&self, q: usize) -> f64 {
+        (self.gamma_t - self.gamma_o) + q as f64 * (PI + 2.0 * self.gamma_t)
+    }
 }
 
 /// Yan et al. 2015/2017 fur fiber (unscattered lobes).
@@ -501,7 +535,11 @@ pub struct YanFur {
     /// Azimuthal standard deviations of R, TT, TRT.
     beta_n: [f64; 3],
     tilt: [(f64, f64); 3],
-    enabled: [bool; 3],
+    enabled: [bool; 5],
+    /// The medulla's random-walk tables (σ_s = σ_m^s κ, σ_a = σ_m^a κ per unit medulla
+    /// radius, g), shared process-wide; `None` when no scattered lobe is enabled or nothing
+    /// scatters (κ = 0 or σ_m^s = 0).
+    medulla: Option<Arc<MedullaTables>>,
     /// Gauss–Legendre nodes and weights on [−1, 1] for the far-field h-integration.
     gauss_legendre: Vec<(f64, f64)>,
 }
@@ -510,17 +548,23 @@ impl YanFur {
     /// A fur fiber; the error names the parameter out of range.
     pub fn new(params: YanFurParams) -> Result<Self, YanFurError> {
         let sigma_c_a = params.validate()?;
-        if let Some(k) = (3..5).find(|&k| params.lobes[k]) {
-            return Err(YanFurError::ScatteredLobesUnavailable(LOBE_NAMES[k]));
-        }
-        let enabled = [params.lobes[0], params.lobes[1], params.lobes[2]];
+        let enabled = params.lobes;
         if !enabled.iter().any(|&e| e) {
             return Err(YanFurError::NoLobe);
         }
+        let scatters = params.kappa > 0.0 && params.sigma_m_s > 0.0;
+        let medulla = if (enabled[3] || enabled[4]) && scatters {
+            let k = params.kappa;
+            let medium = MedullaParams::new(params.sigma_m_s * k, Rgb::splat(params.sigma_m_a * k), params.g)?;
+            Some(MedullaTables::shared(&medium, &Resolution::default())?)
+        } else {
+            None
+        };
         let (bm, bn) = (params.beta_m, params.beta_n);
-        // Φ(p, ·) moves at most 2 rad per radian of γ, so the narrowest azimuthal feature is
-        // β_n/2 wide in γ: ≥ 12 nodes per such width over the longest piece (π).
-        let n = ((24.0 * PI / bn).ceil() as usize).clamp(48, 4096);
+        // Φ(p, ·) moves at most 2 rad per radian of γ (or of ψ), so the narrowest azimuthal
+        // feature is a Gaussian β_n/2 wide in the integration variable: FAR_NODES_PER_WIDTH
+        // nodes per such width over the longest piece (π).
+        let n = ((FAR_NODES_PER_WIDTH * 2.0 * PI / bn).ceil() as usize).clamp(32, 4096);
         Ok(Self {
             params,
             sigma_c_a,
@@ -529,6 +573,7 @@ impl YanFur {
             beta_n: [bn, bn * 2f64.sqrt(), bn * 3f64.sqrt()],
             tilt: marschner_ratio_tilts(params.alpha),
             enabled,
+            medulla,
             gauss_legendre: gauss_legendre(n),
         })
     }
@@ -553,6 +598,19 @@ impl YanFur {
         let chords = chord_lengths(sin_gamma_t, bravais::cos_theta_t(eta, sin_o), self.params.kappa);
         let t = (self.sigma_c_a * -chords.cortex).exp() * (-self.sigma_m_e * chords.core).exp();
         let a1 = first_transmission(f, t);
+        let cos_theta_t = bravais::cos_theta_t(eta, sin_o);
+        let theta_t = (-sin_o / eta).asin();
+        let kappa = self.params.kappa;
+        let h_medulla = if kappa > 0.0 && sin_gamma_t.abs() < kappa { sin_gamma_t / kappa } else { f64::NAN };
+        // Outside the medulla: half the segment's cortex to reach it, and (1 − κ)/cosθ_t of
+        // cortex from it to the surface (Yan's radial estimate); TRT^s first crosses a whole
+        // segment unscattered and reflects once.
+        let outside = (self.sigma_c_a * -(0.5 * chords.cortex + (1.0 - kappa) / cos_theta_t)).exp() * (1.0 - f);
+        let a_s = [outside, outside * t * f];
+        let escaping = match &self.medulla {
+            Some(m) if !h_medulla.is_nan() => m.escaping_fraction(theta_t, h_medulla),
+            _ => Rgb::ZERO,
+        };
         FurHit {
             gamma_o: h.asin(),
             gamma_t: safe_asin(sin_gamma_t),
@@ -561,6 +619,10 @@ impl YanFur {
             cortex: chords.cortex,
             core: chords.core,
             a: [Rgb::splat(f), a1, next_order(a1, f, t)],
+            theta_t,
+            h_medulla,
+            a_s,
+            escaping,
         }
     }
 
@@ -590,7 +652,14 @@ impl YanFur {
         let scattered = geometric(entering);
         let higher_orders = geometric(hit.a[2] * ft);
         let total = hit.a[0] + hit.a[1] + hit.a[2] + scattered + higher_orders;
-        EnergyBudget { lobes: hit.a, scattered, higher_orders, absorbed: (Rgb::ONE - total).map(|x| x.max(0.0)) }
+        let m = hit.masses();
+        EnergyBudget {
+            lobes: hit.a,
+            scattered,
+            scattered_lobes: [m[3], m[4]],
+            higher_orders,
+            absorbed: (Rgb::ONE - total).map(|x| x.max(0.0)),
+        }
     }
 
     /// `M_p(θ_i; θ_o)`: density in θ_i.
@@ -610,20 +679,38 @@ impl YanFur {
     }
 
     /// Lobe-selection probabilities ∝ Y(A_p) over the enabled lobes; `None` if all vanish.
-    fn lobe_weights(&self, hit: &FurHit) -> Option<[f64; 3]> {
-        let y: [f64; 3] = std::array::from_fn(|p| if self.enabled[p] { hit.a[p].luminance() } else { 0.0 });
+    fn lobe_weights(&self, hit: &FurHit) -> Option<[f64; 5]> {
+        let m = hit.masses();
+        let y: [f64; 5] = std::array::from_fn(|p| if self.enabled[p] { m[p].luminance() } else { 0.0 });
         let total: f64 = y.iter().sum();
         (total > 0.0).then(|| y.map(|x| x / total))
     }
 
     /// `(Σ A_p M_p N_p, Σ w_p M_p N_p)`: value and sampling density per dθ_i dφ.
-    fn integrand_and_pdf_at(&self, wi: DVec3, wo: DVec3, hit: &FurHit, w: &[f64; 3]) -> (Rgb, f64) {
+    fn integrand_and_pdf_at(&self, wi: DVec3, wo: DVec3, hit: &FurHit, w: &[f64; 5]) -> (Rgb, f64) {
         let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
         let theta_i = sin_theta(wi).atan2(cos_theta(wi));
         let dphi = phi(wi) - phi(wo);
         let (mut g, mut pdf) = (Rgb::ZERO, 0.0);
         for (p, w_p) in w.iter().enumerate() {
             if !self.enabled[p] {
+                continue;
+            }
+            if p >= 3 {
+                let Some(tables) = &self.medulla else { continue };
+                if hit.h_medulla.is_nan() {
+                    continue;
+                }
+                let phi_q = wrap_pi(dphi - hit.scattered_shift(p - 3));
+                let theta_e = -sin_o.atan2(cos_o);
+                let n = tables.azimuthal(hit.theta_t, hit.h_medulla, phi_q);
+                let m = tables.longitudinal(theta_e, phi_q, theta_i);
+                g += hit.a_s[p - 3] * n * m;
+                if *w_p > 0.0 {
+                    pdf += w_p
+                        * tables.azimuth_pdf(hit.theta_t, hit.h_medulla, phi_q)
+                        * tables.inclination_pdf(theta_e, phi_q, theta_i);
+                }
                 continue;
             }
             let m = self.longitudinal(p, theta_i, sin_o, cos_o);
@@ -647,7 +734,8 @@ impl YanFur {
     /// averaged over the fiber width). Integrated by Gauss–Legendre quadrature on the pieces
     /// where the integrand is smooth: outside the medulla in γ = asin h (smooth up to h = ±1),
     /// inside it in ψ with `h′ = κ sinψ` (the medulla chord `√(κ² − h′²)` is smooth in ψ);
-    /// `n = clamp(⌈24π/β_n⌉, 48, 4096)` nodes per piece.
+    /// `n = clamp(⌈8π/β_n⌉, 32, 4096)` nodes per piece (4 per standard deviation of the R lobe's
+    /// azimuthal Gaussian in the integration variable).
     #[must_use]
     pub fn eval_far(&self, wi: DVec3, wo: DVec3) -> Rgb {
         self.far_integral(wo, |h| self.near_eval_and_pdf(wi, wo, h).0)
@@ -688,28 +776,38 @@ impl YanFur {
         self.far_integral(wo, |h| Rgb::splat(self.near_eval_and_pdf(wi, wo, h).1))[0]
     }
 
-    fn sample_near(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<(DVec3, Rgb, f64)> {
+    fn sample_near(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<(DVec3, Rgb, f64, u8)> {
         let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
         let hit = self.hit(sin_o, cos_o, h);
         let w = self.lobe_weights(&hit)?;
         let mut p = 0;
         let mut acc = w[0];
-        while p < 2 && (u[0] >= acc || w[p] == 0.0) {
+        while p < 4 && (u[0] >= acc || w[p] == 0.0) {
             p += 1;
             acc += w[p];
         }
         while w[p] == 0.0 && p > 0 {
             p -= 1;
         }
-        let (centre, b, _) = self.longitudinal_lobe(p, sin_o, cos_o);
-        let z = sample_truncated_normal(u[1], (-FRAC_PI_2 - centre) / b, (FRAC_PI_2 - centre) / b);
-        let theta_i = (centre + b * z).clamp(-FRAC_PI_2, FRAC_PI_2);
-        let dev = sample_truncated_normal(u[3], -AZIMUTH_SAMPLE_SIGMAS, AZIMUTH_SAMPLE_SIGMAS);
-        let dphi = exit_azimuth(p, hit.gamma_o, hit.gamma_t) + self.beta_n[p] * dev;
+        let (theta_i, dphi) = if p >= 3 {
+            // The medulla tables' exact inverse-CDF samplers: φ_q given (θ_t, h′/κ), then the
+            // exit inclination given (θ_e, φ_q).
+            let tables = self.medulla.as_ref()?;
+            let (phi_q, _) = tables.sample_azimuth(hit.theta_t, hit.h_medulla, u[3])?;
+            let theta_e = -sin_o.atan2(cos_o);
+            let (theta_i, _) = tables.sample_inclination(theta_e, phi_q, u[1])?;
+            (theta_i.clamp(-FRAC_PI_2, FRAC_PI_2), phi_q + hit.scattered_shift(p - 3))
+        } else {
+            let (centre, b, _) = self.longitudinal_lobe(p, sin_o, cos_o);
+            let z = sample_truncated_normal(u[1], (-FRAC_PI_2 - centre) / b, (FRAC_PI_2 - centre) / b);
+            let theta_i = (centre + b * z).clamp(-FRAC_PI_2, FRAC_PI_2);
+            let dev = sample_truncated_normal(u[3], -AZIMUTH_SAMPLE_SIGMAS, AZIMUTH_SAMPLE_SIGMAS);
+            (theta_i, exit_azimuth(p, hit.gamma_o, hit.gamma_t) + self.beta_n[p] * dev)
+        };
         let (s, c) = theta_i.sin_cos();
         let wi = direction_from_sin_cos(s, c.max(0.0), phi(wo) + dphi);
         let (g, pdf) = self.integrand_and_pdf_at(wi, wo, &hit, &w);
-        (pdf > 0.0 && pdf.is_finite()).then(|| (wi, g / pdf, pdf / cos_theta(wi).max(MIN_COS)))
+        (pdf > 0.0 && pdf.is_finite()).then(|| (wi, g / pdf, pdf / cos_theta(wi).max(MIN_COS), p as u8))
     }
 }
 
@@ -773,18 +871,23 @@ impl ScatteringFunction for YanFur {
         }
     }
 
+    /// `R`, `TT`, `TRT`, and the medulla-scattered `TTs`, `TRTs` (index p of [`LOBE_NAMES`]).
+    fn lobes(&self) -> Vec<LobeInfo> {
+        ["R", "TT", "TRT", "TTs", "TRTs"].map(LobeInfo::smooth).to_vec()
+    }
+
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {
         match self.params.field {
             Field::Near => {
-                let (wi, weight, pdf) = self.sample_near(wo, h, u)?;
-                Some(Sample { wi, weight, pdf, delta: false })
+                let (wi, weight, pdf, lobe) = self.sample_near(wo, h, u)?;
+                Some(Sample { wi, weight, pdf, delta: false, lobe })
             }
             Field::Far => {
                 // h uniform from u[2] (unused by the near-field sampler), then the near-field
                 // sample at that h: the density is the h-average of the near-field pdfs.
-                let (wi, _, _) = self.sample_near(wo, 2.0 * u[2] - 1.0, u)?;
+                let (wi, _, _, lobe) = self.sample_near(wo, 2.0 * u[2] - 1.0, u)?;
                 let (f, pdf) = self.eval_and_pdf(wi, wo, 0.0);
-                (pdf > 0.0).then(|| Sample { wi, weight: f * (cos_theta(wi) / pdf), pdf, delta: false })
+                (pdf > 0.0).then(|| Sample { wi, weight: f * (cos_theta(wi) / pdf), pdf, delta: false, lobe })
             }
         }
     }

@@ -2,7 +2,7 @@
 //! Marschner's caustic positions, cubic-vs-exact root errors and albedo under both
 //! normalizations; the hair models' light-side albedo at grazing light
 //! (docs/theory/radiometry.md, "Backward-form models"); for `yan-fur`, the camera-side furnace
-//! against its lobe masses Σ A_p and where the rest of the light goes (scattered in the
+//! against its lobe masses and where the rest of the light goes (scattered in the
 //! medulla, unscattered orders p ≥ 3, absorbed).
 
 use crate::Row;
@@ -82,9 +82,10 @@ pub fn model_reports(label: &str, model: &Model) -> Vec<Row> {
             }
         }
         Model::YanFur(fur) => {
-            // Camera-side furnace = Σ A_p of the enabled lobes (M_p, N_p are normalized); the
-            // rest of the entering light is split exactly by the energy budget: scattered in
-            // the medulla (the scattered lobes' share), orders p ≥ 3, absorbed.
+            // Camera-side furnace = the enabled lobes' masses (A_p for R, TT, TRT, A_s·E for
+            // TT^s, TRT^s: their densities are normalized); where the entering light goes:
+            // scattered in the medulla (and how much of it TT^s + TRT^s return), orders p ≥ 3,
+            // absorbed.
             let q = Quadrature::default();
             let enabled = fur.params().lobes;
             for (theta_o, h) in [(0.0f64, 0.0f64), (0.6, 0.6), (-1.1, -0.97)] {
@@ -94,11 +95,12 @@ pub fn model_reports(label: &str, model: &Model) -> Vec<Row> {
                     furnace += model.eval(wi, wo, h) * (fiberlab_math::frame::cos_theta(wi) * dw);
                 });
                 let b = fur.energy_budget(theta_o, h);
-                let lobes = (0..3).filter(|&p| enabled[p]).map(|p| b.lobes[p].luminance()).sum::<f64>();
+                let masses = [b.lobes[0], b.lobes[1], b.lobes[2], b.scattered_lobes[0], b.scattered_lobes[1]];
+                let lobes = (0..5).filter(|&p| enabled[p]).map(|p| masses[p].luminance()).sum::<f64>();
                 let err = (furnace.luminance() - lobes).abs() / lobes.max(1e-300);
                 rows.push(Row {
                     model: label.into(),
-                    test: format!("furnace θ_o={theta_o:.2} h={h} = Σ A_p (lum.)"),
+                    test: format!("furnace θ_o={theta_o:.2} h={h} = Σ lobe masses (lum.)"),
                     value: furnace.luminance(),
                     expected: lobes,
                     tolerance: FURNACE_REL,
@@ -107,6 +109,7 @@ pub fn model_reports(label: &str, model: &Model) -> Vec<Row> {
                 });
                 for (what, x) in [
                     ("scattered in the medulla", b.scattered),
+                    ("returned by TTs+TRTs", b.scattered_lobes[0] + b.scattered_lobes[1]),
                     ("unscattered orders p≥3", b.higher_orders),
                     ("absorbed", b.absorbed),
                 ] {

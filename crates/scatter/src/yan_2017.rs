@@ -13,14 +13,14 @@
 //! | `sigma_c_a` | 1/radius | (0.3,0.5,0.9 if `color` is not given) | [0, ∞) per channel, cortex absorption |
 //! | `color` | — | — | (0, 1] per channel, instead of `sigma_c_a` (see *Colour*) |
 //! | `kappa` | — | 0.5 | [0, 1) medulla radius / fiber radius |
-//! | `sigma_m_s` | 1/radius | 1 | [0, ∞) medulla scattering |
-//! | `sigma_m_a` | 1/radius | 0 | [0, ∞) medulla absorption |
+//! | `sigma_m_s` | 1/radius | 1 | [0, 40] medulla scattering (σ_m^s κ within the tables' range) |
+//! | `sigma_m_a` | 1/radius | 0 | [0, 10⁶] medulla absorption |
 //! | `g` | — | 0 | (−1, 1) medulla Henyey–Greenstein anisotropy |
 //! | `layers` | — | 1 | (0, 1000] cuticle interfaces (see *Cuticle layers*) |
 //! | `alpha` | degrees at the edge, radians in [`YanFurParams`] | 3 | [−20, 20] cuticle tilt, > 0 puts R toward the root |
 //! | `beta_m` | degrees | 10 | (0, 60] longitudinal standard deviation of R |
 //! | `beta_n` | degrees | 10 | (0, 60] azimuthal standard deviation of R |
-//! | `lobes` | — | r,tt,trt | subset of r, tt, trt (tts, trts once the medulla tables exist) |
+//! | `lobes` | — | r,tt,trt,tts,trts | subset of r, tt, trt, tts, trts |
 //! | `field` | — | near | `near` (value at h) or `far` (average over h, [`YanFur::eval_far`]) |
 //!
 //! No preset: no published table of per-animal parameters has been checked here, so the
@@ -75,24 +75,47 @@
 //! `color`, instead of clamped. The released code also rescales and gamma-corrects C and clamps
 //! C and σ_c^a; those clamps are not reproduced (they hide out-of-range input).
 //!
+//! # Scattered lobes TT^s, TRT^s (q = 0, 1)
+//! Light that scatters in the medulla, read from the medulla's random-walk tables
+//! ([`crate::hair::medulla`], built at construction for σ_s = σ_m^s κ, σ_a = σ_m^a κ per unit
+//! medulla radius and g, cached process-wide). Only chords that cross the medulla
+//! (`|h′| < κ`) contribute. Per density in (θ_i, φ), like the unscattered lobes:
+//! `A_s,q · N(θ_t, h′/κ, φ_q) · M(θ_e, φ_q, θ_i)`, divided by cos²θ_i for `f_s`.
+//! * `N` is the tables' azimuthal exit density (rad⁻¹), whose integral is the fraction of the
+//!   light entering the medulla that scatters and escapes it (scattering *and* absorption
+//!   inside the medulla): the scattered fraction comes from the walk itself, so Yan 2017's
+//!   `(1 − T_u^p)` factor (a heuristic for it) is not needed and not used. θ_t is the refracted
+//!   camera ray's inclination (`sinθ_t = −sinθ_o/η`).
+//! * `φ_q` is the exit azimuth relative to the refracted entry direction:
+//!   `φ_q = φ − (γ_t − γ_o) − q(π + 2γ_t)` (TRT^s first crosses the fiber unscattered and
+//!   reflects once, turning by π + 2γ_t). No refraction is applied where the scattered light
+//!   leaves the fiber (as in Yan 2017).
+//! * `M` is the tables' longitudinal exit profile (rad⁻¹ in θ_i, normalized), entered with the
+//!   camera ray's inclination `θ_e = −θ_o` and read at θ_i directly, as Yan 2017 use their
+//!   table (the refraction at the cortex surface is not applied to it; light that would be
+//!   trapped by total internal reflection is therefore not lost).
+//! * `A_s,0 = (1 − F_l)·exp(−σ_c^a(ℓ_c/2 + (1 − κ)/cosθ_t))`: entry, half the segment's cortex
+//!   to the medulla (exact chord), and Yan's radial estimate `(1 − κ)/cosθ_t` of the cortex
+//!   between medulla and surface on the way out; `A_s,1 = A_s,0 · F_l T` (one unscattered
+//!   segment and an internal reflection first). The exit Fresnel transmission is not applied
+//!   (as in Yan 2017): all light that escapes the medulla leaves.
+//! * Energy: with every absorption zero the camera-side furnace is `Σ` of the five lobe
+//!   masses, which misses only the light scattered on later passes and the unscattered orders
+//!   p ≥ 3, both of order F_l² (measured 1 − 5·10⁻⁴ … 1 + 4·10⁻⁶ at κ = 0.8, σ_m^s = 2;
+//!   [`YanFur::energy_budget`], `tests/yan_2017.rs`).
+//!
 //! # Sampling
-//! Lobe p from `u[0]` with probability ∝ the luminance of `A_p(θ_o, h)` over the enabled
-//! lobes; θ_i from the truncated Gaussian `M_p` with `u[1]` (exact inversion,
+//! Lobe p from `u[0]` with probability ∝ the luminance of its mass (`A_p`, or `A_s,q·E` with
+//! E the tables' escaping fraction) over the enabled lobes. R, TT, TRT: θ_i from the
+//! truncated Gaussian `M_p` with `u[1]` (exact inversion,
 //! [`fiberlab_math::special::sample_truncated_normal`]); φ from `N_p` with `u[3]` (a Gaussian
 //! deviate wrapped onto the circle: its density is exactly the wrapped Gaussian; the deviate
-//! is drawn within ±12 standard deviations). The pdf per steradian is
-//! `Σ_p w_p M_p N_p / cosθ_i`, exactly the density of the samples, and the weight
-//! `f_s cosθ_i/pdf` equals `Σ_p A_p` over the enabled lobes when the `A_p` are gray.
-//!
-//! # The scattered lobes TT^s, TRT^s (not yet available)
-//! They need the medulla tables (a random walk in an index-matched scattering cylinder per
-//! (σ_s, σ_a, g)), which this crate does not have yet. The registry's `lobes` refuses `tts`
-//! and `trts` (not among its choices yet), and typed construction with them enabled in
-//! [`YanFurParams::lobes`] fails with [`YanFurError::ScatteredLobesUnavailable`]: never a
-//! silent drop. What they must carry is known exactly:
-//! [`YanFur::energy_budget`] splits the light entering at (θ_o, h) into the three lobes, the
-//! part that scatters in the medulla, the unscattered orders p ≥ 3 (which neither paper
-//! models) and the absorbed rest.
+//! is drawn within ±12 standard deviations). TT^s, TRT^s: φ_q with `u[3]` and then θ_i with
+//! `u[1]` from the tables' inverse-CDF samplers, whose densities are exact (not the public
+//! code's uniform sampling). The pdf per steradian is `Σ_p w_p (density in θ_i, φ) / cosθ_i`,
+//! exactly the density of the samples, and the weight `f_s cosθ_i/pdf` equals the sum of the
+//! enabled lobes' masses when the lobes are gray. `field = far` draws h uniformly with `u[2]`
+//! and returns the h-averaged pdf.
 //!
 //! # Conventions and caveats
 //! * **Tilt sign** as `chiang`: `alpha > 0` puts R toward the root. Yan 2017's released code
@@ -102,9 +125,9 @@
 //!   not implemented.
 //! * **TT width**: `β_TT = β_m/2` (as the 2015 ports); Yan 2017's code keeps β_m.
 //! * **Non-reciprocity**: like Chiang's, the backward form conserves energy on the camera side
-//!   only; `properties()` claims neither reciprocity nor an energy bound. With the three lobes
-//!   alone the lossless camera-side furnace is `A_0 + A_1 + A_2 < 1` (the orders p ≥ 3 and the
-//!   medulla-scattered light are missing).
+//!   only; `properties()` claims neither reciprocity nor an energy bound. With `lobes=r,tt,trt`
+//!   the lossless camera-side furnace is `A_0 + A_1 + A_2 < 1`: the deficit is exactly the
+//!   medulla-scattered light plus the orders p ≥ 3 ([`YanFur::energy_budget`]).
 //! * At exactly grazing light (cosθ_i = 0) `eval` divides by [`crate::MIN_COS`].
 //!
 //! # Example: a value pinned by the closed form
@@ -277,7 +300,7 @@ const PARAMS: [ParamSpec; 13] = [
 impl Registered for YanFur {
     const INFO: ModelInfo = ModelInfo {
         name: "yan-fur",
-        summary: "Yan et al. 2015/2017 fur: double cylinder with a medulla, R/TT/TRT with exact chords",
+        summary: "Yan et al. 2015/2017 fur: double cylinder with a scattering medulla, R/TT/TRT and medulla-scattered TTs/TRTs",
         citation: "Yan, Tseng, Jensen & Ramamoorthi 2015; Yan, Jensen & Ramamoorthi 2017",
         params: &PARAMS,
         data: None,
@@ -523,7 +546,7 @@ impl FurHit {
     }
 }
 
-/// Yan et al. 2015/2017 fur fiber (unscattered lobes).
+/// Yan et al. 2015/2017 fur fiber: unscattered R, TT, TRT and medulla-scattered TT^s, TRT^s.
 #[derive(Clone, Debug)]
 pub struct YanFur {
     params: YanFurParams,

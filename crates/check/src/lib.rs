@@ -101,6 +101,10 @@ pub fn default_cases() -> Vec<CheckCase> {
         CheckCase::new("chiang", &[("color", "0.6,0.4,0.2"), ("beta_m", "0.4"), ("beta_n", "0.4")]),
         CheckCase::new("deon", &[("sigma_a", "0")]),
         CheckCase::new("deon", &[("eumelanin", "0.3"), ("theta_n", "difference")]),
+        CheckCase::new("yan-fur", &[("beta_m", "4"), ("beta_n", "5"), ("kappa", "0.8"), ("sigma_m_s", "3")]),
+        CheckCase::new("yan-fur", &[("beta_m", "30"), ("beta_n", "40"), ("layers", "0.5"), ("color", "0.7,0.5,0.3")]),
+        CheckCase::new("yan-fur", &[("sigma_c_a", "0"), ("sigma_m_s", "0"), ("kappa", "0"), ("alpha", "0")]),
+        CheckCase::new("yan-fur", &[("sigma_c_a", "0"), ("kappa", "0.8"), ("sigma_m_s", "2")]),
     ]);
     cases
 }

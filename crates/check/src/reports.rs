@@ -1,14 +1,16 @@
 //! Model-specific measurements printed by `fiberlab check` beside the generic tests:
 //! Marschner's caustic positions, cubic-vs-exact root errors and albedo under both
 //! normalizations; the hair models' light-side albedo at grazing light
-//! (docs/theory/radiometry.md, "Backward-form models").
+//! (docs/theory/radiometry.md, "Backward-form models"); for `yan-fur`, the camera-side furnace
+//! against its lobe masses and where the rest of the light goes (scattered in the
+//! medulla, unscattered orders p ≥ 3, absorbed).
 
 use crate::Row;
-use crate::tolerance::ROUNDING_REL;
+use crate::tolerance::{FURNACE_REL, ROUNDING_REL};
 use fiberlab_math::frame::direction;
-use fiberlab_scatter::Model;
 use fiberlab_scatter::marschner_2003::{albedo_table, caustic_table, cubic_azimuth_error_table};
 use fiberlab_scatter::radiometry::{self, Quadrature};
+use fiberlab_scatter::{Model, ScatteringFunction};
 
 fn report(label: &str, test: String, value: f64) -> Row {
     Row { model: label.into(), test, value, expected: f64::NAN, tolerance: f64::NAN, pass: true, report: true }
@@ -77,6 +79,42 @@ pub fn model_reports(label: &str, model: &Model) -> Vec<Row> {
             for t in [1.5f64, 1.55] {
                 let rho = radiometry::albedo(model, direction(t, 0.0), &q);
                 rows.push(report(label, format!("light-side albedo at grazing θ_i={t:.2} (lum.)"), rho.luminance()));
+            }
+        }
+        Model::YanFur(fur) => {
+            // Camera-side furnace = the enabled lobes' masses (A_p for R, TT, TRT, A_s·E for
+            // TT^s, TRT^s: their densities are normalized); where the entering light goes:
+            // scattered in the medulla (and how much of it TT^s + TRT^s return), orders p ≥ 3,
+            // absorbed.
+            let q = Quadrature::default();
+            let enabled = fur.params().lobes;
+            for (theta_o, h) in [(0.0f64, 0.0f64), (0.6, 0.6), (-1.1, -0.97)] {
+                let wo = direction(theta_o, 0.4);
+                let mut furnace = fiberlab_math::Rgb::ZERO;
+                q.for_each_direction(|wi, dw| {
+                    furnace += model.eval(wi, wo, h) * (fiberlab_math::frame::cos_theta(wi) * dw);
+                });
+                let b = fur.energy_budget(theta_o, h);
+                let masses = [b.lobes[0], b.lobes[1], b.lobes[2], b.scattered_lobes[0], b.scattered_lobes[1]];
+                let lobes = (0..5).filter(|&p| enabled[p]).map(|p| masses[p].luminance()).sum::<f64>();
+                let err = (furnace.luminance() - lobes).abs() / lobes.max(1e-300);
+                rows.push(Row {
+                    model: label.into(),
+                    test: format!("furnace θ_o={theta_o:.2} h={h} = Σ lobe masses (lum.)"),
+                    value: furnace.luminance(),
+                    expected: lobes,
+                    tolerance: FURNACE_REL,
+                    pass: err <= FURNACE_REL,
+                    report: false,
+                });
+                for (what, x) in [
+                    ("scattered in the medulla", b.scattered),
+                    ("returned by TTs+TRTs", b.scattered_lobes[0] + b.scattered_lobes[1]),
+                    ("unscattered orders p≥3", b.higher_orders),
+                    ("absorbed", b.absorbed),
+                ] {
+                    rows.push(report(label, format!("{what} θ_o={theta_o:.2} h={h} (lum.)"), x.luminance()));
+                }
             }
         }
         _ => {}

@@ -24,6 +24,7 @@ pub mod kajiya_kay_1989;
 pub mod lambertian_cylinder;
 pub mod marschner_2003;
 pub mod measured;
+pub mod yan_2017;
 
 pub use error::ModelError;
 pub use function::{ConeValue, Field, LobeInfo, Lobes, MIN_COS, Properties, Sample, ScatteringFunction};

@@ -112,7 +112,8 @@ models! {
         Goldman(crate::goldman_1997::Goldman),
         Marschner(crate::marschner_2003::Marschner),
         Chiang(crate::chiang_2016::Chiang),
-        Deon(crate::deon_2011::Deon);
+        Deon(crate::deon_2011::Deon),
+        YanFur(crate::yan_2017::YanFur);
     from_data:
         Measured(crate::measured::Measured);
 }
@@ -187,6 +188,8 @@ mod tests {
         );
         assert_eq!(c::ChiangParams::from_param_set(&defaults(&c::Chiang::INFO)), Ok(c::ChiangParams::default()));
         assert_eq!(e::DeonParams::from_param_set(&defaults(&e::Deon::INFO)), Ok(e::DeonParams::default()));
+        use crate::yan_2017 as y;
+        assert_eq!(y::YanFurParams::from_param_set(&defaults(&y::YanFur::INFO)), Ok(y::YanFurParams::default()));
         // Goldman names Kajiya–Kay's entries by index: the indices must point at the keys.
         let kk = &k::KajiyaKay::INFO.params;
         assert_eq!([kk[k::K_D].key, kk[k::K_S].key, kk[k::P].key], ["k_d", "k_s", "p"]);

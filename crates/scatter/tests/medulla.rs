@@ -336,7 +336,7 @@ impl ScatteringFunction for Samplers {
         let (p, _) = self.tables.sample_azimuth(self.theta_t, h, u[0])?;
         let (th, _) = self.tables.sample_inclination(self.theta_t, p, u[1])?;
         let wi = direction_from_sin_cos(th.sin(), th.cos(), p);
-        Some(Sample { wi, weight: Rgb::ONE, pdf: self.pdf(wi, wo, h), delta: false })
+        Some(Sample { wi, weight: Rgb::ONE, pdf: self.pdf(wi, wo, h), delta: false, lobe: 0 })
     }
 }
 

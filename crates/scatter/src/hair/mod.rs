@@ -1,5 +1,5 @@
 //! The hair core: the pieces of fiber optics that the hair models (`marschner_2003`,
-//! `deon_2011`, `chiang_2016`) share, one concept per file, so that a model file holds only
+//! `deon_2011`, `chiang_2016`, and the fur of `yan_2017`) share, one concept per file, so that a model file holds only
 //! its model and the fur, dual-scattering, wood and cloth models can reuse the pieces.
 //!
 //! | file | concept | papers |
@@ -8,7 +8,7 @@
 //! | [`normal_plane`] | Bravais' `η′`, the exit azimuth `Φ(p, h)`, its roots and the TRT caustic | Marschner 2003 |
 //! | [`attenuation`] | Fresnel, chord lengths (optionally through a concentric core), `A_p` | Marschner 2003, Chiang 2016, Yan 2015 |
 //! | [`absorption`] | where σ_a comes from: given, melanin, or a desired colour | d'Eon 2011, Chiang 2016 |
-//! | [`tilt`] | the cuticle tilt of each lobe, as a rotation of the fixed direction | Chiang 2016, d'Eon 2013 |
+//! | [`tilt`] | the cuticle tilt of each lobe, as a rotation of the fixed direction (Chiang's and Marschner's ratios) | Chiang 2016, d'Eon 2013, Marschner 2003 |
 //! | [`roughness`] | Chiang's maps β → `v_p`, `s`, and d'Eon's azimuthal σ | Chiang 2016 |
 //! | [`backward_form`] | `f_s = g/cosθ_i`, light-side albedo, measured non-reciprocity | Chiang 2016 |
 //! | [`parameters`] | the parameter table entries the hair models share | |

@@ -20,6 +20,15 @@ pub fn lobe_tilts(alpha: f64) -> [(f64, f64); 4] {
     [(2.0 * alpha).sin_cos(), (-alpha).sin_cos(), (-4.0 * alpha).sin_cos(), (0.0, 1.0)]
 }
 
+/// The rotation of the fixed direction for lobes R, TT, TRT with Marschner 2003's ratio of
+/// shifts (`α_TT = −α_R/2`, `α_TRT = −3α_R/2`), as used by Yan et al. 2015/2017's fur:
+/// `τ = (+2α, −α, −3α)`, α in radians, so that the lobe centres are `θ_i + θ_o = −2α`, `+α`,
+/// `+3α` (physical sign, as [`lobe_tilts`]).
+#[must_use]
+pub fn marschner_ratio_tilts(alpha: f64) -> [(f64, f64); 3] {
+    [(2.0 * alpha).sin_cos(), (-alpha).sin_cos(), (-3.0 * alpha).sin_cos()]
+}
+
 /// `(sin(θ + τ), |cos(θ + τ)|)` from `(sinθ, cosθ)` and `(sin τ, cos τ)`; the absolute value
 /// keeps the cosine of an inclination rotated past ±90° non-negative, as `M_p` requires.
 #[must_use]
@@ -40,6 +49,10 @@ mod tests {
                 let (s, c) = rotate(f64::sin(theta), f64::cos(theta), lobe_tilts(alpha)[p]);
                 assert!((s - (theta + tau).sin()).abs() < 1e-15 && (c - (theta + tau).cos().abs()).abs() < 1e-15);
             }
+        }
+        for (p, tau) in [2.0 * alpha, -alpha, -3.0 * alpha].into_iter().enumerate() {
+            let (s, c) = marschner_ratio_tilts(alpha)[p];
+            assert!((s - tau.sin()).abs() < 1e-15 && (c - tau.cos()).abs() < 1e-15);
         }
     }
 }

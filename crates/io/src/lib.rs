@@ -10,7 +10,11 @@
 pub mod hair;
 pub mod image_file;
 pub mod image_metrics;
+pub mod pbrt_curves;
+pub mod strands;
 pub mod table;
+pub mod usda_curves;
 
 pub use hair::{HairError, HairFile, HairHeader};
 pub use image_file::{ImageError, LinearImage, ToneMap};
+pub use strands::{Basis, CurveKind, Format, StrandCounts, Strands, StrandsError};

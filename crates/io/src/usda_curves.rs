@@ -349,6 +349,8 @@ struct Props {
     wrap: Option<(usize, String)>,
     op_order: Option<(usize, Vec<(usize, String)>)>,
     ops: Vec<(String, usize, Vec<f64>)>,
+    /// Points given (counted in count mode).
+    point_count: usize,
     /// The first time-sampled property among those read here.
     animated: Option<Located>,
 }
@@ -631,7 +633,10 @@ impl<'a> Parser<'a> {
         match base {
             "points" => {
                 check_type("point3f", true)?;
-                props.points = Some((at, self.points()?));
+                let mut count = 0;
+                let points = self.points(&mut count)?;
+                props.point_count = if self.count_only { count } else { points.len() };
+                props.points = Some((at, points));
             }
             "curveVertexCounts" => {
                 check_type("int", true)?;
@@ -727,10 +732,13 @@ impl<'a> Parser<'a> {
         }
     }
 
-    /// `[ (x, y, z), … ]` as `f32`; in count mode the brackets are skipped.
-    fn points(&mut self) -> Result<Vec<[f32; 3]>, Located> {
+    /// `[ (x, y, z), … ]` as `f32`; in count mode the tuples are only counted (`count`).
+    fn points(&mut self, count: &mut usize) -> Result<Vec<[f32; 3]>, Located> {
         if self.count_only {
+            let start = self.lx.pos;
             self.skip_balanced()?;
+            // The tuples of the list: its `(`s (the numbers are not parsed).
+            *count = self.lx.text[start..self.lx.pos].bytes().filter(|&b| b == b'(').count();
             return Ok(Vec::new());
         }
         let open = self.lx.punct("[", "to open the points")?;
@@ -996,6 +1004,11 @@ impl<'a> Parser<'a> {
             }
         }
         let out_counts: Vec<u32> = counts.iter().map(|&c| c + if phantom { 2 } else { 0 }).collect();
+        let (points_at, points) =
+            props.points.ok_or((spec.offset, "a BasisCurves prim needs `point3f[] points`".to_string()))?;
+        if props.point_count as u64 != total {
+            return Err((points_at, format!("{} points, but curveVertexCounts add up to {total}", props.point_count)));
+        }
         if self.count_only {
             return Ok(CurvePrim {
                 offset: spec.offset,
@@ -1006,11 +1019,6 @@ impl<'a> Parser<'a> {
                 to_parent: IDENTITY,
                 reset: false,
             });
-        }
-        let (points_at, points) =
-            props.points.ok_or((spec.offset, "a BasisCurves prim needs `point3f[] points`".to_string()))?;
-        if points.len() as u64 != total {
-            return Err((points_at, format!("{} points, but curveVertexCounts add up to {total}", points.len())));
         }
         // Widths per control point (of the curve as given, before phantom points).
         let ranges: Vec<std::ops::Range<usize>> = {

@@ -2,7 +2,7 @@
 //! format, or convert between formats (chosen by extension: `.hair`, `.pbrt`/`.pbrt.gz`
 //! (read only), `.usda`).
 
-use fiberlab_io::{Format, HairFile, strands};
+use fiberlab_io::{Format, HairFile, StrandsError, strand_files};
 use fiberlab_render::generator::{HairParams, Style};
 use std::path::PathBuf;
 
@@ -112,7 +112,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
         HairCommand::Info { file } => {
             // The readers' errors name the file already.
-            let s = strands::read(file)?;
+            let s = strand_files::read(file)?;
             println!("strands     {}", s.strand_count());
             println!("points      {}", s.points.len());
             println!("segments    {}", s.span_count());
@@ -137,10 +137,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             if out_format == Format::Pbrt {
                 anyhow::bail!("{}: writing pbrt files is not supported; write .hair or .usda", output.display());
             }
-            let s = strands::read(input)?;
-            strands::write(output, &s, *segments_per_curve as usize).map_err(|e| match e {
+            let s = strand_files::read(input)?;
+            strand_files::write(output, &s, *segments_per_curve as usize).map_err(|e| match e {
                 // Only these lack the file's name.
-                strands::StrandsError::Inconsistent(m) => anyhow::anyhow!("{}: {m}", output.display()),
+                StrandsError::Inconsistent(m) => anyhow::anyhow!("{}: {m}", output.display()),
                 e => e.into(),
             })?;
             eprintln!("{} strands, {} points ({}) → {}", s.strand_count(), s.points.len(), s.basis, output.display());

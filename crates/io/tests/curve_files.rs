@@ -4,7 +4,8 @@
 //! writer; expected values are computed here from the curve definitions (closed-form basis
 //! functions, transform matrices written out by hand).
 
-use fiberlab_io::strands::{self, Basis, CurveKind, Strands};
+use fiberlab_io::strand_files;
+use fiberlab_io::strands::{Basis, CurveKind, Strands};
 use fiberlab_io::{HairFile, pbrt_curves, usda_curves};
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
@@ -202,11 +203,11 @@ fn pbrt_includes_plain_and_gzip_relative_to_the_including_file() {
     let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
     gz.write_all(b"Shape \"curve\" \"point3 P\" [0 9 0 1 9 0 2 9 0 3 9 0] \"string type\" \"cylinder\"\n").unwrap();
     std::fs::write(dir.path().join("geo/more.pbrt.gz"), gz.finish().unwrap()).unwrap();
-    let s = strands::read(&main).unwrap();
+    let s = strand_files::read(&main).unwrap();
     assert_eq!(s.counts, vec![4, 4, 4]);
     assert_eq!(s.points[4], [0.0, 5.0, 1.0]);
     assert_eq!(s.points[11], [3.0, 9.0, 1.0]);
-    let c = strands::count(&main).unwrap();
+    let c = strand_files::count(&main).unwrap();
     assert_eq!((c.strands, c.points, c.spans), (3, 12, 3));
 }
 
@@ -215,10 +216,10 @@ fn pbrt_include_cycles_depth_and_missing_files_are_errors_at_the_include() {
     let dir = tempfile::tempdir().unwrap();
     let a = write(dir.path(), "a.pbrt", "WorldBegin\nInclude \"b.pbrt\"\n");
     write(dir.path(), "b.pbrt", "# b\n  Include \"a.pbrt\"\n");
-    let e = strands::read(&a).unwrap_err().to_string();
+    let e = strand_files::read(&a).unwrap_err().to_string();
     assert!(e.contains("b.pbrt:2:11: include cycle") && e.contains("a.pbrt"), "{e}");
     let m = write(dir.path(), "m.pbrt", "Include \"none.pbrt\"\n");
-    let e = strands::read(&m).unwrap_err().to_string();
+    let e = strand_files::read(&m).unwrap_err().to_string();
     assert!(e.contains("m.pbrt:1:9: cannot read the included file") && e.contains("none.pbrt"), "{e}");
     // A chain deeper than the limit (distinct files, no cycle).
     let n = pbrt_curves::MAX_INCLUDE_DEPTH + 2;
@@ -226,11 +227,11 @@ fn pbrt_include_cycles_depth_and_missing_files_are_errors_at_the_include() {
         write(dir.path(), &format!("d{i}.pbrt"), &format!("Include \"d{}.pbrt\"\n", i + 1));
     }
     write(dir.path(), &format!("d{n}.pbrt"), "");
-    let e = strands::read(&dir.path().join("d0.pbrt")).unwrap_err().to_string();
+    let e = strand_files::read(&dir.path().join("d0.pbrt")).unwrap_err().to_string();
     assert!(e.contains("nest more than"), "{e}");
     // Not gzip.
     let g = write(dir.path(), "g.pbrt.gz", "Shape");
-    assert!(strands::read(&g).unwrap_err().to_string().contains("g.pbrt.gz"));
+    assert!(strand_files::read(&g).unwrap_err().to_string().contains("g.pbrt.gz"));
 }
 
 #[test]
@@ -487,11 +488,11 @@ fn hair_to_usda_to_hair_is_bit_exact() {
         ..HairFile::default()
     };
     hair.write(&dir.path().join("a.hair")).unwrap();
-    let s = strands::read(&dir.path().join("a.hair")).unwrap();
-    strands::write(&dir.path().join("a.usda"), &s, 8).unwrap();
-    let back = strands::read(&dir.path().join("a.usda")).unwrap();
+    let s = strand_files::read(&dir.path().join("a.hair")).unwrap();
+    strand_files::write(&dir.path().join("a.usda"), &s, 8).unwrap();
+    let back = strand_files::read(&dir.path().join("a.usda")).unwrap();
     assert_eq!(back, s);
-    strands::write(&dir.path().join("b.hair"), &back, 8).unwrap();
+    strand_files::write(&dir.path().join("b.hair"), &back, 8).unwrap();
     let again = HairFile::read(&dir.path().join("b.hair")).unwrap();
     let bits = |p: &[[f32; 3]]| p.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(&again.points), bits(&pts));
@@ -507,17 +508,19 @@ fn cubic_curves_convert_to_hair_as_sampled_polylines() {
         "c.pbrt",
         "WorldBegin\nShape \"curve\" \"point3 P\" [0 0 0 1 0 0 2 1 0 3 1 0] \"string type\" \"cylinder\" \"float width\" 0.1\n",
     );
-    let s = strands::read(&p).unwrap();
-    strands::write(&dir.path().join("c.hair"), &s, 6).unwrap();
+    let s = strand_files::read(&p).unwrap();
+    strand_files::write(&dir.path().join("c.hair"), &s, 6).unwrap();
     let h = HairFile::read(&dir.path().join("c.hair")).unwrap();
     assert_eq!(h.points.len(), 7);
     let want = bezier3(&[[0.0; 3], [1.0, 0.0, 0.0], [2.0, 1.0, 0.0], [3.0, 1.0, 0.0]], 2.0 / 6.0);
     assert!(close(h.points[2], want, 1e-7));
     // The cubic set keeps its basis in .usda.
-    strands::write(&dir.path().join("c.usda"), &s, 6).unwrap();
-    assert_eq!(strands::read(&dir.path().join("c.usda")).unwrap(), s);
-    assert!(strands::write(&dir.path().join("c.pbrt"), &s, 6).is_err());
-    assert!(strands::read(&dir.path().join("c.obj")).unwrap_err().to_string().contains("unknown hair file format"));
+    strand_files::write(&dir.path().join("c.usda"), &s, 6).unwrap();
+    assert_eq!(strand_files::read(&dir.path().join("c.usda")).unwrap(), s);
+    assert!(strand_files::write(&dir.path().join("c.pbrt"), &s, 6).is_err());
+    assert!(
+        strand_files::read(&dir.path().join("c.obj")).unwrap_err().to_string().contains("unknown hair file format")
+    );
 }
 
 fn arb_strands() -> impl Strategy<Value = Strands> {

@@ -419,7 +419,7 @@ impl SceneFile {
             let per_curve = self.segments_per_curve(hd)?;
             let from_file = |path: &Path, span| {
                 // `.hair`: its header; pbrt and USD text: a pass that counts the points.
-                let c = fiberlab_io::strands::count(path).map_err(|e| self.error(span, e.to_string()))?;
+                let c = fiberlab_io::strand_files::count(path).map_err(|e| self.error(span, e.to_string()))?;
                 let segments = c.segments(per_curve);
                 // A cubic file is also held as the polylines its diameters are checked on.
                 let polylines = if c.basis == fiberlab_io::Basis::Linear { 0 } else { segments.saturating_mul(2 * 16) };
@@ -644,7 +644,7 @@ impl SceneFile {
         if fiberlab_io::Format::of(path).map_err(fail)? == fiberlab_io::Format::Hair {
             return Ok((HairFile::read(path).map_err(|e| self.error(span.clone(), e.to_string()))?, None));
         }
-        let strands = fiberlab_io::strands::read(path).map_err(fail)?;
+        let strands = fiberlab_io::strand_files::read(path).map_err(fail)?;
         if strands.basis == fiberlab_io::Basis::Linear {
             return Ok((strands.to_hair().map_err(fail_at)?, None));
         }

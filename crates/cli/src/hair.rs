@@ -2,7 +2,7 @@
 //! format, or convert between formats (chosen by extension: `.hair`, `.pbrt`/`.pbrt.gz`
 //! (read only), `.usda`).
 
-use fiberlab_io::{Format, HairFile, StrandsError, strand_files};
+use fiberlab_io::{Format, StrandsError, strand_files};
 use fiberlab_render::generator::{HairParams, Style};
 use std::path::PathBuf;
 
@@ -119,7 +119,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             println!("basis       {}", s.basis);
             println!("type        {}", s.kind);
             if Format::of(file)? == Format::Hair {
-                println!("flags       {:#x}", HairFile::read(file)?.flags());
+                println!("flags       {:#x}", fiberlab_io::HairHeader::read(file)?.flags);
             }
             match (s.bounds(), s.width_range()) {
                 (Some((lo, hi)), Some((wmin, wmax))) => {

@@ -176,6 +176,15 @@ impl<'a> Lexer<'a> {
         self.next()?.ok_or((self.text.len(), format!("expected {what}, found the end of the file")))
     }
 
+    /// [`Self::punct`] with a context built only for the error.
+    fn punct_with(&mut self, p: &str, context: impl FnOnce() -> String) -> Result<Token<'a>, Located> {
+        match self.next()? {
+            Some(t) if t.is(p) => Ok(t),
+            Some(t) => Err((t.offset, format!("expected `{p}` {}, found {}", context(), t.describe()))),
+            None => Err((self.text.len(), format!("expected `{p}` {}, found the end of the file", context()))),
+        }
+    }
+
     fn punct(&mut self, p: &str, context: &str) -> Result<Token<'a>, Located> {
         let t = self.expect(&format!("`{p}` {context}"))?;
         if t.is(p) { Ok(t) } else { Err((t.offset, format!("expected `{p}` {context}, found {}", t.describe()))) }
@@ -774,7 +783,7 @@ impl<'a> Parser<'a> {
         let mut p = [0.0f32; 3];
         for (k, v) in p.iter_mut().enumerate() {
             if k > 0 {
-                self.lx.punct(",", &format!("between the coordinates of point {index}"))?;
+                self.lx.punct_with(",", || format!("between the coordinates of point {index}"))?;
             }
             let t = self.lx.expect("a coordinate")?;
             *v = match (t.kind, t.text.parse::<f32>()) {
@@ -785,7 +794,7 @@ impl<'a> Parser<'a> {
                 _ => return Err((t.offset, format!("point {index}: expected a number, found {}", t.describe()))),
             };
         }
-        self.lx.punct(")", &format!("to close point {index} (3 coordinates)"))?;
+        self.lx.punct_with(")", || format!("to close point {index} (3 coordinates)"))?;
         Ok(p)
     }
 

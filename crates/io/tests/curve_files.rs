@@ -588,3 +588,27 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn usda_an_inverted_transform_undoes_the_transform() {
+    // A sheared, scaled, rotated and translated matrix (rows, USD's row-vector layout), then
+    // its inverse: the points come back.
+    let text = r#"#usda 1.0
+def BasisCurves "c"
+{
+    uniform token type = "linear"
+    int[] curveVertexCounts = [3]
+    point3f[] points = [(1, 2, 3), (-4, 0.5, 2), (0, 0, -7)]
+    matrix4d xformOp:transform = ( (0.5, 1.5, 0, 0), (-2, 0.25, 0.75, 0), (0.1, 0, 3, 0), (4, -5, 6, 1) )
+    uniform token[] xformOpOrder = ["xformOp:transform", "!invert!xformOp:transform"]
+}
+"#;
+    let s = usda(text).unwrap();
+    for (got, want) in s.points.iter().zip([[1.0, 2.0, 3.0], [-4.0, 0.5, 2.0], [0.0, 0.0, -7.0]]) {
+        assert!(close(*got, want, 1e-6), "{got:?} vs {want:?}");
+    }
+    // The transform alone: p·M with p = (1, 2, 3, 1).
+    let alone = usda(&text.replace(", \"!invert!xformOp:transform\"", "")).unwrap();
+    let want = [0.5 - 4.0 + 0.3 + 4.0, 1.5 + 0.5 - 5.0, 1.5 + 9.0 + 6.0];
+    assert!(close(alone.points[0], want, 1e-6), "{:?} vs {want:?}", alone.points[0]);
+}

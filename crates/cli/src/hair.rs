@@ -1,6 +1,8 @@
-//! `fiberlab hair`: generate procedural hair as a `.hair` file, or describe one.
+//! `fiberlab hair`: generate procedural hair as a `.hair` file, describe a hair file of any
+//! format, or convert between formats (chosen by extension: `.hair`, `.pbrt`/`.pbrt.gz`
+//! (read only), `.usda`).
 
-use fiberlab_io::HairFile;
+use fiberlab_io::{Format, StrandsError, strand_files};
 use fiberlab_render::generator::{HairParams, Style};
 use std::path::PathBuf;
 
@@ -15,10 +17,23 @@ pub struct Args {
 enum HairCommand {
     /// Grow strands over a unit head sphere and write a .hair file.
     Generate(GenerateArgs),
-    /// Print counts, bounds and thickness of a .hair file (validates it).
+    /// Print counts, bounds, widths and basis of a hair file (.hair, .pbrt, .pbrt.gz, .usda;
+    /// reading it validates it).
     Info {
         /// The file.
         file: PathBuf,
+    },
+    /// Convert a hair file to .hair or .usda (formats by extension). Cubic curves written as
+    /// .hair become polylines: each span evaluated at --segments-per-curve uniform steps.
+    Convert {
+        /// Input: .hair, .pbrt, .pbrt.gz or .usda.
+        input: PathBuf,
+        /// Output: .hair or .usda (its directory is checked writable first).
+        #[arg(value_parser = crate::files::output_file)]
+        output: PathBuf,
+        /// Polyline segments per span of a cubic curve, when writing .hair.
+        #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=1024))]
+        segments_per_curve: u32,
     },
 }
 
@@ -96,24 +111,39 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             eprintln!("{} strands, {} points → {}", hair.strand_count(), hair.points.len(), g.out.display());
         }
         HairCommand::Info { file } => {
-            // The reader's errors name the file already.
-            let hair = HairFile::read(file)?;
-            let mut lo = [f32::INFINITY; 3];
-            let mut hi = [f32::NEG_INFINITY; 3];
-            for p in &hair.points {
-                for k in 0..3 {
-                    lo[k] = lo[k].min(p[k]);
-                    hi[k] = hi[k].max(p[k]);
+            // The readers' errors name the file already.
+            let s = strand_files::read(file)?;
+            println!("strands     {}", s.strand_count());
+            println!("points      {}", s.points.len());
+            println!("segments    {}", s.span_count());
+            println!("basis       {}", s.basis);
+            println!("type        {}", s.kind);
+            if Format::of(file)? == Format::Hair {
+                println!("flags       {:#x}", fiberlab_io::HairHeader::read(file)?.flags);
+            }
+            match (s.bounds(), s.width_range()) {
+                (Some((lo, hi)), Some((wmin, wmax))) => {
+                    println!("bounds      {lo:?} – {hi:?}");
+                    println!("widths      {wmin} – {wmax}");
+                }
+                _ => {
+                    println!("bounds      none (no points)");
+                    println!("widths      none");
                 }
             }
-            let (tmin, tmax) = (0..hair.points.len())
-                .map(|i| hair.thickness_at(i))
-                .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), t| (a.min(t), b.max(t)));
-            println!("strands     {}", hair.strand_count());
-            println!("points      {}", hair.points.len());
-            println!("flags       {:#x}", hair.flags());
-            println!("bounds      {lo:?} – {hi:?}");
-            println!("thickness   {tmin} – {tmax}");
+        }
+        HairCommand::Convert { input, output, segments_per_curve } => {
+            let out_format = Format::of(output)?;
+            if out_format == Format::Pbrt {
+                anyhow::bail!("{}: writing pbrt files is not supported; write .hair or .usda", output.display());
+            }
+            let s = strand_files::read(input)?;
+            strand_files::write(output, &s, *segments_per_curve as usize).map_err(|e| match e {
+                // Only these lack the file's name.
+                StrandsError::Inconsistent(m) => anyhow::anyhow!("{}: {m}", output.display()),
+                e => e.into(),
+            })?;
+            eprintln!("{} strands, {} points ({}) → {}", s.strand_count(), s.points.len(), s.basis, output.display());
         }
     }
     Ok(())

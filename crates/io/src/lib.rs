@@ -2,6 +2,11 @@
 //!
 //! * [`hair`]: Cem Yuksel's binary `.hair` strand format (cyHair), read and write, with every
 //!   malformed file reported as a typed [`hair::HairError`] naming the byte offset.
+//! * [`strands`]: [`Strands`], the format-neutral set of curves (control points, diameters,
+//!   basis) every hair format reads into.
+//! * [`strand_files`]: hair files of any format, by extension: read, written, counted.
+//! * [`pbrt_curves`]: the `Shape "curve"`s of pbrt-v4 scene files (`.pbrt`, `.pbrt.gz`).
+//! * [`usda_curves`]: USD `BasisCurves` in `.usda` text, read and write.
 //! * [`image_file`]: linear OpenEXR and tone-mapped sRGB PNG output, each written to a temporary
 //!   file in the destination directory and renamed into place, so a reader never sees half an image.
 //! * [`image_metrics`]: RMSE, relative MSE, SSIM and FLIP between two images (`fiberlab compare`).
@@ -10,7 +15,13 @@
 pub mod hair;
 pub mod image_file;
 pub mod image_metrics;
+pub mod pbrt_curves;
+pub mod strand_files;
+pub mod strands;
 pub mod table;
+pub mod usda_curves;
 
 pub use hair::{HairError, HairFile, HairHeader};
 pub use image_file::{ImageError, LinearImage, ToneMap};
+pub use strand_files::{Format, StrandCounts};
+pub use strands::{Basis, CurveKind, Strands, StrandsError};

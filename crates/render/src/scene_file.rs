@@ -6,8 +6,9 @@
 //! [render]            # spp, max_depth, seed, exposure (stops, for the PNG)
 //! [materials.NAME]    # model = "<scatter model>", params = { key = value }   (fibers)
 //!                     # or lambert = [r, g, b] | mirror = [r, g, b]            (surfaces)
-//! [[hair]]            # material; file = "x.hair" or generator = { … HairParams … }
-//!                     # (strand diameters: crate::strand_diameters)
+//! [[hair]]            # material; file = "x.hair" | "x.pbrt" | "x.pbrt.gz" | "x.usda"
+//!                     # or generator = { … HairParams … }; segments_per_curve (cubic
+//!                     # curves, default 8) (strand diameters: crate::strand_diameters)
 //! [[sphere]]          # center, radius, material, optional emission = [r, g, b] (a light)
 //! [[mesh]]            # file = "x.obj", material, scale, translate; or floor = y
 //! [[light]]           # type = "environment" (radiance) | "envmap" (file, scale)
@@ -17,7 +18,7 @@
 //! Relative paths are resolved against the scene file's directory.
 
 use crate::camera::Camera;
-use crate::curves::CurveSet;
+use crate::curves::{CubicBasis, CurveSet};
 use crate::generator::HairParams;
 use crate::integrator::RenderSettings;
 use crate::light::{EnvironmentMap, Light};
@@ -160,7 +161,18 @@ struct HairDesc {
     material: Spanned<String>,
     file: Option<Spanned<String>>,
     generator: Option<Spanned<HairParams>>,
+    /// Polyline segments each span of a cubic curve file becomes (default
+    /// [`DEFAULT_SEGMENTS_PER_CURVE`]); linear files and `.hair` are not subdivided.
+    segments_per_curve: Option<Spanned<usize>>,
 }
+
+/// Segments per span of cubic curves (pbrt, USD) when `[[hair]]` does not say: the chord
+/// of a span of a hair (a few curvature radii long) then deviates from the curve by well under
+/// a diameter.
+pub const DEFAULT_SEGMENTS_PER_CURVE: usize = 8;
+
+/// Largest `segments_per_curve`.
+pub const MAX_SEGMENTS_PER_CURVE: usize = 1024;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -404,14 +416,19 @@ impl SceneFile {
         let mut hair = Vec::new();
         for h in &self.desc.hair {
             let hd = h.get_ref();
+            let per_curve = self.segments_per_curve(hd)?;
             let from_file = |path: &Path, span| {
-                let header = fiberlab_io::HairHeader::read(path).map_err(|e| self.error(span, e.to_string()))?;
+                // `.hair`: its header; pbrt and USD text: a pass that counts the points.
+                let c = fiberlab_io::strand_files::count(path).map_err(|e| self.error(span, e.to_string()))?;
+                let segments = c.segments(per_curve);
+                // A cubic file is also held as the polylines its diameters are checked on.
+                let polylines = if c.basis == fiberlab_io::Basis::Linear { 0 } else { segments.saturating_mul(2 * 16) };
                 Ok::<_, SceneError>(HairEstimate {
                     source: path.display().to_string(),
-                    strands: header.strand_count.into(),
-                    segments: header.segment_count(),
-                    hair_bytes: Some(header.read_bytes()),
-                    bvh_bytes: CurveSet::estimated_bytes(header.segment_count()),
+                    strands: c.strands,
+                    segments,
+                    hair_bytes: Some(c.read_bytes.saturating_add(polylines)),
+                    bvh_bytes: CurveSet::estimated_bytes(segments),
                 })
             };
             let estimate = match (&self.hair_override, &hd.file, &hd.generator) {
@@ -562,24 +579,25 @@ impl SceneFile {
         for h in &self.desc.hair {
             let hd = h.get_ref();
             let material = self.fiber_material(names, &hd.material)?;
-            // The hair, where its errors are reported, and what it is called in them.
-            let (hair, span, source) = if let Some(p) = &self.hair_override {
-                let hair = HairFile::read(p).map_err(|e| self.error(h.span(), e.to_string()))?;
-                (hair, h.span(), format!("--hair {}", p.display()))
+            let per_curve = self.segments_per_curve(hd)?;
+            // The hair, where its errors are reported, and what it is called in them; cubic
+            // curves come with their control points, the hair then holds their polylines.
+            let (loaded, span, source) = if let Some(p) = &self.hair_override {
+                (self.hair_file(p, h.span(), per_curve)?, h.span(), format!("--hair {}", p.display()))
             } else {
                 match (&hd.file, &hd.generator) {
                     (Some(f), None) => {
                         let path = self.resolve(f.get_ref());
-                        let hair = HairFile::read(&path).map_err(|e| self.error(f.span(), e.to_string()))?;
-                        (hair, f.span(), format!("hair file {}", path.display()))
+                        (self.hair_file(&path, f.span(), per_curve)?, f.span(), format!("hair file {}", path.display()))
                     }
                     (None, Some(g)) => {
                         let hair = g.get_ref().generate().map_err(|e| self.error(g.span(), e.to_string()))?;
-                        (hair, g.span(), "hair generator".to_string())
+                        ((hair, None), g.span(), "hair generator".to_string())
                     }
                     _ => return Err(self.error(h.span(), "hair: give exactly one of file, generator".into())),
                 }
             };
+            let (hair, cubic) = loaded;
             let segments = (hair.points.len() as u64).saturating_sub(hair.strand_count.into());
             if segments > CurveSet::MAX_SEGMENTS {
                 return Err(self.error(
@@ -592,9 +610,46 @@ impl SceneFile {
                 ));
             }
             strand_diameters::check(&hair).map_err(|e| self.error(span, format!("{source}: {e}")))?;
-            scene.fibers(CurveSet::from_hair(&hair), material);
+            let curves = match cubic {
+                None => CurveSet::from_hair(&hair),
+                Some(strands) => cubic_curves(&strands, per_curve),
+            };
+            scene.fibers(curves, material);
         }
         Ok(())
+    }
+
+    /// `segments_per_curve` of a `[[hair]]` entry, checked.
+    fn segments_per_curve(&self, hd: &HairDesc) -> Result<usize, SceneError> {
+        match &hd.segments_per_curve {
+            None => Ok(DEFAULT_SEGMENTS_PER_CURVE),
+            Some(n) if (1..=MAX_SEGMENTS_PER_CURVE).contains(n.get_ref()) => Ok(*n.get_ref()),
+            Some(n) => Err(self.error(
+                n.span(),
+                format!("hair: segments_per_curve = {} must be from 1 to {MAX_SEGMENTS_PER_CURVE}", n.get_ref()),
+            )),
+        }
+    }
+
+    /// A hair file of any format, by extension: its polylines as a [`HairFile`] (what the
+    /// diameters are checked on), and for cubic curves their control points too.
+    fn hair_file(
+        &self,
+        path: &Path,
+        span: std::ops::Range<usize>,
+        per_curve: usize,
+    ) -> Result<(HairFile, Option<fiberlab_io::Strands>), SceneError> {
+        let fail = |e: fiberlab_io::StrandsError| self.error(span.clone(), e.to_string());
+        let fail_at = |e: fiberlab_io::StrandsError| self.error(span.clone(), format!("{}: {e}", path.display()));
+        if fiberlab_io::Format::of(path).map_err(fail)? == fiberlab_io::Format::Hair {
+            return Ok((HairFile::read(path).map_err(|e| self.error(span.clone(), e.to_string()))?, None));
+        }
+        let strands = fiberlab_io::strand_files::read(path).map_err(fail)?;
+        if strands.basis == fiberlab_io::Basis::Linear {
+            return Ok((strands.to_hair().map_err(fail_at)?, None));
+        }
+        let lines = strands.to_polylines(per_curve).map_err(fail_at)?.to_hair().map_err(fail_at)?;
+        Ok((lines, Some(strands)))
     }
 
     /// A radiometric colour (radiance, irradiance, emission, a scale): every channel finite
@@ -738,6 +793,31 @@ impl SceneDesc {
             light: Vec::new(),
         }
     }
+}
+
+/// Tubes of cubic curves through [`CurveSet::from_cubic`], `per_curve` segments per span:
+/// B-splines and Bézier curves as they are, Catmull–Rom spans as the Bézier spans of the same
+/// curve (control points `c₁`, `c₁ + (c₂ − c₀)/6`, `c₂ − (c₃ − c₁)/6`, `c₂`, in `f64`).
+fn cubic_curves(strands: &fiberlab_io::Strands, per_curve: usize) -> CurveSet {
+    use fiberlab_io::Basis;
+    let point = |p: &[f32; 3]| DVec3::new(p[0].into(), p[1].into(), p[2].into());
+    let mut controls: Vec<(Vec<DVec3>, Vec<f64>)> = Vec::with_capacity(strands.strand_count());
+    for r in strands.strand_ranges() {
+        let c: Vec<DVec3> = strands.points[r.clone()].iter().map(point).collect();
+        let w: Vec<f64> = strands.widths[r].iter().map(|&w| 0.5 * f64::from(w)).collect();
+        if strands.basis != Basis::CatmullRom {
+            controls.push((c, w));
+            continue;
+        }
+        let (mut bc, mut bw) = (vec![c[1]], vec![w[1]]);
+        for i in 0..c.len().saturating_sub(3) {
+            bc.extend([c[i + 1] + (c[i + 2] - c[i]) / 6.0, c[i + 2] - (c[i + 3] - c[i + 1]) / 6.0, c[i + 2]]);
+            bw.extend([w[i + 1] + (w[i + 2] - w[i]) / 6.0, w[i + 2] - (w[i + 3] - w[i + 1]) / 6.0, w[i + 2]]);
+        }
+        controls.push((bc, bw));
+    }
+    let basis = if strands.basis == Basis::BSpline { CubicBasis::BSpline } else { CubicBasis::Bezier };
+    CurveSet::from_cubic(basis, per_curve, controls.iter().map(|(c, w)| (c.as_slice(), w.as_slice())))
 }
 
 #[cfg(test)]

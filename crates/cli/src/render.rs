@@ -30,7 +30,7 @@ use std::time::{Duration, Instant};
 pub struct Args {
     /// Scene file (TOML); the built-in default scene when omitted.
     scene: Option<PathBuf>,
-    /// Use this .hair file for the scene's hair.
+    /// Use this hair file (`.hair`, `.pbrt`, `.pbrt.gz` or `.usda`) for the scene's hair.
     #[arg(long)]
     hair: Option<PathBuf>,
     /// Samples per pixel, ≥ 1 (default: the scene's).

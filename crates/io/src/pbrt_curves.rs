@@ -23,8 +23,8 @@
 //! * The width runs linearly from `width0` at the start of the curve to `width1` at its end
 //!   (pbrt's rule); as Bézier curves reproduce linear functions, the control point `j` of the
 //!   `3k + 1` gets `width0 + (width1 − width0)·j/(3k)`.
-//! * `Include` and `Import` of `.pbrt` and `.pbrt.gz` files, resolved relative to the
-//!   directory of the file that includes them, at most [`MAX_INCLUDE_DEPTH`] deep; a file that
+//! * `Include` and `Import` of `.pbrt` and `.pbrt.gz` files, resolved as pbrt-v4 does:
+//!   relative to the directory of the top-level scene file (also for nested includes), at most [`MAX_INCLUDE_DEPTH`] deep; a file that
 //!   includes itself through any chain is an error.
 //! * The current transformation: `Identity`, `Translate`, `Scale`, `Rotate` (degrees, the file
 //!   format's unit), `Transform` and `ConcatTransform` (16 numbers, column by column, as pbrt
@@ -523,7 +523,10 @@ impl Parser {
                 "Include" | "Import" => {
                     let name = string(lx, t)?;
                     let rel = PathBuf::from(unescape(name.text));
-                    let target = path.parent().map_or(rel.clone(), |d| d.join(&rel));
+                    // pbrt-v4 resolves every relative name against the directory of the scene
+                    // file it was started on, however deep the include.
+                    let root = self.files.first().map_or(path, PathBuf::as_path);
+                    let target = root.parent().map_or(rel.clone(), |d| d.join(&rel));
                     // Errors inside the included file name it; errors opening it name this one.
                     let text = lx.text;
                     self.file(&target, Some((path, text, name.offset)), depth + 1).map_err(Failure::Nested)?;

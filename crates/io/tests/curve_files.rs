@@ -181,7 +181,8 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
 }
 
 #[test]
-fn pbrt_includes_plain_and_gzip_relative_to_the_including_file() {
+/// pbrt-v4 resolves include names against the top-level scene's directory, also when nested.
+fn pbrt_includes_plain_and_gzip_relative_to_the_scene_file() {
     use std::io::Write;
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir(dir.path().join("geo")).unwrap();
@@ -193,7 +194,7 @@ fn pbrt_includes_plain_and_gzip_relative_to_the_including_file() {
     write(
         &dir.path().join("geo"),
         "hair.pbrt",
-        "Shape \"curve\" \"point3 P\" [0 0 0 1 0 0 2 0 0 3 0 0] \"string type\" \"cylinder\"\nInclude \"deeper.pbrt\"\n",
+        "Shape \"curve\" \"point3 P\" [0 0 0 1 0 0 2 0 0 3 0 0] \"string type\" \"cylinder\"\nInclude \"geo/deeper.pbrt\"\n",
     );
     write(
         &dir.path().join("geo"),

@@ -14,7 +14,7 @@ pub struct Args {
 #[derive(clap::Subcommand)]
 enum HairCommand {
     /// Grow strands over a unit head sphere (or fur over the whole sphere) and write a .hair file.
-    Generate(GenerateArgs),
+    Generate(Box<GenerateArgs>),
     /// Print counts, bounds and thickness of a .hair file (validates it).
     Info {
         /// The file.

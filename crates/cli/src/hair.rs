@@ -15,8 +15,8 @@ pub struct Args {
 
 #[derive(clap::Subcommand)]
 enum HairCommand {
-    /// Grow strands over a unit head sphere and write a .hair file.
-    Generate(GenerateArgs),
+    /// Grow strands over a unit head sphere (or fur over the whole sphere) and write a .hair file.
+    Generate(Box<GenerateArgs>),
     /// Print counts, bounds, widths and basis of a hair file (.hair, .pbrt, .pbrt.gz, .usda;
     /// reading it validates it).
     Info {
@@ -37,44 +37,50 @@ enum HairCommand {
     },
 }
 
+/// Defaults of `--style` straight/wavy/curly ([`HairParams::default`]) and fur
+/// ([`HairParams::fur`]); a flag given overrides the style's default.
 #[derive(clap::Args)]
 struct GenerateArgs {
-    /// straight, wavy or curly.
+    /// straight, wavy, curly (hair on a head) or fur (short, tapered, clumped strands over the
+    /// whole unit sphere; the defaults below in parentheses).
     #[arg(long, default_value_t = HairParams::default().style)]
     style: Style,
-    /// Number of strands.
-    #[arg(long, default_value_t = HairParams::default().strands)]
-    strands: usize,
-    /// Segments per strand.
-    #[arg(long, default_value_t = HairParams::default().segments)]
-    segments: usize,
-    /// Strand length (head radius = 1).
-    #[arg(long, default_value_t = HairParams::default().length)]
-    length: f64,
-    /// Wave/curl amplitude (head radius = 1).
-    #[arg(long, default_value_t = HairParams::default().amplitude)]
-    amplitude: f64,
-    /// Wave/curl length (pitch).
-    #[arg(long, default_value_t = HairParams::default().wavelength)]
-    wavelength: f64,
-    /// Number of clumps (0: none).
-    #[arg(long, default_value_t = HairParams::default().clumps)]
-    clumps: usize,
-    /// Blend toward the clump guide at the tip, [0, 1].
-    #[arg(long, default_value_t = HairParams::default().clumping)]
-    clumping: f64,
-    /// Pull toward −y per unit length.
-    #[arg(long, default_value_t = HairParams::default().gravity)]
-    gravity: f64,
-    /// Random direction jitter per step.
-    #[arg(long, default_value_t = HairParams::default().noise)]
-    noise: f64,
-    /// Root diameter.
-    #[arg(long, default_value_t = HairParams::default().root_diameter)]
-    root_diameter: f64,
-    /// Tip diameter as a fraction of the root diameter (1: constant radius).
-    #[arg(long, default_value_t = HairParams::default().tip_ratio)]
-    tip_ratio: f64,
+    /// Number of strands [default: 20000 (fur: 60000)].
+    #[arg(long)]
+    strands: Option<usize>,
+    /// Segments per strand [default: 24 (fur: 6)].
+    #[arg(long)]
+    segments: Option<usize>,
+    /// Strand length, head radius = 1 [default: 1.6 (fur: 0.14)].
+    #[arg(long)]
+    length: Option<f64>,
+    /// Each strand's length is uniform in [length·(1 − j), length], j in [0, 1) [default: 0 (fur: 0.35)].
+    #[arg(long)]
+    length_jitter: Option<f64>,
+    /// Wave/curl amplitude, head radius = 1 [default: 0.03 (fur: no waves)].
+    #[arg(long)]
+    amplitude: Option<f64>,
+    /// Wave/curl length (pitch) [default: 0.35].
+    #[arg(long)]
+    wavelength: Option<f64>,
+    /// Number of clumps, 0: none [default: 400 (fur: 3000)].
+    #[arg(long)]
+    clumps: Option<usize>,
+    /// Blend toward the clump guide at the tip, [0, 1] [default: 0.35 (fur: 0.6)].
+    #[arg(long)]
+    clumping: Option<f64>,
+    /// Pull toward −y per unit length [default: 3 (fur: 1.5)].
+    #[arg(long)]
+    gravity: Option<f64>,
+    /// Random direction jitter per step [default: 0.04 (fur: 0.08)].
+    #[arg(long)]
+    noise: Option<f64>,
+    /// Root diameter [default: 0.002 (fur: 0.005)].
+    #[arg(long)]
+    root_diameter: Option<f64>,
+    /// Tip diameter as a fraction of the root diameter, 1: constant radius [default: 0.5 (fur: 0.1)].
+    #[arg(long)]
+    tip_ratio: Option<f64>,
     /// Random seed.
     #[arg(long, default_value_t = HairParams::default().seed)]
     seed: u64,
@@ -89,21 +95,23 @@ struct GenerateArgs {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     match &args.command {
         HairCommand::Generate(g) => {
+            let base = if g.style == Style::Fur { HairParams::fur() } else { HairParams::default() };
             let params = HairParams {
                 style: g.style,
-                strands: g.strands,
-                segments: g.segments,
-                length: g.length,
-                amplitude: g.amplitude,
-                wavelength: g.wavelength,
-                clumps: g.clumps,
-                clumping: g.clumping,
-                gravity: g.gravity,
-                noise: g.noise,
-                root_diameter: g.root_diameter,
-                tip_ratio: g.tip_ratio,
+                strands: g.strands.unwrap_or(base.strands),
+                segments: g.segments.unwrap_or(base.segments),
+                length: g.length.unwrap_or(base.length),
+                length_jitter: g.length_jitter.unwrap_or(base.length_jitter),
+                amplitude: g.amplitude.unwrap_or(base.amplitude),
+                wavelength: g.wavelength.unwrap_or(base.wavelength),
+                clumps: g.clumps.unwrap_or(base.clumps),
+                clumping: g.clumping.unwrap_or(base.clumping),
+                gravity: g.gravity.unwrap_or(base.gravity),
+                noise: g.noise.unwrap_or(base.noise),
+                root_diameter: g.root_diameter.unwrap_or(base.root_diameter),
+                tip_ratio: g.tip_ratio.unwrap_or(base.tip_ratio),
                 seed: g.seed,
-                ..HairParams::default()
+                ..base
             };
             g.memory.check(&crate::memory_budget::hair_generate_needs(&params))?;
             let hair = params.generate()?;

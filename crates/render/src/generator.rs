@@ -1,4 +1,4 @@
-//! Procedural hair: strands grown over the scalp of a head sphere.
+//! Procedural hair: strands grown over the scalp of a head sphere, or fur over a sphere.
 //!
 //! Deterministic for a seed (its own SplitMix64 generator, independent of crate versions and
 //! thread count). Each strand:
@@ -14,6 +14,14 @@
 //!    toward its nearest guide (by root distance) with weight `clumping·(s/L)` at arc length s.
 //!
 //! Thickness: diameter `root_diameter` at the root, tapering linearly to `tip_ratio` of it.
+//!
+//! **Fur** ([`Style::Fur`], defaults in [`HairParams::fur`]): the same root placement, without
+//! the face region (fur covers the whole cap, the whole sphere at `scalp_angle_deg = 180`).
+//! Each strand's length is drawn uniformly in `[length·(1 − length_jitter), length]`; it leaves
+//! the surface along the normal leaned by [`FUR_LEAN`] toward the comb direction, then gravity
+//! and noise bend it as above. No waves. Clumping pulls the strand's points toward the clump
+//! guide's own points (not its shape), with weight `clumping·(s/L)`, so the tips of a clump
+//! converge on the guide's tip — the clump centre — while the roots stay where they grew.
 
 use fiberlab_io::HairFile;
 use fiberlab_math::DVec3;
@@ -33,6 +41,9 @@ const COMB_SPREAD: f64 = 0.5;
 const COMB_DOWN: f64 = 0.2;
 /// Normal component of the root direction (0 = flat on the scalp).
 const ROOT_LIFT: f64 = 0.25;
+/// Fur: tangential (comb-direction) part of a strand's first direction per unit of the
+/// surface normal (0.6: leaning about 31° from the normal).
+pub const FUR_LEAN: f64 = 0.6;
 
 /// Hair style.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
@@ -45,6 +56,8 @@ pub enum Style {
     Wavy,
     /// Helical curls.
     Curly,
+    /// Short strands leaning off the surface, tips pulled together into clumps.
+    Fur,
 }
 
 impl std::fmt::Display for Style {
@@ -53,6 +66,7 @@ impl std::fmt::Display for Style {
             Style::Straight => "straight",
             Style::Wavy => "wavy",
             Style::Curly => "curly",
+            Style::Fur => "fur",
         })
     }
 }
@@ -64,7 +78,8 @@ impl std::str::FromStr for Style {
             "straight" => Ok(Style::Straight),
             "wavy" => Ok(Style::Wavy),
             "curly" => Ok(Style::Curly),
-            _ => Err(format!("unknown style `{s}`; expected straight, wavy or curly")),
+            "fur" => Ok(Style::Fur),
+            _ => Err(format!("unknown style `{s}`; expected straight, wavy, curly or fur")),
         }
     }
 }
@@ -77,8 +92,10 @@ pub struct HairParams {
     pub strands: usize,
     /// Segments per strand.
     pub segments: usize,
-    /// Strand length.
+    /// Strand length (the longest, with `length_jitter`).
     pub length: f64,
+    /// Each strand's length is uniform in `[length·(1 − length_jitter), length]`, [0, 1).
+    pub length_jitter: f64,
     /// Diameter at the root.
     pub root_diameter: f64,
     /// Tip diameter as a fraction of the root diameter.
@@ -113,6 +130,7 @@ impl Default for HairParams {
             strands: 20_000,
             segments: 24,
             length: 1.6,
+            length_jitter: 0.0,
             root_diameter: 0.002,
             tip_ratio: 0.5,
             style: Style::Wavy,
@@ -126,6 +144,32 @@ impl Default for HairParams {
             head_radius: 1.0,
             scalp_angle_deg: 105.0,
             seed: 1,
+        }
+    }
+}
+
+impl HairParams {
+    /// Fur on a unit sphere: 60,000 short strands (0.09–0.14 radius, 6 segments) over the
+    /// whole sphere, diameter 0.005 at the root tapering to a tenth of it, 3,000 clumps pulled
+    /// together to 60 % at the tips, a little gravity and noise.
+    #[must_use]
+    pub fn fur() -> Self {
+        Self {
+            strands: 60_000,
+            segments: 6,
+            length: 0.14,
+            length_jitter: 0.35,
+            root_diameter: 0.005,
+            tip_ratio: 0.1,
+            style: Style::Fur,
+            amplitude: 0.0,
+            wavelength: 0.0,
+            clumps: 3000,
+            clumping: 0.6,
+            gravity: 1.5,
+            noise: 0.08,
+            scalp_angle_deg: 180.0,
+            ..Self::default()
         }
     }
 }
@@ -174,6 +218,9 @@ impl HairParams {
                 return bad(key, v, "a finite number > 0");
             }
         }
+        if !(0.0..1.0).contains(&self.length_jitter) {
+            return bad("length_jitter", self.length_jitter, "a number in [0, 1) (every strand keeps a length > 0)");
+        }
         for (key, v) in [("tip_ratio", self.tip_ratio), ("clumping", self.clumping)] {
             if !(0.0..=1.0).contains(&v) {
                 return bad(key, v, "a number in [0, 1]");
@@ -201,7 +248,7 @@ impl HairParams {
                 return bad(key, v, "at most 1e30 (points are stored as 32-bit floats)");
             }
         }
-        if self.style != Style::Straight && self.wavelength <= 0.0 {
+        if matches!(self.style, Style::Wavy | Style::Curly) && self.wavelength <= 0.0 {
             return bad("wavelength", self.wavelength, "> 0 for wavy or curly hair");
         }
         if !(self.scalp_angle_deg > 0.0 && self.scalp_angle_deg <= 180.0) {
@@ -269,6 +316,8 @@ impl HairParams {
             for (k, &p) in path.iter().enumerate() {
                 let s = k as f64 / self.segments as f64;
                 let q = match guide {
+                    // Fur: toward the guide's point itself, so a clump's tips meet at its centre.
+                    Some(g) if self.style == Style::Fur => p.lerp(paths[g][k], self.clumping * s),
                     Some(g) => {
                         // Follow the guide's shape, anchored at this strand's own root.
                         let follow = paths[g][k] - paths[g][0] + path[0];
@@ -305,7 +354,7 @@ impl HairParams {
             let phi = TAU * rng.next_f64();
             let s = (1.0 - y * y).max(0.0).sqrt();
             let n = DVec3::new(s * phi.cos(), y, s * phi.sin());
-            if !(n.z > 0.0 && n.y < FACE_CUTOFF_Y) {
+            if self.style == Style::Fur || !(n.z > 0.0 && n.y < FACE_CUTOFF_Y) {
                 return n;
             }
         }
@@ -315,14 +364,24 @@ impl HairParams {
     /// The strand's points: guide path plus style offsets.
     fn grow(&self, center: DVec3, n: DVec3, rng: &mut SplitMix64) -> Vec<DVec3> {
         let r_head = self.head_radius;
-        let step = self.length / self.segments as f64;
+        // Drawn only when asked for, so the other styles' strands do not change.
+        let length = if self.length_jitter > 0.0 {
+            self.length * (1.0 - self.length_jitter * rng.next_f64())
+        } else {
+            self.length
+        };
+        let step = length / self.segments as f64;
         let lift = 0.5 * self.root_diameter;
         let mut p = center + n * (r_head + lift);
         // Initial direction: combed backward (−z), slightly down and outward, projected onto
         // the scalp's tangent plane, lifted a little off it.
         let comb = DVec3::new(COMB_SPREAD * n.x, -COMB_DOWN, -1.0);
         let along = (comb - n * n.dot(comb)).normalize_or(DVec3::NEG_Y);
-        let mut dir = (along + n * ROOT_LIFT).normalize();
+        let mut dir = if self.style == Style::Fur {
+            (n + along * FUR_LEAN).normalize()
+        } else {
+            (along + n * ROOT_LIFT).normalize()
+        };
         let mut path = Vec::with_capacity(self.segments + 1);
         path.push(p);
         for _ in 0..self.segments {
@@ -338,7 +397,7 @@ impl HairParams {
             path.push(next);
             p = next;
         }
-        if self.style == Style::Straight || self.amplitude == 0.0 {
+        if matches!(self.style, Style::Straight | Style::Fur) || self.amplitude == 0.0 {
             return path;
         }
         let phase = TAU * rng.next_f64();
@@ -349,7 +408,7 @@ impl HairParams {
             let e1 = t.cross(n).normalize_or(t.any_orthonormal_vector());
             let e2 = t.cross(e1);
             let s = k as f64 * step;
-            let ramp = (s / (0.1 * self.length)).min(1.0);
+            let ramp = (s / (0.1 * length)).min(1.0);
             let a = TAU * s / self.wavelength + phase;
             let offset = match self.style {
                 Style::Wavy => e1 * a.sin(),
@@ -435,6 +494,122 @@ mod tests {
         let mean_root_y: f64 = hair.strand_ranges().iter().map(|r| f64::from(hair.points[r.start][1])).sum::<f64>()
             / hair.strand_count() as f64;
         assert!(mean_tip_y < mean_root_y - 0.5, "tips {mean_tip_y} roots {mean_root_y}");
+    }
+
+    /// A small fur: 2,000 strands over the whole unit sphere.
+    fn small_fur() -> HairParams {
+        HairParams { strands: 2000, clumps: 100, ..HairParams::fur() }
+    }
+
+    fn strand_points(hair: &HairFile) -> Vec<Vec<DVec3>> {
+        hair.strand_ranges()
+            .into_iter()
+            .map(|r| hair.points[r].iter().map(|q| DVec3::new(q[0].into(), q[1].into(), q[2].into())).collect())
+            .collect()
+    }
+
+    #[test]
+    fn fur_strands_are_short_within_the_length_range_and_cover_the_sphere() {
+        // Without clumping a fur strand is its own guide path: a polyline of `segments` steps
+        // of its drawn length / segments, bent only where it would dip into the sphere.
+        let p = HairParams { clumping: 0.0, ..small_fur() };
+        let hair = p.generate().unwrap();
+        hair.validate().unwrap();
+        let strands = strand_points(&hair);
+        assert_eq!(strands.len(), 2000);
+        let (lo, hi) = (p.length * (1.0 - p.length_jitter), p.length);
+        let mut lengths = Vec::new();
+        let mut faces = 0;
+        for pts in &strands {
+            assert_eq!(pts.len(), p.segments + 1);
+            assert!((pts[0].length() - 1.0).abs() < 1e-2, "root at radius {}", pts[0].length());
+            faces += usize::from(pts[0].z > 0.0 && pts[0].y < FACE_CUTOFF_Y);
+            let len: f64 = pts.windows(2).map(|w| w[0].distance(w[1])).sum();
+            assert!(len >= lo * (1.0 - 1e-4) && len <= hi * (1.0 + 1e-4), "length {len} outside [{lo}, {hi}]");
+            lengths.push(len);
+            // Leaning off the surface: the tip is farther out than the root.
+            assert!(pts[p.segments].length() > 1.0 + 0.15 * len, "tip at radius {}", pts[p.segments].length());
+        }
+        // Lengths spread over the range: mean of a uniform distribution, ± 5 standard errors.
+        let mean = lengths.iter().sum::<f64>() / lengths.len() as f64;
+        let sd = (hi - lo) / 12f64.sqrt() / (lengths.len() as f64).sqrt();
+        assert!((mean - 0.5 * (lo + hi)).abs() < 5.0 * sd, "mean length {mean}");
+        // No face cut-out for fur: the front-below region gets its share of the roots. On the
+        // unit sphere y is uniform in [−1, 1] (Archimedes) and independent of the azimuth, so
+        // the region's area fraction is P(y < c)·P(z > 0) = (1 + c)/2 · 1/2.
+        let frac = faces as f64 / 2000.0;
+        let area = 0.5 * (1.0 + FACE_CUTOFF_Y) * 0.5;
+        let se = (area * (1.0 - area) / 2000.0).sqrt();
+        assert!((frac - area).abs() < 5.0 * se, "roots on the front-below region {frac}, expected {area}");
+    }
+
+    #[test]
+    fn fur_tapers_from_root_to_tip() {
+        let p = small_fur();
+        let hair = p.generate().unwrap();
+        let th = hair.thickness.as_ref().unwrap();
+        for r in hair.strand_ranges() {
+            let t = &th[r];
+            assert!((f64::from(t[0]) - p.root_diameter).abs() < 1e-8);
+            assert!((f64::from(t[t.len() - 1]) - p.root_diameter * p.tip_ratio).abs() < 1e-8);
+            assert!(t.windows(2).all(|w| w[1] < w[0]), "not decreasing: {t:?}");
+        }
+    }
+
+    /// Mean distance of every non-guide tip to its clump centre (the tip of the guide nearest
+    /// its root), computed here from the generated points.
+    fn mean_tip_to_clump_centre(p: &HairParams) -> f64 {
+        let strands = strand_points(&p.generate().unwrap());
+        let guides = p.clumps;
+        let mut sum = 0.0;
+        for pts in &strands[guides..] {
+            let g = (0..guides)
+                .min_by(|&a, &b| {
+                    strands[a][0].distance_squared(pts[0]).total_cmp(&strands[b][0].distance_squared(pts[0]))
+                })
+                .unwrap();
+            sum += pts[p.segments].distance(strands[g][p.segments]);
+        }
+        sum / (strands.len() - guides) as f64
+    }
+
+    #[test]
+    fn fur_clumping_pulls_tips_toward_the_clump_centre() {
+        let loose = mean_tip_to_clump_centre(&HairParams { clumping: 0.0, ..small_fur() });
+        let tight = mean_tip_to_clump_centre(&HairParams { clumping: 0.6, ..small_fur() });
+        // The tip moves to (1 − 0.6) of its distance to the guide's tip (unless pushed out of
+        // the sphere, which only moves it along the radius).
+        assert!(tight < 0.45 * loose && tight > 0.3 * loose, "tight {tight} loose {loose}");
+        // The roots do not move.
+        let a = HairParams { clumping: 0.0, ..small_fur() }.generate().unwrap();
+        let b = small_fur().generate().unwrap();
+        for r in a.strand_ranges() {
+            assert_eq!(a.points[r.start], b.points[r.start]);
+        }
+    }
+
+    #[test]
+    fn fur_is_deterministic_for_a_seed() {
+        let a = small_fur().generate().unwrap();
+        assert_eq!(a, small_fur().generate().unwrap());
+        assert_ne!(a.points, HairParams { seed: 7, ..small_fur() }.generate().unwrap().points);
+        assert_eq!("fur".parse::<Style>(), Ok(Style::Fur));
+        assert_eq!(Style::Fur.to_string(), "fur");
+    }
+
+    #[test]
+    fn fur_parameters_are_validated() {
+        for bad in [1.0, -0.1, f64::NAN] {
+            let e = HairParams { length_jitter: bad, ..small_fur() }.generate().unwrap_err();
+            assert_eq!(e.key, "length_jitter");
+            assert!(e.to_string().contains("[0, 1)"), "{e}");
+        }
+        let e = HairParams { clumping: 1.5, ..small_fur() }.validate().unwrap_err();
+        assert_eq!(e.key, "clumping");
+        let e = HairParams { tip_ratio: -0.1, ..small_fur() }.validate().unwrap_err();
+        assert_eq!(e.key, "tip_ratio");
+        // Fur has no waves: a zero wavelength is fine.
+        assert!(HairParams::fur().validate().is_ok());
     }
 
     #[test]

@@ -121,6 +121,7 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
     let mut weight = Rgb::ONE;
     let mut ev = Events::default();
     let mut outside = true;
+    let mut in_medulla = false;
     let medulla = fiber.medulla.map(|m| (m, Surface::new_smooth_scaled(surface, m.radius)));
     for _ in 0..MAX_EVENTS {
         if outside {
@@ -153,10 +154,14 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
         // Inside: the next surface hit, unless the medulla scatters first.
         let Some(hit) = surface.intersect(p, d, EPS) else { return Outcome::Dropped };
         if let Some((m, core)) = &medulla {
-            let in_core = core.radius(p) < 1.0;
+            // Which medium the path is in is state, flipped at each crossing of the medulla's
+            // boundary: a point just placed on that boundary is on neither side to rounding
+            // error, so it must not be inferred from the position.
             let boundary = core.intersect(p, d, EPS).map_or(f64::INFINITY, |h| h.t);
-            if in_core {
-                let leave = boundary.min(hit.t);
+            if in_medulla {
+                // A path inside always meets the boundary ahead; a tangent entry whose exit is
+                // within EPS leaves at once.
+                let leave = if boundary.is_finite() { boundary } else { 0.0 };
                 let t_s = if m.sigma_s > 0.0 { -(1.0 - rng.random::<f64>()).ln() / m.sigma_s } else { f64::INFINITY };
                 if t_s < leave {
                     weight *= (m.sigma_a * -t_s).exp();
@@ -166,11 +171,13 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
                 } else {
                     weight *= (m.sigma_a * -leave).exp();
                     p += d * leave;
+                    in_medulla = false;
                 }
                 continue;
             } else if boundary < hit.t {
                 weight *= (fiber.sigma_a * -boundary).exp();
                 p += d * boundary;
+                in_medulla = true;
                 continue;
             }
         }

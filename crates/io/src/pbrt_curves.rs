@@ -42,6 +42,7 @@
 //! a wrong point count, mixed curve types in one file, a missing include — names the file, the
 //! line and the column and says what was expected.
 
+use crate::scene_text::skip_blanks_and_comments;
 use crate::strands::{Basis, CurveKind, Strands, StrandsError, line_column, utf8_text};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -162,18 +163,7 @@ impl<'a> Lexer<'a> {
 
     fn scan(&mut self) -> Result<Option<Token<'a>>, Located> {
         let b = self.text.as_bytes();
-        loop {
-            while self.pos < b.len() && b[self.pos].is_ascii_whitespace() {
-                self.pos += 1;
-            }
-            if self.pos < b.len() && b[self.pos] == b'#' {
-                while self.pos < b.len() && b[self.pos] != b'\n' {
-                    self.pos += 1;
-                }
-                continue;
-            }
-            break;
-        }
+        self.pos = skip_blanks_and_comments(b, self.pos);
         if self.pos >= b.len() {
             return Ok(None);
         }

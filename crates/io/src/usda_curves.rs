@@ -39,6 +39,7 @@
 //! `vertex`). Numbers are printed in Rust's shortest form that reads back to the same `f32`,
 //! so a write then a read gives the same bits.
 
+use crate::scene_text::skip_blanks_and_comments;
 use crate::strands::{Basis, CurveKind, Strands, StrandsError, line_column, utf8_text};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -192,18 +193,7 @@ impl<'a> Lexer<'a> {
 
     fn scan(&mut self) -> Result<Option<Token<'a>>, Located> {
         let b = self.text.as_bytes();
-        loop {
-            while self.pos < b.len() && b[self.pos].is_ascii_whitespace() {
-                self.pos += 1;
-            }
-            if self.pos < b.len() && b[self.pos] == b'#' {
-                while self.pos < b.len() && b[self.pos] != b'\n' {
-                    self.pos += 1;
-                }
-                continue;
-            }
-            break;
-        }
+        self.pos = skip_blanks_and_comments(b, self.pos);
         if self.pos >= b.len() {
             return Ok(None);
         }

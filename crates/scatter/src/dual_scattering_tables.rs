@@ -27,7 +27,9 @@
 //! The backscatter attenuation (paper eqs. 11, 13, 14) sums the paths with one or three
 //! backward events and any even number of forward events:
 //! `Ā_b = ā_b ā_f²/(1 − ā_f²) + ā_b³ ā_f²/(1 − ā_f²)³`, with `ā_f` clamped to
-//! `≤ 1 −` [`MAX_FORWARD_GAP`] so that it stays finite for white hair (`ā_f → 1`).
+//! `≤ 1 −` [`MAX_FORWARD_GAP`] so that it stays finite for white hair (`ā_f → 1`), and `ā_f`,
+//! `ā_b` scaled to sum to 1 where they sum to more (see [`backscatter_attenuation`]); the
+//! tables keep the unscaled `ā_f`, `ā_b`.
 //!
 //! Not yet here: the lobe-weighted shifts and widths (ᾱ_f, β̄_f, ᾱ_b, β̄_b) and from them the
 //! backscatter shift Δ̄_b and spread σ̄_b (they need per-lobe contributions, which
@@ -41,7 +43,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use thiserror::Error;
 
 /// `ā_f` is clamped to at most `1 − MAX_FORWARD_GAP` in the backscatter sums.
-pub const MAX_FORWARD_GAP: f64 = 1e-4;
+pub const MAX_FORWARD_GAP: f64 = 1e-9;
 
 /// Why tables cannot be built.
 #[non_exhaustive]
@@ -106,10 +108,17 @@ pub struct DualTables {
     resolution: Resolution,
 }
 
-/// `Ā_b = ā_b ā_f²/(1 − ā_f²) + ā_b³ ā_f²/(1 − ā_f²)³`, `ā_f` clamped below 1 (one channel).
+/// `Ā_b = ā_b ā_f²/(1 − ā_f²) + ā_b³ ā_f²/(1 − ā_f²)³` (one channel). The series it sums
+/// assumes each fiber loses energy, so when `ā_f + ā_b > 1` (a model whose light-side albedo
+/// exceeds 1, e.g. Chiang 2016 near grazing light) both are first scaled to sum to 1; then
+/// `ā_f ≤ 1 − MAX_FORWARD_GAP`. With `ā_b ≤ 1 − ā_f` both terms stay bounded as `ā_f → 1`
+/// (their limits are ½ and ⅛).
 #[must_use]
 pub fn backscatter_attenuation(forward: f64, backward: f64) -> f64 {
-    let af = forward.clamp(0.0, 1.0 - MAX_FORWARD_GAP);
+    let (forward, backward) = (forward.max(0.0), backward.max(0.0));
+    let total = forward + backward;
+    let (forward, backward) = if total > 1.0 { (forward / total, backward / total) } else { (forward, backward) };
+    let af = forward.min(1.0 - MAX_FORWARD_GAP);
     let af2 = af * af;
     let gap = 1.0 - af2;
     backward * af2 / gap + backward.powi(3) * af2 / gap.powi(3)
@@ -126,7 +135,7 @@ impl DualTables {
         if r.inclinations == 0 || r.incident_azimuths == 0 || r.outgoing_inclinations == 0 || r.offsets == 0 {
             return Err(DualTablesError::Resolution(format!("every cell count must be ≥ 1, got {r:?}")));
         }
-        if r.outgoing_azimuths < 2 || r.outgoing_azimuths % 2 != 0 {
+        if r.outgoing_azimuths < 2 || !r.outgoing_azimuths.is_multiple_of(2) {
             return Err(DualTablesError::Resolution(format!(
                 "outgoing_azimuths must be even and ≥ 2, got {}",
                 r.outgoing_azimuths
@@ -292,10 +301,19 @@ mod tests {
 
     #[test]
     fn backscatter_finite_as_forward_tends_to_one() {
-        for af in [0.9, 0.999, 0.99999, 1.0, 1.0 + 1e-9] {
-            let ab = backscatter_attenuation(af, 1.0 - af.min(1.0));
-            assert!(ab.is_finite() && ab >= 0.0, "ā_f = {af}: Ā_b = {ab}");
+        // Lossless, ā_b = 1 − ā_f: Ā_b → ½ + ⅛ as ā_f → 1.
+        for af in [0.999, 0.99999, 0.9999999] {
+            let ab = backscatter_attenuation(af, 1.0 - af);
+            assert!((ab - 0.625).abs() < 2e-3, "ā_f = {af}: Ā_b = {ab}");
         }
+        // ā_f = 1 exactly (the clamp) and just above it stay finite.
+        for (af, ab) in [(1.0, 0.0), (1.0 + 1e-9, 0.0), (1.0, 1e-12)] {
+            let v = backscatter_attenuation(af, ab);
+            assert!(v.is_finite() && (0.0..1.0).contains(&v), "({af}, {ab}): {v}");
+        }
+        // More than lossless (ā_f + ā_b > 1) is scaled back: (1.2, 0.8) behaves as (0.6, 0.4).
+        assert!((backscatter_attenuation(1.2, 0.8) - backscatter_attenuation(0.6, 0.4)).abs() < 1e-15);
+        assert!(backscatter_attenuation(2.0, 1.9).is_finite() && backscatter_attenuation(2.0, 1.9) < 1.0);
         // Closed form at a regular point: ā_f = 0.5, ā_b = 0.2.
         let want = 0.2 * 0.25 / 0.75 + 0.008 * 0.25 / 0.75_f64.powi(3);
         assert!((backscatter_attenuation(0.5, 0.2) - want).abs() < 1e-15);

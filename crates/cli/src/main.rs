@@ -7,6 +7,7 @@ mod bench;
 mod check;
 mod compare;
 mod compare_model;
+mod dual_tables;
 mod eval;
 mod evaluate;
 mod files;
@@ -49,6 +50,8 @@ enum Command {
     Bench(bench::Args),
     /// Virtual goniophotometer: measure f_s by ray tracing an explicit fiber.
     Measure(measure::Args),
+    /// Build the dual-scattering tables (Zinke et al. 2008) of a far-field model: CSV per light inclination and a figure.
+    DualTables(dual_tables::Args),
     /// Build the medulla scattering tables of one medium (random walk) and write CSV slices and a figure.
     MedullaTables(medulla_tables::Args),
     /// Path-trace a scene (default: a head with generated hair) to EXR and PNG.
@@ -88,6 +91,7 @@ fn main() {
         Command::Plot(a) => plot::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Measure(a) => measure::run(a),
+        Command::DualTables(a) => dual_tables::run(a),
         Command::MedullaTables(a) => medulla_tables::run(a),
         Command::Render(a) => render::run(a),
         Command::Merge(a) => merge::run(a),

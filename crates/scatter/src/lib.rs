@@ -17,6 +17,7 @@ mod spec;
 
 pub mod chiang_2016;
 pub mod deon_2011;
+pub mod dual_scattering_tables;
 pub mod goldman_1997;
 pub mod ideal_diffuse;
 pub mod ideal_specular;

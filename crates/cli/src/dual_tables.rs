@@ -1,0 +1,124 @@
+//! `fiberlab dual-tables`: the dual-scattering tables of one far-field model
+//! (`fiberlab_scatter::dual_scattering_tables`; Zinke, Yuksel, Weber and Keyser 2008) as CSV,
+//! with a figure:
+//! * `PREFIX.csv`: `theta_deg,af_r,af_g,af_b,ab_r,ab_g,ab_b,abar_b_r,abar_b_g,abar_b_b` — per
+//!   light inclination θ (degrees), the average forward attenuation ā_f, the average backward
+//!   attenuation ā_b and the backscatter attenuation Ā_b, per colour channel;
+//! * `PREFIX.png`: the three quantities over θ, per channel.
+
+use crate::arg_values::{self, OutPrefix};
+use crate::files::write_atomically;
+use crate::model_args::ModelArgs;
+use crate::plot::{register_font, write_png};
+use anyhow::Context;
+use fiberlab_math::Rgb;
+use fiberlab_scatter::dual_scattering_tables::{DualTableRow, DualTables, Resolution};
+use plotters::prelude::*;
+use std::fmt::Write as _;
+
+/// Flags of `fiberlab dual-tables`.
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Table nodes over the light inclination (−90°, 90°) (cell midpoints).
+    #[arg(long, default_value_t = 64)]
+    inclinations: usize,
+    /// Quadrature cells of the outgoing direction, in θ_r and in φ_r each (even).
+    #[arg(long, default_value_t = 128)]
+    outgoing: usize,
+    /// Quadrature cells of the incident azimuth over the light's half-circle.
+    #[arg(long, default_value_t = 16)]
+    incident: usize,
+    /// Quadrature cells of the offset h (near-field models only).
+    #[arg(long, default_value_t = 16)]
+    offsets: usize,
+    /// Output prefix: writes PREFIX.csv and PREFIX.png.
+    #[arg(long, value_parser = arg_values::out_prefix)]
+    out: OutPrefix,
+}
+
+/// Builds the tables and writes the files.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let model = args.model.build()?;
+    let resolution = Resolution {
+        inclinations: args.inclinations,
+        incident_azimuths: args.incident,
+        outgoing_inclinations: args.outgoing,
+        outgoing_azimuths: args.outgoing,
+        offsets: args.offsets,
+    };
+    let start = std::time::Instant::now();
+    let tables = DualTables::new(&model, &resolution)
+        .with_context(|| format!("dual-scattering tables of `{}`", args.model.model))?;
+    eprintln!("dual-scattering tables: {} nodes, built in {:.2} s", tables.rows().len(), start.elapsed().as_secs_f64());
+    let mut csv = String::from("theta_deg,af_r,af_g,af_b,ab_r,ab_g,ab_b,abar_b_r,abar_b_g,abar_b_b\n");
+    for row in tables.rows() {
+        write!(csv, "{:.6}", row.theta.to_degrees())?;
+        for v in [row.forward, row.backward, row.backscatter] {
+            write!(csv, ",{:.9e},{:.9e},{:.9e}", v[0], v[1], v[2])?;
+        }
+        csv.push('\n');
+    }
+    let path = args.out.with(".csv");
+    write_atomically(&path, csv.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+    let size = (1500u32, 500u32);
+    let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
+    register_font();
+    let title = format!("dual-scattering tables: {}", args.model.label());
+    draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area(), &tables, &title)?;
+    write_png(&args.out.with(".png"), &buf, size)?;
+    eprintln!("wrote {}.csv and .png", args.out);
+    Ok(())
+}
+
+/// One plotted quantity of a table row.
+type RowValue = fn(&DualTableRow) -> Rgb;
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    tables: &DualTables,
+    title: &str,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("drawing: {e:?}");
+    root.fill(&WHITE).map_err(err)?;
+    let root = root.titled(title, ("sans-serif", 22)).map_err(err)?;
+    let panels = root.split_evenly((1, 3));
+    let quantities: [(&str, RowValue); 3] = [
+        ("ā_f (forward)", |r| r.forward),
+        ("ā_b (backward)", |r| r.backward),
+        ("Ā_b (backscatter)", |r| r.backscatter),
+    ];
+    let channels = [("r", RED), ("g", GREEN), ("b", BLUE)];
+    for (panel, (name, value)) in panels.iter().zip(quantities) {
+        let top = tables.rows().iter().map(|r| value(r).max_component()).fold(0.0, f64::max).max(1e-12) * 1.05;
+        let mut chart = ChartBuilder::on(panel)
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .caption(name, ("sans-serif", 17))
+            .build_cartesian_2d(-90.0..90.0, 0.0..top)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("light inclination θ (degrees)")
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(err)?;
+        for (c, (label, colour)) in channels.iter().enumerate() {
+            let points: Vec<(f64, f64)> = tables.rows().iter().map(|r| (r.theta.to_degrees(), value(r)[c])).collect();
+            let style = colour.stroke_width(2);
+            chart
+                .draw_series(LineSeries::new(points, style))
+                .map_err(err)?
+                .label(*label)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+        }
+        chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw().map_err(err)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}

@@ -5,8 +5,8 @@
 
 use crate::fiber::{Fiber, SurfaceKind};
 use crate::surface::Surface;
-use fiberlab_math::{DVec3, FiberFrame, Rgb, fresnel};
 use fiberlab_math::phase::sample_henyey_greenstein;
+use fiberlab_math::{DVec3, FiberFrame, Rgb, fresnel};
 use rand::Rng;
 use std::f64::consts::TAU;
 

@@ -120,8 +120,8 @@
 //! rendering and χ² tests do not regenerate them.
 
 use crate::params::{ParameterError, Range};
-use fiberlab_math::split_mix::SplitMix64;
 use fiberlab_math::phase::sample_henyey_greenstein;
+use fiberlab_math::split_mix::SplitMix64;
 use fiberlab_math::{DVec3, Rgb, wrap_pi};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};

@@ -114,7 +114,7 @@ def test_hair_round_trip_and_the_command_line_info(tmp_path):
     lo, hi = (np.array(json.loads(x.strip()), dtype=np.float32) for x in fields["bounds"].split("–"))
     np.testing.assert_array_equal(lo, allp.min(axis=0))
     np.testing.assert_array_equal(hi, allp.max(axis=0))
-    tmin, tmax = (np.float32(float(x)) for x in fields["thickness"].split("–"))
+    tmin, tmax = (np.float32(float(x)) for x in fields["widths"].split("–"))
     allt = np.concatenate(thickness)
     assert (tmin, tmax) == (allt.min(), allt.max())
     # Without per-point thickness every point has the default.

@@ -71,9 +71,10 @@ def generate(**params: Any) -> Strands:
     """Grows procedural hair on a unit head sphere like ``fiberlab hair generate`` (the same
     strands for the same parameters): keyword arguments are the generator's keys of a scene
     file's ``[hair.generator]`` table — ``strands``, ``segments``, ``length``, ``style``
-    (``"straight"``, ``"wavy"``, ``"curly"``), ``amplitude``, ``wavelength``, ``clumps``,
-    ``clumping``, ``gravity``, ``noise``, ``root_diameter``, ``tip_ratio``, ``seed``, …
-    (lengths in head radii)."""
+    (``"straight"``, ``"wavy"``, ``"curly"``, ``"fur"``), ``amplitude``, ``wavelength``,
+    ``clumps``, ``clumping``, ``gravity``, ``noise``, ``root_diameter``, ``tip_ratio``,
+    ``length_jitter``, ``seed``, … (lengths in head radii). As in a scene file, keys not given take
+    the hair defaults, also for ``style="fur"`` (give the fur values, as ``scenes/fur.toml`` does)."""
     from . import _toml_value
 
     text = "\n".join(f"{k} = {_toml_value(v)}" for k, v in params.items()) + "\n"

@@ -1,7 +1,7 @@
 //! `fiberlab._native.hair_*`: `.hair` strand files (`fiberlab_io::hair`) and the procedural
 //! generator of `fiberlab hair generate` (`fiberlab_render::generator`) as arrays.
 
-use fiberlab_io::HairFile;
+use fiberlab_io::{Format, HairFile, strand_files};
 use fiberlab_render::generator::HairParams;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -27,10 +27,27 @@ fn strands<'py>(py: Python<'py>, hair: &HairFile) -> Strands<'py> {
     )
 }
 
-/// Reads a `.hair` file: see [`Strands`].
+/// Reads a hair file of any format by extension (`.hair`, `.pbrt`, `.pbrt.gz`, `.usda`, as
+/// `fiberlab hair info`): see [`Strands`]. Cubic curves come back as polylines, each span
+/// evaluated at `segments_per_curve` steps (as `fiberlab hair convert` writes them to `.hair`).
 #[pyfunction]
-pub(crate) fn hair_read<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Strands<'py>> {
-    let hair = HairFile::read(&path).map_err(|e| PyValueError::new_err(e.to_string()))?;
+#[pyo3(signature = (path, segments_per_curve = 8))]
+pub(crate) fn hair_read<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    segments_per_curve: usize,
+) -> PyResult<Strands<'py>> {
+    let error = |e: &dyn std::fmt::Display| PyValueError::new_err(e.to_string());
+    if !(1..=1024).contains(&segments_per_curve) {
+        return Err(PyValueError::new_err(format!("segments_per_curve = {segments_per_curve}: expected 1 to 1024")));
+    }
+    let hair = match Format::of(&path).map_err(|e| error(&e))? {
+        Format::Hair => HairFile::read(&path).map_err(|e| error(&e))?,
+        _ => strand_files::read(&path)
+            .and_then(|s| s.to_polylines(segments_per_curve))
+            .and_then(|s| s.to_hair())
+            .map_err(|e| error(&e))?,
+    };
     Ok(strands(py, &hair))
 }
 

@@ -266,3 +266,38 @@ def test_fit_recovers_the_parameters_data_were_made_with():
         fl.fit("kajiya-kay", wi, wo, f[:, 1], init={"p": "x"})
     with pytest.raises(ValueError, match="channel"):
         fl.fit("kajiya-kay", wi, wo, f[:, 1], channel=5, init={"p": 10})
+
+
+def test_hair_read_takes_usda_and_pbrt_curves_written_by_their_grammars(tmp_path):
+    # Linear USD BasisCurves, written here by string formatting (not by fiberlab's writer).
+    usda = tmp_path / "c.usda"
+    usda.write_text(
+        "#usda 1.0\n"
+        'def BasisCurves "hair" {\n'
+        '    uniform token type = "linear"\n'
+        "    int[] curveVertexCounts = [2, 3]\n"
+        "    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 2, 0), (0, 3, 1)]\n"
+        '    float[] widths = [0.1, 0.2, 0.3, 0.4, 0.5] (interpolation = "vertex")\n'
+        "}\n"
+    )
+    back = fl.hair.read(usda)
+    assert [len(s) for s in back.strands] == [2, 3]
+    np.testing.assert_array_equal(np.concatenate(back.strands)[4], np.float32([0, 3, 1]))
+    np.testing.assert_array_equal(np.concatenate(back.thickness), np.float32([0.1, 0.2, 0.3, 0.4, 0.5]))
+    # One cubic Bézier span in pbrt-v4's grammar, under a translation: evaluated at 4 steps,
+    # the polyline's points are the Bernstein blends of the control points, translated.
+    pbrt = tmp_path / "c.pbrt"
+    pbrt.write_text(
+        'Translate 0 0 2\nShape "curve" "point3 P" [0 0 0 1 0 0 2 1 0 3 1 0] "float width" 0.25\n'
+    )
+    back = fl.hair.read(pbrt, segments_per_curve=4)
+    (s,) = back.strands
+    c = np.array([[0, 0, 0], [1, 0, 0], [2, 1, 0], [3, 1, 0]], float)
+    t = np.linspace(0, 1, 5)[:, None]
+    bez = (1 - t) ** 3 * c[0] + 3 * (1 - t) ** 2 * t * c[1] + 3 * (1 - t) * t**2 * c[2] + t**3 * c[3]
+    np.testing.assert_allclose(s, bez + [0, 0, 2], atol=1e-6)
+    info = run_cli("hair", "info", str(pbrt))
+    assert dict(line.split(None, 1) for line in info.strip().splitlines())["strands"] == "1"
+    with pytest.raises(ValueError, match="bad.pbrt"):
+        (tmp_path / "bad.pbrt").write_text('Shape "curve" "point3 P" [0 0 0 1 0]\n')
+        fl.hair.read(tmp_path / "bad.pbrt")

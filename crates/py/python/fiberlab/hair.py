@@ -1,5 +1,6 @@
-"""Hair strands as arrays: cyHair ``.hair`` files (what ``fiberlab hair`` and scene files
-read) and the procedural generator of ``fiberlab hair generate``.
+"""Hair strands as arrays: hair files (cyHair ``.hair`` read and written; pbrt-v4 curves and
+USD ``.usda`` read — what ``fiberlab hair`` and scene files read) and the procedural generator
+of ``fiberlab hair generate``.
 
 A hair is a list of strands, each an ``(n_i, 3)`` float32 array of points from root to tip
 (scene units), with an optional diameter per point.
@@ -35,9 +36,13 @@ def _split(points, counts, thickness, has_thickness, default_thickness) -> Stran
     return Strands(strands, per_point if has_thickness else None, float(default_thickness))
 
 
-def read(path) -> Strands:
-    """Reads a ``.hair`` file (every malformed file raises ``ValueError`` naming the problem)."""
-    return _split(*_native.hair_read(str(path)))
+def read(path, segments_per_curve: int = 8) -> Strands:
+    """Reads a hair file by its extension — ``.hair``, pbrt-v4 curves (``.pbrt``, ``.pbrt.gz``)
+    or USD ``BasisCurves`` (``.usda``), as scenes and ``fiberlab hair info`` do. Cubic curves are
+    returned as polylines, each span evaluated at ``segments_per_curve`` uniform steps (as
+    ``fiberlab hair convert`` writes them to ``.hair``). Every malformed file raises
+    ``ValueError`` naming the file and the line or byte."""
+    return _split(*_native.hair_read(str(path), int(segments_per_curve)))
 
 
 def write(path, strands: Sequence[Any], thickness: Optional[Sequence[Any]] = None,

@@ -471,6 +471,23 @@ impl LinearSlices {
         let x = if denom > 0.0 { (2.0 * xi / denom).clamp(0.0, self.step) } else { 0.0 };
         Some(self.start + (j as f64) * self.step + x)
     }
+    /// Density at `x` of the mixture of slices `corners` (slice, interpolation weight): the
+    /// interpolated value normalised by the interpolated mass; 0 where the mixture is empty.
+    #[inline]
+    fn blend_pdf(&self, corners: &[(usize, f64); 4], x: f64) -> f64 {
+        let total: f64 = corners.iter().map(|&(k, w)| w * self.mass(k)).sum();
+        if total.is_nan() || total <= 0.0 {
+            return 0.0;
+        }
+        corners.iter().map(|&(k, w)| w * self.value(k, x)).sum::<f64>() / total
+    }
+    /// Draws from the mixture [`LinearSlices::blend_pdf`] describes, with one uniform `u`: a
+    /// slice by its weighted mass, then its inverse CDF.
+    fn blend_sample(&self, corners: &[(usize, f64); 4], u: f64) -> Option<f64> {
+        let masses = corners.map(|(k, w)| w * self.mass(k));
+        let (k, v) = pick(&masses, u)?;
+        self.sample(corners[k].0, v)
+    }
 }
 
 /// Per-node sums of one `(θ_t, h')` node's walks.
@@ -762,11 +779,7 @@ impl MedullaTables {
     #[must_use]
     pub fn azimuth_pdf(&self, theta_t: f64, h: f64, phi_q: f64) -> f64 {
         let Some(corners) = self.corners(theta_t, h) else { return 0.0 };
-        let total: f64 = corners.iter().map(|&(k, w)| w * self.azimuth_mean.mass(k)).sum();
-        if total.is_nan() || total <= 0.0 {
-            return 0.0;
-        }
-        corners.iter().map(|&(k, w)| w * self.azimuth_mean.value(k, phi_q)).sum::<f64>() / total
+        self.azimuth_mean.blend_pdf(&corners, phi_q)
     }
 
     /// Draws `φ_q ∈ (−π, π]` given `(θ_t, h')` from one uniform `u ∈ [0, 1)`; returns it with
@@ -774,9 +787,7 @@ impl MedullaTables {
     #[must_use]
     pub fn sample_azimuth(&self, theta_t: f64, h: f64, u: f64) -> Option<(f64, f64)> {
         let corners = self.corners(theta_t, h)?;
-        let masses = corners.map(|(k, w)| w * self.azimuth_mean.mass(k));
-        let (k, v) = pick(&masses, u)?;
-        let phi = wrap_pi(self.azimuth_mean.sample(corners[k].0, v)?);
+        let phi = wrap_pi(self.azimuth_mean.blend_sample(&corners, u)?);
         let pdf = self.azimuth_pdf(theta_t, h, phi);
         (pdf > 0.0).then_some((phi, pdf))
     }
@@ -822,11 +833,7 @@ impl MedullaTables {
     pub fn inclination_pdf(&self, theta_t: f64, phi_q: f64, theta_o: f64) -> f64 {
         let Some(corners) = self.profile_corners(theta_t, phi_q) else { return 0.0 };
         let x = if theta_t < 0.0 { -theta_o } else { theta_o };
-        let total: f64 = corners.iter().map(|&(k, w)| w * self.profiles_mean.mass(k)).sum();
-        if total.is_nan() || total <= 0.0 {
-            return 0.0;
-        }
-        corners.iter().map(|&(k, w)| w * self.profiles_mean.value(k, x)).sum::<f64>() / total
+        self.profiles_mean.blend_pdf(&corners, x)
     }
 
     /// Draws `θ_o` given `(θ_t, φ_q)` from one uniform `u ∈ [0, 1)`; returns it with its
@@ -834,9 +841,7 @@ impl MedullaTables {
     #[must_use]
     pub fn sample_inclination(&self, theta_t: f64, phi_q: f64, u: f64) -> Option<(f64, f64)> {
         let corners = self.profile_corners(theta_t, phi_q)?;
-        let masses = corners.map(|(k, w)| w * self.profiles_mean.mass(k));
-        let (k, v) = pick(&masses, u)?;
-        let x = self.profiles_mean.sample(corners[k].0, v)?;
+        let x = self.profiles_mean.blend_sample(&corners, u)?;
         let theta_o = if theta_t < 0.0 { -x } else { x };
         let pdf = self.inclination_pdf(theta_t, phi_q, theta_o);
         (pdf > 0.0).then_some((theta_o, pdf))

@@ -1,4 +1,5 @@
-//! The fiber scattering-function interface ([`ScatteringFunction`]), one file per model
+//! The fiber scattering-function interface ([`ScatteringFunction`]), the surface one
+//! ([`SurfaceScattering`]), one file per model
 //! (named after its paper), the shared hair core ([`hair`]), the [`Model`] enum and registry,
 //! and curve radiometry.
 //!
@@ -14,6 +15,7 @@ pub mod params;
 pub mod radiometry;
 pub mod sampling;
 mod spec;
+mod surface;
 
 pub mod chiang_2016;
 pub mod deon_2011;
@@ -31,3 +33,4 @@ pub use error::ModelError;
 pub use function::{ConeValue, Field, LobeInfo, Lobes, MIN_COS, Properties, Sample, ScatteringFunction};
 pub use model::{ALL_MODELS, MODELS, Model, ModelSpec, build, build_raw, find};
 pub use spec::{ExternalData, ModelInfo, Registered};
+pub use surface::{SurfaceProperties, SurfaceScattering};

@@ -19,6 +19,7 @@ pub mod generator;
 pub mod integrator;
 pub mod light;
 pub mod measured_table;
+pub mod mesh;
 pub mod model_loader;
 pub mod region;
 pub mod sampler;

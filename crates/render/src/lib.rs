@@ -27,4 +27,5 @@ pub mod scene;
 pub mod scene_file;
 pub mod shapes;
 pub mod strand_diameters;
+pub mod texture;
 pub mod toml_params;

@@ -15,6 +15,7 @@ pub mod bench;
 pub mod bvh;
 pub mod camera;
 pub mod curves;
+pub mod figured_maple;
 pub mod generator;
 pub mod integrator;
 pub mod light;

@@ -28,5 +28,6 @@ pub mod scene;
 pub mod scene_file;
 pub mod shapes;
 pub mod strand_diameters;
+pub mod surface_material;
 pub mod texture;
 pub mod toml_params;

@@ -12,16 +12,19 @@ use crate::curves::{CurveHit, CurveSet};
 use crate::light::{Emitter, Light, LightPicker, LightSample, SphereLight};
 use crate::mesh::SurfacePoint;
 use crate::shapes::{TriangleMesh, sphere_hit};
+use crate::surface_material::ModelMaterial;
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::Model;
 
 /// What a sphere or mesh does with light.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub enum SurfaceMaterial {
     /// Lambertian surface: `f = albedo/π`.
     Lambert(Rgb),
     /// Perfect mirror with reflectance.
     Mirror(Rgb),
+    /// A registered surface model, possibly textured ([`crate::surface_material`]).
+    Model(Box<ModelMaterial>),
 }
 
 /// A fiber material of a scene (its scattering model): only fibers take one. Obtained from

@@ -13,6 +13,7 @@
 pub mod accumulation;
 pub mod bench;
 pub mod bvh;
+pub mod cabochon;
 pub mod camera;
 pub mod curves;
 pub mod figured_maple;

@@ -28,6 +28,7 @@ pub mod kajiya_kay_1989;
 pub mod lambert_1760;
 pub mod lambertian_cylinder;
 pub mod marschner_2003;
+pub mod marschner_2005;
 pub mod measured;
 pub mod yan_2017;
 

@@ -89,6 +89,7 @@ macro_rules! surface_models {
 
 surface_models! {
     Lambertian(crate::lambert_1760::Lambertian),
+    Wood(crate::marschner_2005::Wood),
 }
 
 /// Which registry a model belongs to, as `fiberlab models` prints it (`kind: fiber`).

@@ -28,7 +28,7 @@ enum Kind {
         #[arg(long, default_value_t = 128)]
         height: usize,
         /// Curl stripes along the board.
-        #[arg(long, default_value_t = 24.0)]
+        #[arg(long, default_value_t = 12.0)]
         stripes: f64,
         /// Largest fiber dip, degrees.
         #[arg(long, default_value_t = 30.0)]

@@ -44,7 +44,7 @@ impl Default for MapleFigure {
         Self {
             width: 512,
             height: 128,
-            stripes: 24.0,
+            stripes: 12.0,
             dip_amplitude_deg: 30.0,
             angle_amplitude_deg: 4.0,
             waver: 0.35,

@@ -100,7 +100,7 @@ pub enum MaterialError {
         /// Row (0 at the top).
         y: usize,
         /// The model's error.
-        source: ModelError,
+        source: Box<ModelError>,
     },
     /// A key the model does not have, or cannot texture.
     #[error("{key}: {message}")]
@@ -208,7 +208,8 @@ fn check_texels(model: &SurfaceModel, t: &TexturedParameter) -> Result<(), Mater
     let tex = &t.texture;
     for y in 0..tex.height() {
         for x in 0..tex.width() {
-            if let Err(source) = trial.set_parameter(t.key, t.value(tex.texel(x, y))) {
+            if let Err(e) = trial.set_parameter(t.key, t.value(tex.texel(x, y))) {
+                let source = Box::new(e);
                 return Err(MaterialError::Texel { key: t.key.into(), path: tex.path().into(), x, y, source });
             }
         }

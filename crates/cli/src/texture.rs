@@ -1,6 +1,7 @@
 //! `fiberlab texture wood`: writes the procedural figured-maple fiber map
-//! ([`fiberlab_render::figured_maple`]) that `scenes/wood.toml` uses: `fiber_angle.exr` and
-//! `fiber_dip.exr` (degrees, linear) and `k_d.png` (sRGB) in the output directory.
+//! ([`fiberlab_render::figured_maple`]) that `scenes/wood.toml` uses, in the output directory:
+//! `fiber_angle.png` and `fiber_dip.png` (16-bit grey, linear: code `c` means
+//! `−90° + 180°·c/65535`, read with `remap = [-90, 90]`) and `k_d.png` (8-bit sRGB colour).
 
 use anyhow::Context;
 use fiberlab_io::ToneMap;
@@ -49,13 +50,27 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let figure = MapleFigure { width, height, stripes, dip_amplitude_deg: dip, seed, ..MapleFigure::default() };
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let maps = figure.maps();
-    for (name, image) in [("fiber_angle.exr", &maps.fiber_angle), ("fiber_dip.exr", &maps.fiber_dip)] {
+    for (name, image) in [("fiber_angle.png", &maps.fiber_angle), ("fiber_dip.png", &maps.fiber_dip)] {
         let path = out.join(name);
-        image.write_exr(&path).with_context(|| format!("writing {}", path.display()))?;
+        write_degrees_png(image, &path).with_context(|| format!("writing {}", path.display()))?;
         println!("{}", path.display());
     }
     let path = out.join("k_d.png");
     maps.k_d.write_png(&path, 0.0, ToneMap::Clamp).with_context(|| format!("writing {}", path.display()))?;
     println!("{}", path.display());
+    Ok(())
+}
+
+/// Angles in degrees (the red channel, within ±90°) as a 16-bit grey PNG, code
+/// `round((a + 90)/180 · 65535)`.
+fn write_degrees_png(image: &fiberlab_io::LinearImage, path: &std::path::Path) -> anyhow::Result<()> {
+    let codes: Vec<u16> = image
+        .pixels()
+        .iter()
+        .map(|p| ((f64::from(p[0]).clamp(-90.0, 90.0) + 90.0) / 180.0 * 65535.0).round() as u16)
+        .collect();
+    let (w, h) = (u32::try_from(image.width())?, u32::try_from(image.height())?);
+    let buffer = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, codes).context("image size")?;
+    buffer.save(path)?;
     Ok(())
 }

@@ -11,8 +11,8 @@
 //!   unit `u`, wavering by `w` periods;
 //! - `k_d`: a pale maple colour darkened along growth-ring lines that run with the grain.
 //!
-//! Angles are written in degrees (the wood model's unit at the file edge), in linear EXR; the
-//! colour in sRGB PNG.
+//! Angles are in degrees (the wood model's unit at the file edge); `fiberlab texture wood`
+//! writes them as linear 16-bit PNGs over ±90° and the colour as an sRGB PNG.
 
 use fiberlab_io::LinearImage;
 use fiberlab_math::split_mix::mix64;

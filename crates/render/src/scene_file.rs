@@ -1084,6 +1084,10 @@ mod tests {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
         for entry in std::fs::read_dir(&dir).unwrap() {
             let path = entry.unwrap().path();
+            // Scenes only (not the meshes and textures they use).
+            if path.extension().is_none_or(|e| e != "toml") {
+                continue;
+            }
             let mut f = SceneFile::read(&path).unwrap_or_else(|e| panic!("{e}"));
             for h in &mut f.desc.hair {
                 if let Some(g) = h.get_mut().generator.as_mut() {

@@ -64,10 +64,11 @@
 //! `T_o·mean(k_d)` (diffuse) and `T_o·2π·mean(k_f)` (fiber): the finish by its mirror
 //! direction or by GGX visible normals (Heitz 2018); the diffuse lobe cosine-weighted over
 //! the hemisphere; the fiber lobe inside the wood, `ψ_h` from the Gaussian truncated to
-//! `|ψ_h − ψ_o| ≤ π/2` and the azimuth about `u` uniform, then refracted out (samples below
-//! the surface or beyond the critical angle are dropped: `None`). The density of a fiber
-//! sample is `g(β; ψ_h)/(Z·2π cosψ_i)` per internal steradian, times
-//! `dω′/dω = cosθ_i/(η² cosθ_i′)`.
+//! `|ψ_h − ψ_o| ≤ π/2` (mass Z), then the azimuth about `u` uniform on the arc of that cone
+//! that can leave through the finish (inside the critical angle: an arc of length `L(ψ_i)`
+//! in closed form), then refracted out; only a cone with no such arc drops the sample
+//! (`None`). The density of a fiber sample is `g(β; ψ_h)/(Z·L(ψ_i)·cosψ_i)` per internal
+//! steradian, times `dω′/dω = cosθ_i/(η² cosθ_i′)`.
 //!
 //! # Presets (`preset=`)
 //! Chatoyant minerals: fibers in the surface plane under a polish, no separate finish.
@@ -455,8 +456,35 @@ impl Wood {
         if mass <= 0.0 {
             return 0.0;
         }
-        let internal = gaussian(self.beta, psi_i + psi_o) / (mass * TAU * cos_psi_i.max(MIN_COS));
+        let (_, half_width) = self.escape_arc(psi_i.sin(), cos_psi_i);
+        if half_width <= 0.0 {
+            return 0.0;
+        }
+        let internal = gaussian(self.beta, psi_i + psi_o) / (mass * 2.0 * half_width * cos_psi_i.max(MIN_COS));
         internal * wi.z / (self.eta * self.eta * wi_in.z.max(MIN_COS))
+    }
+
+    /// The arc of the cone `ω′·u = sinψ` (azimuth φ about `u`, from `e1` toward `e2`) whose
+    /// directions leave through the finish (`z′ > cos θ_c`, `sin θ_c = 1/η`): its centre φ₀ and
+    /// half-width in [0, π]. On the cone `z′ = sinψ·u_z + cosψ·cos δ·cos(φ − φ₀)`.
+    fn escape_arc(&self, sin_psi: f64, cos_psi: f64) -> (f64, f64) {
+        let z_c = (1.0 - 1.0 / (self.eta * self.eta)).max(0.0).sqrt();
+        let (a, b) = (sin_psi * self.u.z, cos_psi * self.e1.z.hypot(self.e2.z));
+        let phi0 = self.e2.z.atan2(self.e1.z);
+        if b <= 1e-12 {
+            return (phi0, if a > z_c { PI } else { 0.0 });
+        }
+        let c = (z_c - a) / b;
+        (
+            phi0,
+            if c <= -1.0 {
+                PI
+            } else if c >= 1.0 {
+                0.0
+            } else {
+                c.acos()
+            },
+        )
     }
 
     /// Mass of the Gaussian in ψ_h over `[ψ_o − π/2, ψ_o + π/2]` (so that ψ_i ∈ [−π/2, π/2]).
@@ -527,7 +555,11 @@ impl SurfaceScattering for Wood {
             let psi_h = self.beta * sample_truncated_normal(u[1], lo, hi);
             let psi_i = (psi_h - psi_o).clamp(-FRAC_PI_2, FRAC_PI_2);
             let (sp, cp) = psi_i.sin_cos();
-            let (sf, cf) = (TAU * u[2]).sin_cos();
+            let (phi0, half_width) = self.escape_arc(sp, cp);
+            if half_width <= 0.0 {
+                return None;
+            }
+            let (sf, cf) = (phi0 + half_width * (2.0 * u[2] - 1.0)).sin_cos();
             let wi_in = self.u * sp + (self.e1 * cf + self.e2 * sf) * cp;
             (2, self.refract_out(wi_in)?)
         } else {

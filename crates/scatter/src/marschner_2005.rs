@@ -78,7 +78,7 @@
 
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::cosine_hemisphere;
-use crate::surface_model::not_texturable;
+use crate::surface::not_texturable;
 use crate::{LobeInfo, MIN_COS, ModelError, ModelInfo, Registered, Sample, SurfaceProperties, SurfaceScattering};
 use fiberlab_math::special::{gaussian, normal_mass, sample_truncated_normal};
 use fiberlab_math::{DVec3, Rgb, fresnel};
@@ -598,7 +598,7 @@ impl SurfaceScattering for Wood {
                 self.fiber_dip = DIP.check_degrees("fiber_dip", value[0])?;
                 self.update_axis();
             }
-            _ => return Err(not_texturable(Self::INFO, key)),
+            _ => return Err(not_texturable(&Self::INFO, key)),
         }
         Ok(())
     }

@@ -639,9 +639,10 @@ mod tests {
         0.5 * (rs * rs + rp * rp)
     }
 
-    /// The identity with the ideal specular fiber: the fiber term is 2π·k_f times the Gaussian-smoothed ideal
-    /// specular fiber with uniform azimuth, `g(β; θ_i + θ_r)/(2π cos²θ_d)`, in the fiber frame
-    /// of `u`, evaluated on the refracted directions and carried through the finish.
+    /// The identity with the ideal specular fiber: the fiber term is 2π·k_f times the
+    /// Gaussian-smoothed ideal specular fiber with uniform azimuth,
+    /// `g(β; θ_i + θ_r)/(2π cos²θ_d)`, in the fiber frame of `u`, evaluated on the refracted
+    /// directions and carried through the finish.
     #[test]
     fn fiber_term_is_a_smoothed_ideal_specular_fiber_on_refracted_directions() {
         let mut rng = TestRng::new(3);
@@ -799,7 +800,8 @@ mod tests {
         assert!((rough.eval(DVec3::Z, DVec3::Z)[0] - f0 / (4.0 * PI * alpha * alpha)).abs() < 1e-12);
     }
 
-    /// The energy bound of the fiber term: no diffuse term and `k_f = 1/(2π)` keep `∫ f_r cosθ_o ≤ 1`.
+    /// The energy bound of the fiber term: no diffuse term and `k_f = 1/(2π)` keep
+    /// `∫ f_r cosθ_o ≤ 1`.
     #[test]
     fn fiber_term_alone_conserves_energy_at_its_bound() {
         for (dip, beta) in [(0.0, 10.0), (30.0, 3.0), (-60.0, 25.0), (89.0, 10.0)] {

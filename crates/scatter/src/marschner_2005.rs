@@ -1,5 +1,6 @@
 //! Finished wood and chatoyant minerals: Marschner, Westin, Arbree and Moon, *Measuring and
-//! modeling the appearance of finished wood* (SIGGRAPH 2005), §4–5.
+//! modeling the appearance of finished wood* (SIGGRAPH 2005): the subsurface fiber highlight
+//! seen through a clear finish.
 //!
 //! | parameter | unit | default | range |
 //! |---|---|---|---|
@@ -24,7 +25,7 @@
 //! the wood, `ω′ = (ω_x/η, ω_y/η, √(1 − (ω_x² + ω_y²)/η²))` (pointing back up), and loses
 //! the Fresnel reflectance on the way: `T = 1 − F(η, cosθ)`. The fiber angles are
 //! `ψ = asin(ω′·u)`, with `ψ_h = ψ_i + ψ_o` (the sum: 0 on the specular cone of the fiber)
-//! and `ψ_d = ψ_o − ψ_i`. Below the finish (the paper's eq. 4 and 5)
+//! and `ψ_d = ψ_o − ψ_i`. Below the finish (the paper's subsurface model)
 //!
 //! `f_ss(ω_i′, ω_o′) = k_d/π + k_f·g(β; ψ_h)/cos²(ψ_d/2)`,
 //!
@@ -34,10 +35,9 @@
 //!
 //! The `1/η²`: radiance entering a medium of index η is multiplied by `η²T` and leaving it
 //! by `T/η²`, while `cosθ dω = η² cosθ′ dω′`; carrying `L_r = ∫ f_r L_i cosθ_i dω_i` through
-//! both crossings leaves one factor `1/η²` on the subsurface BRDF (our derivation; the paper
-//! writes the transfer with the same transmittances). Over exit directions the factor
-//! cancels the solid-angle compression: `∫ f_r cosθ_o dω_o = T_i ∫ T_o f_ss cosθ_o′ dω_o′`
-//! for the subsurface part.
+//! both crossings leaves one factor `1/η²` on the subsurface BRDF (our derivation). Over
+//! exit directions the factor cancels the solid-angle compression:
+//! `∫ f_r cosθ_o dω_o = T_i ∫ T_o f_ss cosθ_o′ dω_o′` for the subsurface part.
 //!
 //! The fiber term is an ideal specular fiber with uniform azimuthal scattering, smoothed in
 //! `ψ_i + ψ_o` by the Gaussian, evaluated on the refracted directions: written with

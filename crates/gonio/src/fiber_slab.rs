@@ -31,8 +31,10 @@
 //! delta: its whole power `F(θ_i)` lands in the mirror bin.
 //!
 //! Paths are classified by what they met: `finish` (reflected by the interface at once),
-//! `fiber` (exactly one fiber encounter — a wall hit or a cut-face crossing from the finish —
-//! and no substrate), `substrate` (the substrate and no fiber) and `multiple` (the rest).
+//! `fiber` (exactly one fiber met at its cylindrical wall, no cut face, no substrate: every
+//! such path keeps its angle with the axis, so inside the finish it leaves on the fiber's
+//! specular cone), `substrate` (the substrate and no fiber) and `multiple` (the rest,
+//! including every path through a cut face).
 
 use crate::LobeTable;
 use fiberlab_math::{DVec3, Rgb, fresnel};
@@ -429,10 +431,10 @@ impl Tracer<'_> {
         let mut p = origin;
         let mut weight = Rgb::ONE;
         let mut place = Place::Above;
-        let (mut encounters, mut substrate) = (0u32, false);
-        let class = |encounters: u32, substrate: bool| match (encounters, substrate) {
-            (1, false) => 1,
-            (0, true) => 2,
+        let (mut encounters, mut substrate, mut cut_face) = (0u32, false, false);
+        let class = |encounters: u32, substrate: bool, cut_face: bool| match (encounters, substrate, cut_face) {
+            (1, false, false) => 1,
+            (0, true, _) => 2,
             _ => 3,
         };
         for event in 0..MAX_EVENTS {
@@ -459,7 +461,7 @@ impl Tracer<'_> {
                         p.z = 0.0;
                         let (nd, out) = dielectric_split(d, -DVec3::Z, 1.0 / slab.eta, rng);
                         if out {
-                            return Ending::Exit(nd, weight, class(encounters, substrate));
+                            return Ending::Exit(nd, weight, class(encounters, substrate, cut_face));
                         }
                         d = nd;
                     } else {
@@ -476,6 +478,7 @@ impl Tracer<'_> {
                         match self.layout.containing(p.dot(self.v), p.dot(self.w)) {
                             Some(c) => {
                                 encounters += 1;
+                                cut_face = true;
                                 let (nd, inside) = dielectric_split(d, DVec3::Z, slab.fiber_eta / slab.eta, rng);
                                 d = nd;
                                 if inside {
@@ -553,6 +556,7 @@ impl Tracer<'_> {
                         }
                     } else if d.z > 0.0 {
                         p.z = self.z_top;
+                        cut_face = true;
                         let (nd, out) = dielectric_split(d, -DVec3::Z, slab.eta / slab.fiber_eta, rng);
                         d = nd;
                         if out {
@@ -814,6 +818,43 @@ mod tests {
         let total = t_i * rho * (1.0 - fbar) / (1.0 - rho * fbar);
         let se = albedo_se(&m, "substrate");
         assert!((sub.albedo[0] - total).abs() < 5.0 * se, "{} vs {total} ± {se}", sub.albedo[0]);
+    }
+
+    #[test]
+    fn single_fiber_paths_leave_on_the_refracted_cone_of_the_axis() {
+        // Every exit of the `fiber` class has ψ_i′ + ψ_o′ = 0 for the directions refracted
+        // into the finish (D = dip): the bins it fills straddle that locus.
+        let slab = FiberSlab {
+            fiber_dip: 20f64.to_radians(),
+            fiber_angle: 0.3,
+            fiber_eta: 2.3,
+            sigma_a: Rgb::splat(5.0),
+            packing: 0.3,
+            ..FiberSlab::default()
+        };
+        let (nt, np) = (90, 180);
+        let m = run(&slab, 0.5, 0.2, 300_000, (nt, np), 31);
+        let u = slab.axis();
+        let inside = |t: f64, p: f64| {
+            let s = t.sin() / slab.eta;
+            DVec3::new(s * p.cos(), s * p.sin(), (1.0 - s * s).sqrt())
+        };
+        let psi_i = inside(0.5, 0.2).dot(u).asin();
+        let fib = m.lobe("fiber").unwrap();
+        assert!(fib.albedo[0] > 0.005, "{}", fib.albedo[0]);
+        let half_bin = 0.5 * FRAC_PI_2 / nt as f64 + 0.5 * TAU / np as f64;
+        let mut filled = 0;
+        for i in 0..nt {
+            for j in 0..np {
+                if fib.f[i * np + j][0] > 0.0 {
+                    let (t, p) = m.bin_centre(i, j);
+                    let psi_h = psi_i + inside(t, p).dot(u).asin();
+                    assert!(psi_h.abs() < 1.5 * half_bin, "bin ({t}, {p}): ψ_h = {psi_h}");
+                    filled += 1;
+                }
+            }
+        }
+        assert!(filled > 100, "{filled}");
     }
 
     #[test]

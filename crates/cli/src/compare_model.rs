@@ -510,7 +510,7 @@ fn run_surface(args: &Args) -> anyhow::Result<()> {
     if let Some(prefix) = &args.out {
         let path = prefix.with("_highlight.png");
         let title = format!("{} vs {} (fiber class)", args.table.display(), args.model.label());
-        draw_highlight(&path, &rows[0], &title)?;
+        draw_highlight(&path, &rows, &title)?;
         if !args.json {
             println!("wrote {}", path.display());
         }
@@ -518,90 +518,98 @@ fn run_surface(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Measured vs model highlight: its locus θ_peak(φ_o) and the profile through φ_i + 180°.
-fn draw_highlight(path: &std::path::Path, r: &SurfaceComparison, title: &str) -> anyhow::Result<()> {
+/// Measured vs model highlight, one row per incidence: its locus θ_peak(φ_o) and the
+/// profile through φ_i + 180°.
+fn draw_highlight(path: &std::path::Path, rows: &[SurfaceComparison], title: &str) -> anyhow::Result<()> {
     use plotters::prelude::*;
     crate::plot::register_font();
-    let size = (1400u32, 560u32);
+    let size = (1400u32, 40 + 480 * rows.len().max(1) as u32);
     let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
         let err = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("drawing: {e:?}");
         root.fill(&WHITE).map_err(err)?;
         let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
-        let (left, right) = root.split_horizontally(700);
-        let mut chart = ChartBuilder::on(&left)
-            .margin(15)
-            .x_label_area_size(40)
-            .y_label_area_size(50)
-            .caption("highlight locus: θ_o of the peak per φ_o column", ("sans-serif", 16))
-            .build_cartesian_2d(-180.0..180.0, 0.0..90.0)
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc("φ_o (degrees)")
-            .y_desc("θ_o (degrees)")
-            .label_style(("sans-serif", 13))
-            .draw()
-            .map_err(err)?;
-        chart
-            .draw_series(r.locus.iter().map(|&(p, _, m)| Circle::new((p, m), 3, RGBColor(214, 39, 40).filled())))
-            .map_err(err)?
-            .label("model (wood)")
-            .legend(|(x, y)| Circle::new((x, y), 3, RGBColor(214, 39, 40).filled()));
-        chart
-            .draw_series(r.locus.iter().map(|&(p, t, _)| Cross::new((p, t), 4, RGBColor(31, 119, 180))))
-            .map_err(err)?
-            .label("measured (explicit fibers)")
-            .legend(|(x, y)| Cross::new((x, y), 4, RGBColor(31, 119, 180)));
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 13))
-            .draw()
-            .map_err(err)?;
-        let (phi, thetas, meas, std, model) = &r.profile;
-        let top = meas.iter().chain(model.iter()).copied().fold(0.0, f64::max).max(1e-12) * 1.1;
-        let mut chart = ChartBuilder::on(&right)
-            .margin(15)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .caption(format!("f_r (1/sr) along θ_o at φ_o = {phi:.1}°"), ("sans-serif", 16))
-            .build_cartesian_2d(0.0..90.0, 0.0..top)
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc("θ_o (degrees)")
-            .y_desc("f_r (1/sr)")
-            .label_style(("sans-serif", 13))
-            .draw()
-            .map_err(err)?;
-        chart
-            .draw_series(LineSeries::new(thetas.iter().copied().zip(model.iter().copied()), RGBColor(214, 39, 40)))
-            .map_err(err)?
-            .label("model (wood)")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RGBColor(214, 39, 40)));
-        chart
-            .draw_series(
-                thetas
-                    .iter()
-                    .zip(meas.iter().zip(std.iter()))
-                    .map(|(&t, (&m, &s))| PathElement::new(vec![(t, m - s), (t, m + s)], RGBColor(31, 119, 180))),
-            )
-            .map_err(err)?;
-        chart
-            .draw_series(thetas.iter().zip(meas.iter()).map(|(&t, &m)| Cross::new((t, m), 4, RGBColor(31, 119, 180))))
-            .map_err(err)?
-            .label("measured ± 1σ")
-            .legend(|(x, y)| Cross::new((x, y), 4, RGBColor(31, 119, 180)));
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 13))
-            .draw()
-            .map_err(err)?;
+        for (r, area) in rows.iter().zip(root.split_evenly((rows.len().max(1), 1))) {
+            let (left, right) = area.split_horizontally(700);
+            let mut chart = ChartBuilder::on(&left)
+                .margin(15)
+                .x_label_area_size(40)
+                .y_label_area_size(50)
+                .caption(
+                    format!("θ_i = {:.0}°: highlight locus, θ_o of the peak per φ_o column", r.theta_i.to_degrees()),
+                    ("sans-serif", 16),
+                )
+                .build_cartesian_2d(-180.0..180.0, 0.0..90.0)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc("φ_o (degrees)")
+                .y_desc("θ_o (degrees)")
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(err)?;
+            chart
+                .draw_series(r.locus.iter().map(|&(p, _, m)| Circle::new((p, m), 3, RGBColor(214, 39, 40).filled())))
+                .map_err(err)?
+                .label("model (wood)")
+                .legend(|(x, y)| Circle::new((x, y), 3, RGBColor(214, 39, 40).filled()));
+            chart
+                .draw_series(r.locus.iter().map(|&(p, t, _)| Cross::new((p, t), 4, RGBColor(31, 119, 180))))
+                .map_err(err)?
+                .label("measured (explicit fibers)")
+                .legend(|(x, y)| Cross::new((x, y), 4, RGBColor(31, 119, 180)));
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 13))
+                .draw()
+                .map_err(err)?;
+            let (phi, thetas, meas, std, model) = &r.profile;
+            let top = meas.iter().chain(model.iter()).copied().fold(0.0, f64::max).max(1e-12) * 1.1;
+            let mut chart = ChartBuilder::on(&right)
+                .margin(15)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .caption(format!("f_r (1/sr) along θ_o at φ_o = {phi:.1}°"), ("sans-serif", 16))
+                .build_cartesian_2d(0.0..90.0, 0.0..top)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc("θ_o (degrees)")
+                .y_desc("f_r (1/sr)")
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(err)?;
+            chart
+                .draw_series(LineSeries::new(thetas.iter().copied().zip(model.iter().copied()), RGBColor(214, 39, 40)))
+                .map_err(err)?
+                .label("model (wood)")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RGBColor(214, 39, 40)));
+            chart
+                .draw_series(
+                    thetas
+                        .iter()
+                        .zip(meas.iter().zip(std.iter()))
+                        .map(|(&t, (&m, &s))| PathElement::new(vec![(t, m - s), (t, m + s)], RGBColor(31, 119, 180))),
+                )
+                .map_err(err)?;
+            chart
+                .draw_series(
+                    thetas.iter().zip(meas.iter()).map(|(&t, &m)| Cross::new((t, m), 4, RGBColor(31, 119, 180))),
+                )
+                .map_err(err)?
+                .label("measured ± 1σ")
+                .legend(|(x, y)| Cross::new((x, y), 4, RGBColor(31, 119, 180)));
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 13))
+                .draw()
+                .map_err(err)?;
+        }
         root.present().map_err(err)?;
     }
     crate::plot::write_png(path, &buf, size)

@@ -187,15 +187,6 @@ pub fn build_surface_raw<K: AsRef<str>>(name: &str, pairs: &[(K, RawValue)]) -> 
     (spec.build)(&ParamSet::from_raw(spec.name, spec.params, pairs)?)
 }
 
-/// The error of [`SurfaceScattering::set_parameter`] for a key the model cannot texture.
-pub(crate) fn not_texturable(info: ModelInfo, key: &str) -> ModelError {
-    ModelError::UnknownParameter {
-        model: info.name.into(),
-        key: format!("{key} (as a textured parameter)"),
-        known: info.params.iter().map(|s| s.key).collect::<Vec<_>>().join(", "),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -27,6 +27,7 @@ pub mod kajiya_kay_1989;
 pub mod lambertian_cylinder;
 pub mod marschner_2003;
 pub mod measured;
+pub mod sadeghi_2013;
 pub mod yan_2017;
 
 pub use error::ModelError;

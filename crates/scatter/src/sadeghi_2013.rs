@@ -305,7 +305,7 @@ impl ScatteringFunction for SadeghiThread {
     fn sample(&self, wo: DVec3, _h: f64, u: [f64; 4]) -> Option<Sample> {
         let (wi, lobe) = self.sample_local(wo, u);
         let pdf = self.pdf_local(wi, wo);
-        if !(pdf > 0.0) || !pdf.is_finite() {
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
             return None;
         }
         let weight = self.value(wi, wo) * (cos_theta(wi) / pdf);
@@ -439,10 +439,10 @@ impl SegmentFrame {
         let n = DVec3::Z * c - t0 * s;
         Self { t, n, w: t.cross(n) }
     }
-    fn to_local(&self, d: DVec3) -> DVec3 {
+    fn to_local(self, d: DVec3) -> DVec3 {
         DVec3::new(d.dot(self.t), d.dot(self.n), d.dot(self.w))
     }
-    fn to_world(&self, d: DVec3) -> DVec3 {
+    fn to_world(self, d: DVec3) -> DVec3 {
         self.t * d.x + self.n * d.y + self.w * d.z
     }
 }
@@ -642,7 +642,7 @@ impl SurfaceScattering for Sadeghi2013 {
             (frame.to_world(local).normalize(), lobe + 1)
         };
         let pdf = self.pdf(wi, wo);
-        if !(pdf > 0.0) || !pdf.is_finite() {
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
             return None;
         }
         let weight = if wi.z > 0.0 { self.eval(wi, wo) * (wi.z / pdf) } else { Rgb::ZERO };

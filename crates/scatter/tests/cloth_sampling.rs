@@ -86,3 +86,44 @@ fn sadeghi_sample_weights_estimate_the_quadrature_integral() {
     let sigma = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
     assert!((mean - quad).abs() < 5.0 * sigma + 1e-3 * quad, "MC {mean} ± {sigma} vs quadrature {quad}");
 }
+
+#[test]
+fn irawan_sampler_passes_chi2_for_every_preset() {
+    use fiberlab_scatter::irawan_2012::{IRAWAN_PRESETS, Irawan2012};
+    for (k, name) in IRAWAN_PRESETS.iter().enumerate() {
+        let mut m = Irawan2012::preset(name).unwrap();
+        m.set_position(0.3, 0.7);
+        let wo = hemisphere(0.2 + 0.2 * k as f64, 0.5 * k as f64);
+        let out = chi2_test(&AsFiber(&m), wo, 0.0, &cfg(60 + k as u64));
+        assert!(out.passes(1e-3), "{name}: {out:?}");
+        assert!((out.pdf_integral - 1.0).abs() < 2e-3, "{name}: ∫pdf = {}", out.pdf_integral);
+    }
+}
+
+/// `E[weight] = ∫ f_r cosθ_i dω_i` for the Irawan sampler at a point with a highlight.
+#[test]
+fn irawan_sample_weights_estimate_the_quadrature_integral() {
+    let mut m = fiberlab_scatter::irawan_2012::Irawan2012::preset("silk-charmeuse").unwrap();
+    m.set_position(0.3, 0.42);
+    let wo = hemisphere(0.5, 0.3);
+    let (nt, np) = (200, 400);
+    let (dt, dp) = (FRAC_PI_2 / nt as f64, TAU / np as f64);
+    let mut quad = 0.0;
+    for a in 0..nt {
+        let t = (a as f64 + 0.5) * dt;
+        for b in 0..np {
+            quad += m.eval(hemisphere(t, (b as f64 + 0.5) * dp), wo)[0] * t.cos() * t.sin() * dt * dp;
+        }
+    }
+    let mut rng = TestRng::new(5);
+    let n = 400_000;
+    let (mut sum, mut sum2) = (0.0, 0.0);
+    for _ in 0..n {
+        let w = m.sample(wo, rng.u4()).map_or(0.0, |s| s.weight[0]);
+        sum += w;
+        sum2 += w * w;
+    }
+    let mean = sum / n as f64;
+    let sigma = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+    assert!((mean - quad).abs() < 5.0 * sigma + 2e-3 * quad, "MC {mean} ± {sigma} vs quadrature {quad}");
+}

@@ -85,7 +85,7 @@ pub struct Args {
     /// Bins as NT,NP over θ_r ∈ [−90°, 90°] and φ ∈ [−180°, 180°].
     #[arg(long, default_value = "180,360", value_parser = arg_values::bins)]
     bins: Bins,
-    /// Seed.
+    /// Seed of the rays (with --surface also of the random fiber layout).
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Output prefix: PREFIX.csv and PREFIX.png are written.

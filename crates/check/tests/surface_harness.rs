@@ -69,6 +69,9 @@ impl SurfaceScattering for Broken {
     fn lobes(&self) -> Vec<LobeInfo> {
         vec![LobeInfo::smooth("all")]
     }
+    fn texturable_keys(&self) -> &'static [&'static str] {
+        &[]
+    }
     fn set_parameter(&mut self, key: &str, _value: Rgb) -> Result<(), ModelError> {
         Err(ModelError::Inconsistent(format!("no parameter {key}")))
     }

@@ -27,7 +27,10 @@ use std::path::PathBuf;
 pub struct Args {
     #[command(flatten)]
     model: ModelArgs,
-    /// Input CSV (default: standard input).
+    /// Input CSV (default: standard input): columns wi_x,wi_y,wi_z,wo_x,wo_y,wo_z; fiber models
+    /// (fiber frame) optionally h; surface models (local frame, z = normal) optionally u,v
+    /// texture coordinates, which change nothing when no texture is given. Output adds
+    /// f_r,f_g,f_b,pdf.
     #[arg(long)]
     input: Option<PathBuf>,
     /// Output CSV (default: standard output); written only when every row is valid. Its

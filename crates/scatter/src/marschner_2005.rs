@@ -585,6 +585,10 @@ impl SurfaceScattering for Wood {
         ]
     }
 
+    fn texturable_keys(&self) -> &'static [&'static str] {
+        &["k_d", "k_f", "beta", "fiber_angle", "fiber_dip"]
+    }
+
     fn set_parameter(&mut self, key: &str, value: Rgb) -> Result<(), ModelError> {
         match key {
             "k_d" => self.k_d = K_D.check_rgb("k_d", value)?,

@@ -61,6 +61,11 @@ pub trait SurfaceScattering: Send + Sync {
     /// The lobes `sample` chooses among, in the order of [`Sample::lobe`].
     fn lobes(&self) -> Vec<LobeInfo>;
 
+    /// The keys [`SurfaceScattering::set_parameter`] accepts (a subset of the model's
+    /// parameter table), so that a renderer can reject a texture bound to any other key when
+    /// it loads the scene.
+    fn texturable_keys(&self) -> &'static [&'static str];
+
     /// Replaces the parameter `key` (a key of the model's parameter table, in the units the
     /// library uses: radians for angles) by a texel value; scalar parameters read `value.r`.
     /// Must not allocate. An unknown or non-texturable key is an error.

@@ -38,9 +38,9 @@ struct Cli {
 enum Command {
     /// Validate every model (furnace, reciprocity, pdf, χ², finiteness); non-zero exit on failure.
     Check(check::Args),
-    /// List models with their parameters, units, defaults and valid ranges.
+    /// List models with their kind (fiber or surface), parameters, units, defaults and valid ranges.
     Models(models::Args),
-    /// Evaluate f_s and pdf for direction pairs read as CSV.
+    /// Evaluate f_s (fiber) or f_r (surface) and pdf for direction pairs read as CSV.
     Eval(eval::Args),
     /// Draw importance samples of ω_i for a given ω_o.
     Sample(sample::Args),

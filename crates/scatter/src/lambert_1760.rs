@@ -120,10 +120,14 @@ impl SurfaceScattering for Lambertian {
         vec![LobeInfo::smooth("diffuse")]
     }
 
+    fn texturable_keys(&self) -> &'static [&'static str] {
+        &["k_d"]
+    }
+
     fn set_parameter(&mut self, key: &str, value: Rgb) -> Result<(), ModelError> {
         match key {
             "k_d" => self.k_d = Range::UNIT.check_rgb("k_d", value)?,
-            _ => return Err(crate::surface_model::not_texturable(Self::INFO, key)),
+            _ => return Err(crate::surface::not_texturable(&Self::INFO, key)),
         }
         Ok(())
     }

@@ -1,5 +1,6 @@
 //! Finished wood and chatoyant minerals: Marschner, Westin, Arbree and Moon, *Measuring and
-//! modeling the appearance of finished wood* (SIGGRAPH 2005), §4–5.
+//! modeling the appearance of finished wood* (SIGGRAPH 2005): the subsurface fiber highlight
+//! seen through a clear finish.
 //!
 //! | parameter | unit | default | range |
 //! |---|---|---|---|
@@ -24,7 +25,7 @@
 //! the wood, `ω′ = (ω_x/η, ω_y/η, √(1 − (ω_x² + ω_y²)/η²))` (pointing back up), and loses
 //! the Fresnel reflectance on the way: `T = 1 − F(η, cosθ)`. The fiber angles are
 //! `ψ = asin(ω′·u)`, with `ψ_h = ψ_i + ψ_o` (the sum: 0 on the specular cone of the fiber)
-//! and `ψ_d = ψ_o − ψ_i`. Below the finish (the paper's eq. 4 and 5)
+//! and `ψ_d = ψ_o − ψ_i`. Below the finish (the paper's subsurface model)
 //!
 //! `f_ss(ω_i′, ω_o′) = k_d/π + k_f·g(β; ψ_h)/cos²(ψ_d/2)`,
 //!
@@ -34,10 +35,9 @@
 //!
 //! The `1/η²`: radiance entering a medium of index η is multiplied by `η²T` and leaving it
 //! by `T/η²`, while `cosθ dω = η² cosθ′ dω′`; carrying `L_r = ∫ f_r L_i cosθ_i dω_i` through
-//! both crossings leaves one factor `1/η²` on the subsurface BRDF (our derivation; the paper
-//! writes the transfer with the same transmittances). Over exit directions the factor
-//! cancels the solid-angle compression: `∫ f_r cosθ_o dω_o = T_i ∫ T_o f_ss cosθ_o′ dω_o′`
-//! for the subsurface part.
+//! both crossings leaves one factor `1/η²` on the subsurface BRDF (our derivation). Over
+//! exit directions the factor cancels the solid-angle compression:
+//! `∫ f_r cosθ_o dω_o = T_i ∫ T_o f_ss cosθ_o′ dω_o′` for the subsurface part.
 //!
 //! The fiber term is an ideal specular fiber with uniform azimuthal scattering, smoothed in
 //! `ψ_i + ψ_o` by the Gaussian, evaluated on the refracted directions: written with
@@ -64,10 +64,11 @@
 //! `T_o·mean(k_d)` (diffuse) and `T_o·2π·mean(k_f)` (fiber): the finish by its mirror
 //! direction or by GGX visible normals (Heitz 2018); the diffuse lobe cosine-weighted over
 //! the hemisphere; the fiber lobe inside the wood, `ψ_h` from the Gaussian truncated to
-//! `|ψ_h − ψ_o| ≤ π/2` and the azimuth about `u` uniform, then refracted out (samples below
-//! the surface or beyond the critical angle are dropped: `None`). The density of a fiber
-//! sample is `g(β; ψ_h)/(Z·2π cosψ_i)` per internal steradian, times
-//! `dω′/dω = cosθ_i/(η² cosθ_i′)`.
+//! `|ψ_h − ψ_o| ≤ π/2` (mass Z), then the azimuth about `u` uniform on the arc of that cone
+//! that can leave through the finish (inside the critical angle: an arc of length `L(ψ_i)`
+//! in closed form), then refracted out; only a cone with no such arc drops the sample
+//! (`None`). The density of a fiber sample is `g(β; ψ_h)/(Z·L(ψ_i)·cosψ_i)` per internal
+//! steradian, times `dω′/dω = cosθ_i/(η² cosθ_i′)`.
 //!
 //! # Presets (`preset=`)
 //! Chatoyant minerals: fibers in the surface plane under a polish, no separate finish.
@@ -77,7 +78,7 @@
 
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::cosine_hemisphere;
-use crate::surface_model::not_texturable;
+use crate::surface::not_texturable;
 use crate::{LobeInfo, MIN_COS, ModelError, ModelInfo, Registered, Sample, SurfaceProperties, SurfaceScattering};
 use fiberlab_math::special::{gaussian, normal_mass, sample_truncated_normal};
 use fiberlab_math::{DVec3, Rgb, fresnel};
@@ -455,8 +456,35 @@ impl Wood {
         if mass <= 0.0 {
             return 0.0;
         }
-        let internal = gaussian(self.beta, psi_i + psi_o) / (mass * TAU * cos_psi_i.max(MIN_COS));
+        let (_, half_width) = self.escape_arc(psi_i.sin(), cos_psi_i);
+        if half_width <= 0.0 {
+            return 0.0;
+        }
+        let internal = gaussian(self.beta, psi_i + psi_o) / (mass * 2.0 * half_width * cos_psi_i.max(MIN_COS));
         internal * wi.z / (self.eta * self.eta * wi_in.z.max(MIN_COS))
+    }
+
+    /// The arc of the cone `ω′·u = sinψ` (azimuth φ about `u`, from `e1` toward `e2`) whose
+    /// directions leave through the finish (`z′ > cos θ_c`, `sin θ_c = 1/η`): its centre φ₀ and
+    /// half-width in [0, π]. On the cone `z′ = sinψ·u_z + cosψ·cos δ·cos(φ − φ₀)`.
+    fn escape_arc(&self, sin_psi: f64, cos_psi: f64) -> (f64, f64) {
+        let z_c = (1.0 - 1.0 / (self.eta * self.eta)).max(0.0).sqrt();
+        let (a, b) = (sin_psi * self.u.z, cos_psi * self.e1.z.hypot(self.e2.z));
+        let phi0 = self.e2.z.atan2(self.e1.z);
+        if b <= 1e-12 {
+            return (phi0, if a > z_c { PI } else { 0.0 });
+        }
+        let c = (z_c - a) / b;
+        (
+            phi0,
+            if c <= -1.0 {
+                PI
+            } else if c >= 1.0 {
+                0.0
+            } else {
+                c.acos()
+            },
+        )
     }
 
     /// Mass of the Gaussian in ψ_h over `[ψ_o − π/2, ψ_o + π/2]` (so that ψ_i ∈ [−π/2, π/2]).
@@ -527,7 +555,11 @@ impl SurfaceScattering for Wood {
             let psi_h = self.beta * sample_truncated_normal(u[1], lo, hi);
             let psi_i = (psi_h - psi_o).clamp(-FRAC_PI_2, FRAC_PI_2);
             let (sp, cp) = psi_i.sin_cos();
-            let (sf, cf) = (TAU * u[2]).sin_cos();
+            let (phi0, half_width) = self.escape_arc(sp, cp);
+            if half_width <= 0.0 {
+                return None;
+            }
+            let (sf, cf) = (phi0 + half_width * (2.0 * u[2] - 1.0)).sin_cos();
             let wi_in = self.u * sp + (self.e1 * cf + self.e2 * sf) * cp;
             (2, self.refract_out(wi_in)?)
         } else {
@@ -553,6 +585,10 @@ impl SurfaceScattering for Wood {
         ]
     }
 
+    fn texturable_keys(&self) -> &'static [&'static str] {
+        &["k_d", "k_f", "beta", "fiber_angle", "fiber_dip"]
+    }
+
     fn set_parameter(&mut self, key: &str, value: Rgb) -> Result<(), ModelError> {
         match key {
             "k_d" => self.k_d = K_D.check_rgb("k_d", value)?,
@@ -566,8 +602,283 @@ impl SurfaceScattering for Wood {
                 self.fiber_dip = DIP.check_degrees("fiber_dip", value[0])?;
                 self.update_axis();
             }
-            _ => return Err(not_texturable(Self::INFO, key)),
+            _ => return Err(not_texturable(&Self::INFO, key)),
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fiberlab_check::rng::TestRng;
+    use fiberlab_math::FiberFrame;
+    use fiberlab_math::frame::half_difference;
+
+    fn wood(p: WoodParams) -> Wood {
+        Wood::new(p).unwrap()
+    }
+
+    fn dir(theta: f64, phi: f64) -> DVec3 {
+        DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+    }
+
+    fn upper(rng: &mut TestRng) -> DVec3 {
+        let w = rng.sphere_direction();
+        DVec3::new(w.x, w.y, w.z.abs().max(1e-3)).normalize()
+    }
+
+    /// Snell's law written out: the tangential part shrinks by 1/η, the rest is the normal.
+    fn snell(w: DVec3, eta: f64) -> DVec3 {
+        let t = DVec3::new(w.x, w.y, 0.0) / eta;
+        t + DVec3::Z * (1.0 - t.length_squared()).sqrt()
+    }
+
+    /// Unpolarised Fresnel reflectance from the s and p amplitudes, written out here.
+    fn fresnel_by_hand(cos_i: f64, eta: f64) -> f64 {
+        let sin_t = (1.0 - cos_i * cos_i).sqrt() / eta;
+        let cos_t = (1.0 - sin_t * sin_t).sqrt();
+        let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+        let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+        0.5 * (rs * rs + rp * rp)
+    }
+
+    /// The identity with the ideal specular fiber: the fiber term is 2π·k_f times the
+    /// Gaussian-smoothed ideal specular fiber with uniform azimuth,
+    /// `g(β; θ_i + θ_r)/(2π cos²θ_d)`, in the fiber frame of `u`, evaluated on the refracted
+    /// directions and carried through the finish.
+    #[test]
+    fn fiber_term_is_a_smoothed_ideal_specular_fiber_on_refracted_directions() {
+        let mut rng = TestRng::new(3);
+        for (angle, dip, beta, eta) in [(0.0, 0.0, 10.0, 1.5), (35.0, 25.0, 4.0, 1.54), (-120.0, -40.0, 20.0, 1.75)] {
+            let p = WoodParams {
+                eta,
+                k_d: Rgb::ZERO,
+                k_f: Rgb::new(0.1, 0.05, 0.02),
+                beta: f64::to_radians(beta),
+                fiber_angle: f64::to_radians(angle),
+                fiber_dip: f64::to_radians(dip),
+                ..WoodParams::default()
+            };
+            let m = wood(p);
+            let frame = FiberFrame::from_tangent(m.axis());
+            for _ in 0..2000 {
+                let (wi, wo) = (upper(&mut rng), upper(&mut rng));
+                let (fi, fo) = (frame.to_local(snell(wi, eta)), frame.to_local(snell(wo, eta)));
+                let (theta_h, theta_d) = half_difference(fi, fo);
+                let f_spec = gaussian(p.beta, 2.0 * theta_h) / (TAU * theta_d.cos().powi(2));
+                let t = (1.0 - fresnel_by_hand(wi.z, eta)) * (1.0 - fresnel_by_hand(wo.z, eta)) / (eta * eta);
+                let expected = p.k_f * (TAU * f_spec * t);
+                let got = m.eval(wi, wo);
+                for c in 0..3 {
+                    assert!((got[c] - expected[c]).abs() <= 1e-12 * expected[c].max(1e-300), "{got} vs {expected}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn reciprocal_for_every_finish_and_axis() {
+        let mut rng = TestRng::new(4);
+        for roughness in [0.0, 0.3] {
+            let m =
+                wood(WoodParams { roughness, fiber_angle: 0.7, fiber_dip: 0.4, beta: 0.1, ..WoodParams::default() });
+            for _ in 0..5000 {
+                let (a, b) = (upper(&mut rng), upper(&mut rng));
+                let (x, y) = (m.eval(a, b), m.eval(b, a));
+                for c in 0..3 {
+                    assert!((x[c] - y[c]).abs() <= 1e-14 * x[c].abs().max(y[c].abs()), "{x} vs {y}");
+                }
+            }
+        }
+    }
+
+    /// The highlight peaks where the refracted directions satisfy ψ_i + ψ_o = 0; with
+    /// `u = cos δ·t − sin δ·n` that is, outside the finish,
+    /// `cos δ·(ω_i + ω_o)·t = sin δ·(√(η² − |ω_i∥|²) + √(η² − |ω_o∥|²))` — solved here by
+    /// bisection and compared with the maximum of `eval` along a scan in θ_o.
+    #[test]
+    fn highlight_lies_on_the_refracted_cone_locus() {
+        let eta: f64 = 1.5;
+        let (mut tested, mut dipped) = (0, 0);
+        for (angle, dip) in [(0.0f64, 0.0f64), (0.0, 20.0), (30.0, -15.0), (-50.0, 35.0)] {
+            let (a, d) = (angle.to_radians(), dip.to_radians());
+            let t = DVec3::new(a.cos(), a.sin(), 0.0);
+            let m = wood(WoodParams {
+                eta,
+                k_d: Rgb::ZERO,
+                k_f: Rgb::splat(0.1),
+                beta: 0.5f64.to_radians(),
+                fiber_angle: a,
+                fiber_dip: d,
+                ..WoodParams::default()
+            });
+            for (wi, phi_o) in [dir(0.5, 0.3), dir(1.0, -0.8), dir(0.2, 2.0), dir(0.8, 1.0), dir(0.35, -2.5)]
+                .into_iter()
+                .flat_map(|wi| [PI, 2.6, -2.2, 0.5, -0.3, 1.4, -1.4].map(|p| (wi, p)))
+            {
+                let locus = |theta_o: f64| {
+                    let wo = dir(theta_o, phi_o);
+                    let par = |w: DVec3| (eta * eta - w.x * w.x - w.y * w.y).sqrt();
+                    d.cos() * (wi + wo).dot(t) - d.sin() * (par(wi) + par(wo))
+                };
+                let (lo, hi) = (1e-3, 1.5);
+                if locus(lo).signum() == locus(hi).signum() {
+                    continue;
+                }
+                let (mut x0, mut x1) = (lo, hi);
+                for _ in 0..100 {
+                    let mid = 0.5 * (x0 + x1);
+                    if locus(mid).signum() == locus(x0).signum() { x0 = mid } else { x1 = mid }
+                }
+                let root = 0.5 * (x0 + x1);
+                if root > 1.2 {
+                    // Near grazing the exit transmittance falls faster than the narrow
+                    // Gaussian and moves the maximum off the locus.
+                    continue;
+                }
+                let n = 75_000;
+                let best = (0..n)
+                    .map(|k| lo + (hi - lo) * (k as f64 + 0.5) / n as f64)
+                    .max_by(|&x, &y| m.eval(wi, dir(x, phi_o))[0].total_cmp(&m.eval(wi, dir(y, phi_o))[0]))
+                    .unwrap();
+                assert!((best - root).abs() < 0.03f64.to_radians(), "dip {dip} φ_o {phi_o}: {best} vs {root}");
+                tested += 1;
+                dipped += usize::from(dip != 0.0);
+            }
+        }
+        assert!(tested >= 20 && dipped >= 10, "{tested} {dipped}");
+    }
+
+    /// Diffuse only: `ρ(ω_i) = T_i·k_d·(1 − F̄)/η²`, F̄ the cosine-weighted hemispherical mean
+    /// of the Fresnel reflectance (Simpson's rule in 1D) against a 2D quadrature of `eval`.
+    #[test]
+    fn diffuse_energy_matches_the_transmittance_closed_form() {
+        let (eta, k_d) = (1.5, 0.8);
+        let m = wood(WoodParams { eta, k_d: Rgb::splat(k_d), k_f: Rgb::ZERO, ..WoodParams::default() });
+        let n = 2000;
+        let h = FRAC_PI_2 / n as f64;
+        let simpson: f64 = (0..=n)
+            .map(|k| {
+                let t = k as f64 * h;
+                let w = if k == 0 || k == n {
+                    1.0
+                } else if k % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
+                w * fresnel_by_hand(t.cos().max(1e-300), eta) * t.cos() * t.sin()
+            })
+            .sum::<f64>()
+            * h
+            / 3.0;
+        let f_mean = 2.0 * simpson;
+        for theta_i in [0.0, 0.7, 1.3] {
+            let wi = dir(theta_i, 0.2);
+            let (nt, np) = (400, 64);
+            let mut rho = 0.0;
+            for i in 0..nt {
+                let t = (i as f64 + 0.5) * FRAC_PI_2 / nt as f64;
+                for j in 0..np {
+                    let wo = dir(t, (j as f64 + 0.5) * TAU / np as f64);
+                    rho += m.eval(wi, wo)[0] * t.cos() * t.sin() * (FRAC_PI_2 / nt as f64) * (TAU / np as f64);
+                }
+            }
+            let expected = (1.0 - fresnel_by_hand(wi.z.min(1.0), eta)) * k_d * (1.0 - f_mean) / (eta * eta);
+            assert!((rho - expected).abs() < 1e-5, "θ_i {theta_i}: {rho} vs {expected}");
+        }
+    }
+
+    #[test]
+    fn fresnel_transmissions_and_the_rough_finish_at_normal_incidence() {
+        let eta = 1.6;
+        let m = wood(WoodParams { eta, k_d: Rgb::splat(1.0), k_f: Rgb::ZERO, ..WoodParams::default() });
+        let (wi, wo) = (dir(1.0, 0.0), dir(0.6, 2.0));
+        let t = (1.0 - fresnel_by_hand(1f64.cos(), eta)) * (1.0 - fresnel_by_hand(0.6f64.cos(), eta));
+        assert!((m.eval(wi, wo)[0] - t / (PI * eta * eta)).abs() < 1e-15);
+        // GGX at the pole: D = 1/(πα²), G₂ = 1, so f = F(1)/(4πα²).
+        let alpha = 0.3;
+        let rough = wood(WoodParams { eta, roughness: alpha, k_d: Rgb::ZERO, k_f: Rgb::ZERO, ..WoodParams::default() });
+        let f0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
+        assert!((rough.eval(DVec3::Z, DVec3::Z)[0] - f0 / (4.0 * PI * alpha * alpha)).abs() < 1e-12);
+    }
+
+    /// The energy bound of the fiber term: no diffuse term and `k_f = 1/(2π)` keep
+    /// `∫ f_r cosθ_o ≤ 1`.
+    #[test]
+    fn fiber_term_alone_conserves_energy_at_its_bound() {
+        for (dip, beta) in [(0.0, 10.0), (30.0, 3.0), (-60.0, 25.0), (89.0, 10.0)] {
+            let m = wood(WoodParams {
+                k_d: Rgb::ZERO,
+                k_f: Rgb::splat(1.0 / TAU),
+                beta: f64::to_radians(beta),
+                fiber_dip: f64::to_radians(dip),
+                ..WoodParams::default()
+            });
+            assert!(m.properties().energy_conserving);
+            for theta_i in [0.0, 0.8, 1.3, 1.55] {
+                let wi = dir(theta_i, 0.4);
+                let (nt, np) = (300, 600);
+                let mut rho = fresnel_by_hand(wi.z, 1.5); // the smooth finish's mirror lobe
+                for i in 0..nt {
+                    let t = (i as f64 + 0.5) * FRAC_PI_2 / nt as f64;
+                    for j in 0..np {
+                        let wo = dir(t, (j as f64 + 0.5) * TAU / np as f64);
+                        rho += m.eval(wi, wo)[0] * t.cos() * t.sin() * (FRAC_PI_2 / nt as f64) * (TAU / np as f64);
+                    }
+                }
+                assert!(rho <= 1.0, "dip {dip} β {beta} θ_i {theta_i}: {rho}");
+            }
+        }
+    }
+
+    #[test]
+    fn presets_apply_and_explicit_keys_override_them() {
+        let spec = |pairs: &[(&str, &str)]| {
+            ParamSet::parse(Wood::INFO.name, Wood::INFO.params, pairs).and_then(|p| WoodParams::from_param_set(&p))
+        };
+        assert_eq!(spec(&[("preset", "tigers-eye")]).unwrap(), WoodParams::tigers_eye());
+        assert_eq!(spec(&[("preset", "cats-eye")]).unwrap(), WoodParams::cats_eye());
+        assert_eq!(spec(&[]).unwrap(), WoodParams::default());
+        let p = spec(&[("preset", "cats-eye"), ("eta", "1.7"), ("fiber_dip", "10")]).unwrap();
+        assert_eq!((p.eta, p.beta), (1.7, WoodParams::cats_eye().beta));
+        assert!((p.fiber_dip - 10f64.to_radians()).abs() < 1e-15);
+        assert!(
+            (WoodParams::tigers_eye().eta - 1.54).abs() < 1e-15 && (WoodParams::cats_eye().eta - 1.75).abs() < 1e-15
+        );
+        assert!(spec(&[("preset", "opal")]).is_err());
+    }
+
+    #[test]
+    fn textured_parameters_match_built_ones_and_are_validated() {
+        let mut m = wood(WoodParams::default());
+        m.set_parameter("fiber_angle", Rgb::splat(1.2)).unwrap();
+        m.set_parameter("fiber_dip", Rgb::splat(0.3)).unwrap();
+        m.set_parameter("beta", Rgb::splat(0.05)).unwrap();
+        m.set_parameter("k_f", Rgb::new(0.01, 0.02, 0.03)).unwrap();
+        m.set_parameter("k_d", Rgb::new(0.3, 0.2, 0.1)).unwrap();
+        let built = wood(WoodParams {
+            fiber_angle: 1.2,
+            fiber_dip: 0.3,
+            beta: 0.05,
+            k_f: Rgb::new(0.01, 0.02, 0.03),
+            k_d: Rgb::new(0.3, 0.2, 0.1),
+            ..WoodParams::default()
+        });
+        assert!((m.axis() - fiber_axis(1.2, 0.3)).length() < 1e-15);
+        let (wi, wo) = (dir(0.4, 0.1), dir(0.9, 2.5));
+        assert_eq!(m.eval(wi, wo), built.eval(wi, wo));
+        assert_eq!(m.pdf(wi, wo), built.pdf(wi, wo));
+        assert!(m.set_parameter("beta", Rgb::splat(0.0)).is_err());
+        assert!(m.set_parameter("fiber_dip", Rgb::splat(2.0)).is_err());
+        assert!(m.set_parameter("k_d", Rgb::splat(f64::NAN)).is_err());
+        assert!(m.set_parameter("eta", Rgb::splat(1.3)).is_err());
+    }
+
+    #[test]
+    fn axis_descends_toward_the_fiber_angle() {
+        let u = fiber_axis(FRAC_PI_2, 0.5);
+        assert!((u - DVec3::new(0.0, 0.5f64.cos(), -(0.5f64.sin()))).length() < 1e-15);
     }
 }

@@ -17,7 +17,7 @@
 //! parameter. Texel values are validated once, when the texture is loaded, against the
 //! parameter's range in the model's parameter table.
 
-use crate::{LobeInfo, ModelError, Sample};
+use crate::{LobeInfo, ModelError, ModelInfo, Sample};
 use fiberlab_math::{DVec3, Rgb};
 
 /// What a surface model claims about itself; the validation harness tests exactly these.
@@ -61,8 +61,24 @@ pub trait SurfaceScattering: Send + Sync {
     /// The lobes `sample` chooses among, in the order of [`Sample::lobe`].
     fn lobes(&self) -> Vec<LobeInfo>;
 
+    /// The keys [`SurfaceScattering::set_parameter`] accepts (a subset of the model's
+    /// parameter table), so that a renderer can reject a texture bound to any other key when
+    /// it loads the scene.
+    fn texturable_keys(&self) -> &'static [&'static str];
+
     /// Replaces the parameter `key` (a key of the model's parameter table, in the units the
     /// library uses: radians for angles) by a texel value; scalar parameters read `value.r`.
     /// Must not allocate. An unknown or non-texturable key is an error.
     fn set_parameter(&mut self, key: &str, value: Rgb) -> Result<(), ModelError>;
+}
+
+/// The error [`SurfaceScattering::set_parameter`] returns for a key the model `info` cannot
+/// texture (unknown, or not texturable), naming the model and its parameters.
+#[must_use]
+pub fn not_texturable(info: &ModelInfo, key: &str) -> ModelError {
+    ModelError::UnknownParameter {
+        model: info.name.into(),
+        key: format!("{key} (as a textured parameter)"),
+        known: info.params.iter().map(|s| s.key).collect::<Vec<_>>().join(", "),
+    }
 }

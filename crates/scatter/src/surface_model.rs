@@ -79,6 +79,9 @@ macro_rules! surface_models {
             fn lobes(&self) -> Vec<LobeInfo> {
                 match self { $(SurfaceModel::$variant(m) => m.lobes(),)* }
             }
+            fn texturable_keys(&self) -> &'static [&'static str] {
+                match self { $(SurfaceModel::$variant(m) => m.texturable_keys(),)* }
+            }
             #[inline]
             fn set_parameter(&mut self, key: &str, value: Rgb) -> Result<(), ModelError> {
                 match self { $(SurfaceModel::$variant(m) => m.set_parameter(key, value),)* }
@@ -189,15 +192,6 @@ pub fn build_surface_raw<K: AsRef<str>>(name: &str, pairs: &[(K, RawValue)]) -> 
     (spec.build)(&ParamSet::from_raw(spec.name, spec.params, pairs)?)
 }
 
-/// The error of [`SurfaceScattering::set_parameter`] for a key the model cannot texture.
-pub(crate) fn not_texturable(info: ModelInfo, key: &str) -> ModelError {
-    ModelError::UnknownParameter {
-        model: info.name.into(),
-        key: format!("{key} (as a textured parameter)"),
-        known: info.params.iter().map(|s| s.key).collect::<Vec<_>>().join(", "),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -232,5 +226,32 @@ mod tests {
         assert!(m.set_parameter("k_d", Rgb::splat(f64::NAN)).is_err());
         assert!(m.set_parameter("k_d", Rgb::splat(1.5)).is_err());
         assert!(m.set_parameter("nope", Rgb::ONE).is_err());
+    }
+
+    /// Every texturable key is a parameter of the model's table and `set_parameter` takes it
+    /// (at the parameter's default, in library units); every other table key is refused.
+    #[test]
+    fn texturable_keys_are_exactly_what_set_parameter_takes() {
+        for spec in SURFACE_MODELS {
+            let mut m = build_surface::<&str, &str>(spec.name, &[]).unwrap();
+            let keys = m.texturable_keys();
+            for p in spec.params {
+                let value = match p.kind {
+                    crate::params::ParamKind::Color(_) | crate::params::ParamKind::Number(_) => {
+                        let raw = p.parse(p.default).unwrap();
+                        match raw {
+                            crate::params::ParamValue::Color(c) => c,
+                            crate::params::ParamValue::Number(x) if p.unit == "degrees" => Rgb::splat(x.to_radians()),
+                            crate::params::ParamValue::Number(x) => Rgb::splat(x),
+                            _ => unreachable!(),
+                        }
+                    }
+                    _ => Rgb::ZERO,
+                };
+                let accepted = m.set_parameter(p.key, value).is_ok();
+                assert_eq!(accepted, keys.contains(&p.key), "{}: {}", spec.name, p.key);
+            }
+            assert!(keys.iter().all(|k| spec.params.iter().any(|p| p.key == *k)), "{}", spec.name);
+        }
     }
 }

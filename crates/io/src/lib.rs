@@ -9,6 +9,8 @@
 //! * [`usda_curves`]: USD `BasisCurves` in `.usda` text, read and write.
 //! * [`image_file`]: linear OpenEXR and tone-mapped sRGB PNG output, each written to a temporary
 //!   file in the destination directory and renamed into place, so a reader never sees half an image.
+//! * [`weave_pattern`]: Irawan & Marschner weave patterns (grid + yarns) as text, read and write,
+//!   errors naming file, line and field.
 //! * [`image_metrics`]: RMSE, relative MSE, SSIM and FLIP between two images (`fiberlab compare`).
 #![forbid(unsafe_code)]
 
@@ -21,6 +23,7 @@ pub mod strand_files;
 pub mod strands;
 pub mod table;
 pub mod usda_curves;
+pub mod weave_pattern;
 
 pub use hair::{HairError, HairFile, HairHeader};
 pub use image_file::{ImageError, LinearImage, ToneMap};

@@ -754,6 +754,10 @@ impl SurfaceScattering for Irawan2012 {
         IRAWAN_LOBES.to_vec()
     }
 
+    fn texturable_keys(&self) -> &'static [&'static str] {
+        &IRAWAN_TEXTURABLE
+    }
+
     fn set_parameter(&mut self, key: &str, value: Rgb) -> Result<(), ModelError> {
         match key {
             "u" => self.position[0] = value[0],

@@ -653,6 +653,10 @@ impl SurfaceScattering for Sadeghi2013 {
         SURFACE_LOBES.to_vec()
     }
 
+    fn texturable_keys(&self) -> &'static [&'static str] {
+        &TEXTURABLE
+    }
+
     fn set_parameter(&mut self, key: &str, value: Rgb) -> Result<(), ModelError> {
         let unknown = || ModelError::UnknownParameter {
             model: "sadeghi-2013".into(),

@@ -237,6 +237,13 @@ mod tests {
             let keys = m.texturable_keys();
             for p in spec.params {
                 let value = match p.kind {
+                    // Optional overrides (no default, e.g. a preset's per-thread values): any
+                    // in-range value; 1 is in every such range.
+                    crate::params::ParamKind::Color(_) | crate::params::ParamKind::Number(_)
+                        if p.default.is_empty() =>
+                    {
+                        Rgb::ONE
+                    }
                     crate::params::ParamKind::Color(_) | crate::params::ParamKind::Number(_) => {
                         let raw = p.parse(p.default).unwrap();
                         match raw {

@@ -121,7 +121,7 @@ use crate::hair::tilt::{lobe_tilts, rotate};
 use crate::params::{ParamSet, ParamSpec, parameter_error};
 use crate::{Field, LobeInfo, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
-use fiberlab_math::special::{logistic, logistic_cdf, safe_sqrt, sample_trimmed_logistic};
+use fiberlab_math::special::{logistic, logistic_cdf, safe_sqrt};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -172,6 +172,8 @@ pub struct Chiang {
     s: f64,
     /// `1/(F_ℓ(π) − F_ℓ(−π))`.
     logistic_norm: f64,
+    /// `(F_ℓ(−π), F_ℓ(π))`, the logistic CDF at the trimmed range's ends.
+    logistic_cdf_ends: (f64, f64),
 }
 
 impl Chiang {
@@ -187,6 +189,7 @@ impl Chiang {
             tilt: lobe_tilts(alpha),
             s,
             logistic_norm: 1.0 / (logistic_cdf(PI, s) - logistic_cdf(-PI, s)),
+            logistic_cdf_ends: (logistic_cdf(-PI, s), logistic_cdf(PI, s)),
         })
     }
 
@@ -300,6 +303,24 @@ impl ScatteringFunction for Chiang {
     }
 }
 
+/// `x` wrapped to (−π, π] by whole turns, for the relative azimuths of the lobes (at most a few
+/// turns from the range): cheaper than a remainder; far or non-finite input goes to
+/// [`wrap_pi`].
+#[inline]
+fn wrap_few_turns(x: f64) -> f64 {
+    if !(x.abs() < 8.0 * PI) {
+        return wrap_pi(x);
+    }
+    let mut y = x;
+    while y > PI {
+        y -= TAU;
+    }
+    while y <= -PI {
+        y += TAU;
+    }
+    y
+}
+
 /// A [`Chiang`] fiber prepared at one path vertex (fixed `ω_o`, `h`) by [`Chiang::at_vertex`]:
 /// evaluates and samples without recomputing what depends on `ω_o` and `h` alone.
 #[derive(Clone, Copy, Debug)]
@@ -322,17 +343,25 @@ impl ChiangAtVertex<'_> {
     /// sampling density per steradian (Σ_p w_p M_p N_p).
     #[inline]
     fn integrand_and_pdf(&self, wi: DVec3) -> (Rgb, f64) {
+        self.integrand_and_pdf_at(sin_theta(wi), cos_theta(wi), phi(wi) - self.phi_o)
+    }
+
+    /// [`Self::integrand_and_pdf`] at the light direction given by `sinθ_i`, `cosθ_i` and the
+    /// relative azimuth `φ = φ_i − φ_o` (any angle within a few turns).
+    #[inline]
+    fn integrand_and_pdf_at(&self, sin_i: f64, cos_i: f64, dphi: f64) -> (Rgb, f64) {
         let Some(w) = &self.weights else { return (Rgb::ZERO, 0.0) };
         let fiber = self.fiber;
-        let (sin_i, cos_i) = (sin_theta(wi), cos_theta(wi));
-        let dphi = phi(wi) - self.phi_o;
         let (mut g, mut pdf) = (Rgb::ZERO, 0.0);
         for (p, w_p) in w.iter().enumerate() {
             let (so, co) = self.tilted[p];
             let m = fiber.longitudinal[p].eval(sin_i, cos_i, so, co);
             // N_p(φ): the trimmed logistic of wrap(φ − Φ(p, h)) for p < 3, uniform for p = 3.
-            let n =
-                if p < 3 { logistic(wrap_pi(dphi - self.exit[p]), fiber.s) * fiber.logistic_norm } else { 1.0 / TAU };
+            let n = if p < 3 {
+                logistic(wrap_few_turns(dphi - self.exit[p]), fiber.s) * fiber.logistic_norm
+            } else {
+                1.0 / TAU
+            };
             g += self.a[p] * (m * n);
             pdf += w_p * m * n;
         }
@@ -367,10 +396,18 @@ impl ChiangAtVertex<'_> {
         let (so, co) = self.tilted[p];
         let sin_i = fiber.longitudinal[p].sample_sin_theta(so, co, u[1], u[2]);
         let cos_i = safe_sqrt(1.0 - sin_i * sin_i);
-        // φ_i from N_p with u[3].
-        let dphi = if p < 3 { self.exit[p] + sample_trimmed_logistic(u[3], fiber.s, -PI, PI) } else { TAU * u[3] };
+        // φ_i from N_p with u[3]: the trimmed logistic on [−π, π] by its inverse CDF.
+        let dphi = if p < 3 {
+            let (lo, hi) = fiber.logistic_cdf_ends;
+            let c = lo + u[3] * (hi - lo);
+            let x = fiber.s * (c.ln() - (-c).ln_1p());
+            self.exit[p] + if x.is_nan() { 0.0 } else { x.clamp(-PI, PI) }
+        } else {
+            TAU * u[3]
+        };
         let wi = direction_from_sin_cos(sin_i, cos_i, self.phi_o + dphi);
-        let (g, pdf) = self.integrand_and_pdf(wi);
+        // Evaluated at the drawn angles themselves (not re-derived from wi).
+        let (g, pdf) = self.integrand_and_pdf_at(sin_i, cos_i, dphi);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
@@ -411,5 +448,22 @@ mod tests {
             }
         }
         assert!(checked > 50);
+    }
+
+    /// The loop wrap agrees with the remainder wrap to rounding and lands in (−π, π], also
+    /// at the range's ends and far outside it.
+    #[test]
+    fn wrapping_by_whole_turns_matches_the_remainder_wrap() {
+        for k in -4000..=4000 {
+            let x = f64::from(k) * (7.9 * PI / 4000.0);
+            let (got, want) = (wrap_few_turns(x), wrap_pi(x));
+            assert!(got > -PI && got <= PI, "{x}: {got}");
+            let diff = wrap_pi(got - want).abs();
+            assert!(diff < 1e-14, "{x}: {got} vs {want}");
+        }
+        assert_eq!(wrap_few_turns(PI), PI);
+        assert_eq!(wrap_few_turns(-PI), PI);
+        assert!((wrap_few_turns(1e6) - wrap_pi(1e6)).abs() < 1e-9);
+        assert!(wrap_few_turns(f64::INFINITY).is_nan());
     }
 }

@@ -116,6 +116,9 @@ struct ChildRef;
 /// Leaf-size value of an unused child slot.
 const EMPTY_SLOT: u32 = 15;
 const _: () = assert!((MAX_LEAF as u32) < EMPTY_SLOT, "leaf sizes must fit below EMPTY_SLOT");
+/// The whole reference of an unused slot (leaf size [`EMPTY_SLOT`], index 0).
+const EMPTY_REF: u32 = EMPTY_SLOT << 28;
+const _: () = assert!(f32::from_bits(EMPTY_REF).is_normal(), "the slot test compares EMPTY_REF as an f32");
 /// Primitive offsets and node indices must fit below this.
 const MAX_REF: u32 = 1 << 28;
 
@@ -636,13 +639,12 @@ impl Slabs {
             t1 = t1.min(far);
         }
         let hit = t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask();
-        let mut valid = 0;
-        for k in 0..4 {
-            if ChildRef::count(n.child[k]) != EMPTY_SLOT {
-                valid |= 1 << k;
-            }
-        }
-        (hit & valid, t0.to_array())
+        // Unused slots hold exactly `EMPTY_REF` (`Node4::new`): compared as `f32` bit patterns,
+        // four lanes at once. That pattern is a normal number, so float equality is bit
+        // equality here (a NaN pattern of a used slot compares unequal, as it should).
+        let refs = Vec4::from_array(n.child.map(f32::from_bits));
+        let empty = refs.cmpeq(Vec4::splat(f32::from_bits(EMPTY_REF))).bitmask();
+        (hit & !empty & 0xF, t0.to_array())
     }
 }
 
@@ -662,7 +664,7 @@ impl Node4 {
 
     /// A node over up to four binary-tree boxes with their child references.
     fn new(children: &[(&Node, u32)]) -> Self {
-        let mut n = Self { origin: [0.0; 3], scale: [0.0; 3], q: [[0; 4]; 6], child: [EMPTY_SLOT << 28; 4] };
+        let mut n = Self { origin: [0.0; 3], scale: [0.0; 3], q: [[0; 4]; 6], child: [EMPTY_REF; 4] };
         for axis in 0..3 {
             let lo = children.iter().map(|c| clamp_finite(c.0.bounds.min[axis])).fold(f32::INFINITY, f32::min);
             let hi = children.iter().map(|c| clamp_finite(c.0.bounds.max[axis])).fold(f32::NEG_INFINITY, f32::max);

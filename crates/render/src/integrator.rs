@@ -104,6 +104,7 @@ pub fn power_heuristic(a: f64, b: f64) -> f64 {
 }
 
 /// The scattering function at a hit, in world directions.
+#[allow(clippy::large_enum_variant, reason = "one per path vertex on the stack; boxing would allocate per vertex")]
 enum Local<'a> {
     /// `chiang`: the model prepared once at this vertex ([`ChiangAtVertex`]), shared by the
     /// light sample and the bounce sample; other models are evaluated from scratch each time.

@@ -308,7 +308,7 @@ impl ScatteringFunction for Chiang {
 /// [`wrap_pi`].
 #[inline]
 fn wrap_few_turns(x: f64) -> f64 {
-    if !(x.abs() < 8.0 * PI) {
+    if x.is_nan() || x.abs() >= 8.0 * PI {
         return wrap_pi(x);
     }
     let mut y = x;

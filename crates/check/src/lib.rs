@@ -15,6 +15,7 @@ pub mod chi2;
 pub mod expected;
 pub mod reports;
 pub mod rng;
+pub mod surface;
 pub mod tolerance;
 
 use chi2::{Chi2Config, chi2_cone, chi2_test};
@@ -78,11 +79,32 @@ impl CheckCase {
     }
 }
 
-/// The configurations `fiberlab check` validates: every registered model with its defaults,
-/// plus the variants whose claims differ (white furnace, Fresnel, exponents).
+/// The configurations `fiberlab check` validates: every registered model (fiber and
+/// surface) with its defaults, plus the variants whose claims differ (white furnace,
+/// Fresnel, exponents, presets, finishes).
 #[must_use]
 pub fn default_cases() -> Vec<CheckCase> {
     let mut cases: Vec<CheckCase> = fiberlab_scatter::MODELS.iter().map(|m| CheckCase::new(m.name, &[])).collect();
+    cases.extend(fiberlab_scatter::SURFACE_MODELS.iter().map(|m| CheckCase::new(m.name, &[])));
+    cases.extend([
+        CheckCase::new("lambertian", &[("k_d", "1")]),
+        CheckCase::new("wood", &[("preset", "tigers-eye")]),
+        CheckCase::new("wood", &[("preset", "cats-eye")]),
+        CheckCase::new("wood", &[("roughness", "0.2")]),
+        CheckCase::new("wood", &[("fiber_angle", "40"), ("fiber_dip", "30"), ("beta", "5")]),
+        CheckCase::new("wood", &[("k_d", "0"), ("k_f", "0.159"), ("roughness", "0.1"), ("fiber_dip", "-20")]),
+        CheckCase::new("wood", &[("eta", "1"), ("k_f", "0"), ("k_d", "1")]),
+    ]);
+    // Every fabric of Sadeghi et al. 2013's table (the default, linen-plain, is above).
+    cases.extend(
+        fiberlab_scatter::sadeghi_2013::SADEGHI_PRESETS[1..]
+            .iter()
+            .map(|&name| CheckCase::new("sadeghi-2013", &[("preset", name)])),
+    );
+    cases.push(CheckCase::new(
+        "sadeghi-thread",
+        &[("eta", "1.345"), ("k_d", "0.1"), ("gamma_s", "4"), ("gamma_v", "8")],
+    ));
     cases.extend([
         CheckCase::new("diffuse", &[("albedo", "1")]),
         CheckCase::new("diffuse", &[("albedo", "0.2,0.5,0.9")]),
@@ -333,11 +355,17 @@ pub fn check_cases_with_progress(cases: &[CheckCase], effort: &Effort, done: imp
         .collect()
 }
 
-/// Checks one case; a model that fails to build yields a failing row.
+/// Checks one case (a fiber or a surface model, by the registry that holds its name); a
+/// model that fails to build yields a failing row.
 #[must_use]
 pub fn check_case(case: &CheckCase, effort: &Effort) -> Vec<Row> {
-    match case.build() {
-        Ok(m) => check_model(&case.label(), &m, effort),
+    let rows = match fiberlab_scatter::lookup(&case.model).map(|e| e.kind()) {
+        Ok(fiberlab_scatter::ModelKind::Surface) => fiberlab_scatter::build_surface(&case.model, &case.params)
+            .map(|m| surface::check_surface_model(&case.label(), &m, effort)),
+        _ => case.build().map(|m| check_model(&case.label(), &m, effort)),
+    };
+    match rows {
+        Ok(rows) => rows,
         Err(e) => vec![Row {
             model: case.label(),
             test: format!("build: {e}"),

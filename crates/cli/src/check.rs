@@ -21,7 +21,7 @@ pub struct Args {
 /// Runs the harness; fails (non-zero exit) when any row fails.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(name) = &args.model {
-        fiberlab_scatter::find(name)?;
+        fiberlab_scatter::lookup(name)?;
     }
     let cases: Vec<CheckCase> =
         default_cases().into_iter().filter(|c| args.model.as_deref().is_none_or(|m| m == c.model)).collect();

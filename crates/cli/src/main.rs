@@ -23,6 +23,7 @@ mod plot;
 mod render;
 mod sample;
 mod scene;
+mod texture;
 
 use clap::{Parser, Subcommand};
 
@@ -62,6 +63,8 @@ enum Command {
     Hair(hair::Args),
     /// Print the built-in default scene as a template (--default), or write it (--out FILE).
     Scene(scene::Args),
+    /// Write procedural textures: `texture wood` (a figured-maple fiber map).
+    Texture(texture::Args),
     /// Compare a model with a measured table, per lobe (errors, peaks, difference figures).
     CompareModel(compare_model::Args),
     /// Fit model parameters to a measured table or CSV by weighted least squares.
@@ -97,6 +100,7 @@ fn main() {
         Command::Merge(a) => merge::run(a),
         Command::Hair(a) => hair::run(a),
         Command::Scene(a) => scene::run(a),
+        Command::Texture(a) => texture::run(a),
         Command::CompareModel(a) => compare_model::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Compare(a) => compare::run(a),

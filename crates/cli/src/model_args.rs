@@ -6,8 +6,8 @@
 use anyhow::Context;
 use fiberlab_render::model_loader::load_model;
 use fiberlab_render::toml_params::raw_pairs;
-use fiberlab_scatter::Model;
 use fiberlab_scatter::params::{RawValue, split_key_value};
+use fiberlab_scatter::{Model, ModelKind, SurfaceModel, build_surface_raw, lookup};
 use std::path::Path;
 
 /// Selects a registered model and its parameters.
@@ -55,10 +55,37 @@ impl ModelArgs {
         load_model(&self.model, &pairs, Path::new("")).with_context(|| format!("model `{}`", self.model))
     }
 
+    /// Which registry the model belongs to (an unknown name is an error listing both).
+    pub fn kind(&self) -> anyhow::Result<ModelKind> {
+        Ok(lookup(&self.model)?.kind())
+    }
+
+    /// Builds a surface model (a fiber model's name is an error saying so).
+    pub fn build_surface(&self) -> anyhow::Result<SurfaceModel> {
+        build_surface_raw(&self.model, &self.pairs()?).with_context(|| format!("model `{}`", self.model))
+    }
+
+    /// Builds the model from whichever registry holds its name.
+    pub fn build_any(&self) -> anyhow::Result<AnyModel> {
+        Ok(match self.kind()? {
+            ModelKind::Surface => AnyModel::Surface(self.build_surface()?),
+            ModelKind::Fiber => AnyModel::Fiber(self.build()?),
+        })
+    }
+
     /// `name key=value …` for titles.
     pub fn label(&self) -> String {
         std::iter::once(self.model.clone()).chain(self.params.iter().cloned()).collect::<Vec<_>>().join(" ")
     }
+}
+
+/// A model of either registry, as the verbs that take both build it.
+#[derive(Clone, Debug)]
+pub enum AnyModel {
+    /// A fiber scattering function.
+    Fiber(Model),
+    /// A surface BRDF.
+    Surface(SurfaceModel),
 }
 
 /// `[params]` of a TOML file; a `model` key, if present, must match `model`.

@@ -1,6 +1,4 @@
-//! `fiberlab models`: every registered model with its parameters.
-
-use fiberlab_scatter::ALL_MODELS;
+//! `fiberlab models`: every registered model (fiber and surface) with its kind and parameters.
 
 /// Flags of `fiberlab models`.
 #[derive(clap::Args)]
@@ -10,13 +8,15 @@ pub struct Args {
     model: Option<String>,
 }
 
-/// Prints the registry.
+/// Prints both registries: each model's title line, then `kind: fiber` or `kind: surface`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(name) = &args.model {
-        fiberlab_scatter::find(name)?;
+        fiberlab_scatter::lookup(name)?;
     }
-    for spec in ALL_MODELS.iter().filter(|m| args.model.as_deref().is_none_or(|n| n == m.name)) {
+    for entry in fiberlab_scatter::registry().filter(|e| args.model.as_deref().is_none_or(|n| n == e.info().name)) {
+        let spec = entry.info();
         println!("{} — {}", spec.name, spec.summary);
+        println!("  kind: {}", entry.kind());
         println!("  source: {}", spec.citation);
         println!("  {:<14} {:<28} {:<10} {:<10} description", "parameter", "valid", "unit", "default");
         for p in spec.params {

@@ -1,12 +1,17 @@
 //! `fiberlab plot`: a scattering function as an image over (φ, θ_r) at fixed θ_i, like the
-//! figures of Marschner et al. 2003, beside polar plots of its azimuthal distribution.
+//! figures of Marschner et al. 2003, beside polar plots of its azimuthal distribution. For a
+//! surface model the image is f_r over (φ_o, θ_o) of the hemisphere (θ from the normal) for
+//! light at (θ_i, φ_i = 0), with the azimuthal distribution `∫ f_r cosθ_o sinθ_o dθ_o` and
+//! f_r on the ring θ_o = θ_i (through the mirror direction φ_o = 180°).
 
 use crate::arg_values::{self, Angle};
 use crate::files::write_atomically;
+use crate::model_args::AnyModel;
 use crate::model_args::ModelArgs;
 use anyhow::Context;
+use fiberlab_math::DVec3;
 use fiberlab_math::frame::direction;
-use fiberlab_scatter::{Field, Lobes, Model, ScatteringFunction};
+use fiberlab_scatter::{Field, Lobes, Model, ScatteringFunction, SurfaceModel, SurfaceScattering};
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -18,7 +23,7 @@ pub struct Args {
     #[command(flatten)]
     model: ModelArgs,
     /// Inclination θ_i of the light from the normal plane, degrees in (−90, 90) (positive
-    /// toward the tip).
+    /// toward the tip); for surface models the angle from the surface normal, in [0, 90).
     #[arg(long, allow_hyphen_values = true, value_parser = arg_values::inclination)]
     theta_i: Angle,
     /// Output file; the extension (.png or .svg) selects the format. Checked (extension,
@@ -104,28 +109,112 @@ fn compute(model: &Model, theta_i: f64) -> Grids {
     Grids { image, azimuthal, cone }
 }
 
+/// The surface figure: f_r over (φ_o, θ_o ∈ [0, 90°)), light at (θ_i, φ_i = 0).
+fn compute_surface(model: &SurfaceModel, theta_i: f64) -> Grids {
+    let dir = |t: f64, p: f64| DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+    let wi = dir(theta_i, 0.0);
+    let n_phi = 720;
+    let phi_at = |j: usize, n: usize| -PI + (j as f64 + 0.5) * 2.0 * PI / n as f64;
+    let f = |wo: DVec3| model.eval(wi, wo).luminance();
+    let image = (0..ROWS)
+        .map(|r| {
+            let t = (r as f64 + 0.5) * FRAC_PI_2 / ROWS as f64;
+            (0..COLS).map(|c| f(dir(t, phi_at(c, COLS)))).collect()
+        })
+        .collect();
+    let n_theta = 360;
+    let azimuthal = (0..n_phi)
+        .map(|j| {
+            let p = phi_at(j, n_phi);
+            (0..n_theta)
+                .map(|k| {
+                    let t = (k as f64 + 0.5) * FRAC_PI_2 / n_theta as f64;
+                    f(dir(t, p)) * t.cos() * t.sin() * FRAC_PI_2 / n_theta as f64
+                })
+                .sum()
+        })
+        .collect();
+    let cone = (0..n_phi).map(|j| f(dir(theta_i, phi_at(j, n_phi)))).collect();
+    Grids { image, azimuthal, cone }
+}
+
 /// Draws the figure.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let model = args.model.build()?;
-    let grids = compute(&model, args.theta_i.radians);
     let title = format!("{}   θ_i = {}°", args.model.label(), args.theta_i.degrees);
-    write_figure(&args.out, &grids, &title, args.scale, args.decades)
+    match args.model.build_any()? {
+        AnyModel::Fiber(model) => {
+            let grids = compute(&model, args.theta_i.radians);
+            write_figure(&args.out, &grids, &title, args.scale, args.decades)
+        }
+        AnyModel::Surface(model) => {
+            anyhow::ensure!(
+                args.theta_i.degrees >= 0.0,
+                "--theta-i {}: for a surface model the light's angle from the normal, in [0, 90)",
+                args.theta_i.degrees
+            );
+            let grids = compute_surface(&model, args.theta_i.radians);
+            write_figure_with(&args.out, &grids, &title, args.scale, args.decades, &SURFACE_AXES)
+        }
+    }
 }
+
+/// The labels and θ range of a figure.
+struct Axes {
+    caption: &'static str,
+    x_desc: &'static str,
+    y_desc: &'static str,
+    /// θ range of the image rows, degrees.
+    y_range: (f64, f64),
+    value: &'static str,
+    azimuthal: &'static str,
+    cone: &'static str,
+}
+
+const FIBER_AXES: Axes = Axes {
+    caption: "f_s (luminance, 1/sr) over relative azimuth φ and θ_r",
+    x_desc: "φ = φ_r − φ_i (degrees; 0 = backscatter)",
+    y_desc: "θ_r (degrees; + toward tip)",
+    y_range: (-90.0, 90.0),
+    value: "f_s",
+    azimuthal: "∫ f_s cos²θ_r dθ_r",
+    cone: "f_s on the specular cone θ_r = −θ_i",
+};
+
+const SURFACE_AXES: Axes = Axes {
+    caption: "f_r (luminance, 1/sr) over azimuth φ_o and θ_o from the normal",
+    x_desc: "φ_o (degrees; light at φ_i = 0, mirror direction at ±180)",
+    y_desc: "θ_o (degrees from the normal)",
+    y_range: (0.0, 90.0),
+    value: "f_r",
+    azimuthal: "∫ f_r cosθ_o sinθ_o dθ_o",
+    cone: "f_r on the ring θ_o = θ_i",
+};
 
 /// Writes the figure as PNG or SVG according to the extension of `path`.
 pub(crate) fn write_figure(path: &Path, grids: &Grids, title: &str, scale: Scale, decades: f64) -> anyhow::Result<()> {
+    write_figure_with(path, grids, title, scale, decades, &FIBER_AXES)
+}
+
+fn write_figure_with(
+    path: &Path,
+    grids: &Grids,
+    title: &str,
+    scale: Scale,
+    decades: f64,
+    axes: &Axes,
+) -> anyhow::Result<()> {
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     register_font();
     let size = (1500u32, 620u32);
     match ext.as_deref() {
         Some("svg") => {
             let mut svg = String::new();
-            draw(SVGBackend::with_string(&mut svg, size).into_drawing_area(), grids, title, scale, decades)?;
+            draw(SVGBackend::with_string(&mut svg, size).into_drawing_area(), grids, title, scale, decades, axes)?;
             write_atomically(path, svg.as_bytes())
         }
         Some("png") => {
             let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
-            draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area(), grids, title, scale, decades)?;
+            draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area(), grids, title, scale, decades, axes)?;
             write_png(path, &buf, size)
         }
         _ => anyhow::bail!("--out {}: expected a .png or .svg file name", path.display()),
@@ -156,6 +245,7 @@ fn draw<DB: DrawingBackend>(
     title: &str,
     scale: Scale,
     decades: f64,
+    axes: &Axes,
 ) -> anyhow::Result<()>
 where
     DB::ErrorType: 'static,
@@ -183,13 +273,13 @@ where
         .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(50)
-        .caption("f_s (luminance, 1/sr) over relative azimuth φ and θ_r", ("sans-serif", 18))
-        .build_cartesian_2d(-180.0..180.0, -90.0..90.0)
+        .caption(axes.caption, ("sans-serif", 18))
+        .build_cartesian_2d(-180.0..180.0, axes.y_range.0..axes.y_range.1)
         .map_err(err)?;
     chart
         .configure_mesh()
-        .x_desc("φ = φ_r − φ_i (degrees; 0 = backscatter)")
-        .y_desc("θ_r (degrees; + toward tip)")
+        .x_desc(axes.x_desc)
+        .y_desc(axes.y_desc)
         .label_style(("sans-serif", 13))
         .axis_desc_style(("sans-serif", 14))
         .disable_mesh()
@@ -197,12 +287,12 @@ where
         .map_err(err)?;
     let rows = g.image.len().max(1);
     let cols = g.image.first().map_or(1, Vec::len).max(1);
-    let (dx, dy) = (360.0 / cols as f64, 180.0 / rows as f64);
+    let (dx, dy) = (360.0 / cols as f64, (axes.y_range.1 - axes.y_range.0) / rows as f64);
     chart
         .draw_series(g.image.iter().enumerate().flat_map(|(r, row)| {
             row.iter().enumerate().map(move |(c, &v)| {
                 let x0 = -180.0 + c as f64 * dx;
-                let y0 = -90.0 + r as f64 * dy;
+                let y0 = axes.y_range.0 + r as f64 * dy;
                 let color = ViridisRGB::get_color_normalized(map(v).clamp(lo, hi), lo, hi);
                 Rectangle::new([(x0, y0), (x0 + dx, y0 + dy)], color.filled())
             })
@@ -216,9 +306,10 @@ where
         .y_label_area_size(55)
         .build_cartesian_2d(0.0..1.0, lo..hi)
         .map_err(err)?;
+    let log_desc = format!("log10 {}", axes.value);
     let ydesc = match scale {
-        Scale::Linear => "f_s",
-        Scale::Log => "log10 f_s",
+        Scale::Linear => axes.value,
+        Scale::Log => log_desc.as_str(),
     };
     cb.configure_mesh()
         .disable_x_axis()
@@ -257,10 +348,8 @@ where
         let a = PI * k as f64 / 6.0;
         polar.draw_series(LineSeries::new([(0.0, 0.0), (a.cos(), a.sin())], RGBColor(220, 220, 220))).map_err(err)?;
     }
-    let curves: [(&[f64], RGBColor, &str); 2] = [
-        (&g.azimuthal, RGBColor(31, 119, 180), "∫ f_s cos²θ_r dθ_r"),
-        (&g.cone, RGBColor(214, 39, 40), "f_s on the specular cone θ_r = −θ_i"),
-    ];
+    let curves: [(&[f64], RGBColor, &str); 2] =
+        [(&g.azimuthal, RGBColor(31, 119, 180), axes.azimuthal), (&g.cone, RGBColor(214, 39, 40), axes.cone)];
     for (data, color, label) in curves {
         let m = data.iter().copied().fold(0.0, f64::max);
         if m <= 0.0 {

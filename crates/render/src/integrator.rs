@@ -21,6 +21,7 @@
 use crate::accumulation::{Accumulation, ResumeError};
 use crate::bvh::Ray;
 use crate::curves::CurveHit;
+use crate::mesh::ShadingFrame;
 pub use crate::region::Region;
 use crate::sampler::PixelSampler;
 use crate::scene::{Hit, Scene, SurfaceMaterial};
@@ -28,7 +29,7 @@ use fiberlab_io::LinearImage;
 use fiberlab_math::frame::cos_theta;
 use fiberlab_math::{DVec3, FiberFrame, Rgb};
 use fiberlab_scatter::chiang_2016::ChiangAtVertex;
-use fiberlab_scatter::{Lobes, Model, ScatteringFunction};
+use fiberlab_scatter::{Lobes, Model, ScatteringFunction, SurfaceModel, SurfaceScattering};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -125,6 +126,16 @@ enum Local<'a> {
         n: DVec3,
         wo: DVec3,
     },
+    /// A surface model at the hit: its frame (z the shading normal facing `ω_o`), `ω_o` in it,
+    /// and the geometric normal on `ω_o`'s side (directions below it are refused unless the
+    /// model transmits, so that shading normals do not leak light through the surface).
+    Surface {
+        model: SurfaceModel,
+        frame: ShadingFrame,
+        wo: DVec3,
+        ng: DVec3,
+        transmits: bool,
+    },
 }
 
 struct Scatter {
@@ -147,7 +158,8 @@ impl<'a> Local<'a> {
         match self {
             Local::Fiber { delta, .. } => *delta,
             Local::Mirror { .. } => true,
-            Local::Lambert { .. } => false,
+            // A model with delta lobes may have others: light sampling evaluates those.
+            Local::Lambert { .. } | Local::Surface { .. } => false,
         }
     }
 
@@ -167,6 +179,14 @@ impl<'a> Local<'a> {
                 (*albedo * (cos / PI), cos / PI)
             }
             Local::Mirror { .. } => (Rgb::ZERO, 0.0),
+            Local::Surface { model, frame, wo, ng, transmits } => {
+                if !transmits && ng.dot(wi) <= 0.0 {
+                    return (Rgb::ZERO, 0.0);
+                }
+                let wi_l = frame.to_local(wi);
+                let (f, pdf) = model.eval_and_pdf(wi_l, *wo);
+                (f * wi_l.z.abs(), pdf)
+            }
         }
     }
 
@@ -191,6 +211,11 @@ impl<'a> Local<'a> {
                 pdf: 0.0,
                 delta: true,
             }),
+            Local::Surface { model, frame, wo, ng, transmits } => {
+                let s = model.sample(*wo, u)?;
+                let wi = frame.to_world(s.wi).normalize();
+                (*transmits || ng.dot(wi) > 0.0).then_some(Scatter { wi, weight: s.weight, pdf: s.pdf, delta: s.delta })
+            }
         }
     }
 }
@@ -231,7 +256,7 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
         };
         let (p, local) = match hit {
             Hit::Fiber { hit, material } => (hit.p, Local::fiber(scene.fiber_model(material), &hit, ray.d)),
-            Hit::Surface { p, n, material, emitter, .. } => {
+            Hit::Surface { p, n, shading, material, emitter, .. } => {
                 if let Some(i) = emitter
                     && let Some(light) = scene.spheres()[i].light()
                     && n.dot(ray.d) < 0.0
@@ -247,6 +272,12 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
                 let local = match scene.surface_material(material) {
                     SurfaceMaterial::Lambert(albedo) => Local::Lambert { albedo: *albedo, n: facing },
                     SurfaceMaterial::Mirror(r) => Local::Mirror { reflectance: *r, n: facing, wo: -ray.d },
+                    SurfaceMaterial::Model(m) => {
+                        let model = m.at(shading.uv);
+                        let frame = shading.frame_facing(-ray.d);
+                        let transmits = model.properties().transmits;
+                        Local::Surface { model, frame, wo: frame.to_local(-ray.d), ng: facing, transmits }
+                    }
                 };
                 (p, local)
             }

@@ -10,17 +10,21 @@ use crate::bvh::Ray;
 use crate::camera::Camera;
 use crate::curves::{CurveHit, CurveSet};
 use crate::light::{Emitter, Light, LightPicker, LightSample, SphereLight};
+use crate::mesh::SurfacePoint;
 use crate::shapes::{TriangleMesh, sphere_hit};
+use crate::surface_material::ModelMaterial;
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::Model;
 
 /// What a sphere or mesh does with light.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub enum SurfaceMaterial {
     /// Lambertian surface: `f = albedo/π`.
     Lambert(Rgb),
     /// Perfect mirror with reflectance.
     Mirror(Rgb),
+    /// A registered surface model, possibly textured ([`crate::surface_material`]).
+    Model(Box<ModelMaterial>),
 }
 
 /// A fiber material of a scene (its scattering model): only fibers take one. Obtained from
@@ -123,6 +127,8 @@ pub enum Hit {
         p: DVec3,
         /// Geometric unit normal (not flipped).
         n: DVec3,
+        /// Texture coordinates, shading normal and tangent ([`crate::mesh`]).
+        shading: SurfacePoint,
         /// Its material.
         material: SurfaceMaterialId,
         /// The sphere hit (index into [`Scene::spheres`]) when it emits.
@@ -318,13 +324,15 @@ impl Scene {
                 r.t_max = t;
                 let p = r.at(t);
                 let emitter = s.emission.map(|_| i);
-                best = Some(Hit::Surface { t, p, n: (p - s.center) / s.radius, material: s.material, emitter });
+                let shading = SurfacePoint::on_sphere(p, s.center, s.radius);
+                let n = (p - s.center) / s.radius;
+                best = Some(Hit::Surface { t, p, n, shading, material: s.material, emitter });
             }
         }
         for m in &self.meshes {
-            if let Some((t, n)) = m.mesh.intersect(&r) {
+            if let Some((t, n, shading)) = m.mesh.intersect_point(&r) {
                 r.t_max = t;
-                best = Some(Hit::Surface { t, p: r.at(t), n, material: m.material, emitter: None });
+                best = Some(Hit::Surface { t, p: r.at(t), n, shading, material: m.material, emitter: None });
             }
         }
         for f in &self.fibers {

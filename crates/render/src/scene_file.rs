@@ -5,12 +5,16 @@
 //! [camera]            # eye, target, up, fov (vertical, degrees), width, height
 //! [render]            # spp, max_depth, seed, exposure (stops, for the PNG)
 //! [materials.NAME]    # model = "<scatter model>", params = { key = value }   (fibers)
+//!                     # or model = "<surface model>", params = { key = value | texture }
+//!                     #   (texture: "x.png" | "x.exr" | { file, wrap, scale, remap,
+//!                     #   encoding, size }: crate::surface_material)
 //!                     # or lambert = [r, g, b] | mirror = [r, g, b]            (surfaces)
 //! [[hair]]            # material; file = "x.hair" | "x.pbrt" | "x.pbrt.gz" | "x.usda"
 //!                     # or generator = { … HairParams … }; segments_per_curve (cubic
 //!                     # curves, default 8) (strand diameters: crate::strand_diameters)
 //! [[sphere]]          # center, radius, material, optional emission = [r, g, b] (a light)
-//! [[mesh]]            # file = "x.obj", material, scale, translate; or floor = y
+//! [[mesh]]            # file = "x.obj", material, scale, translate; or floor = y;
+//!                     # or cabochon = { radius, height, rings, sectors }, translate
 //! [[light]]           # type = "environment" (radiance) | "envmap" (file, scale)
 //!                     #      | "sun" (direction, angular_radius_deg, irradiance)
 //!                     #      | "distant" (direction, irradiance: a delta light)
@@ -26,6 +30,7 @@ use crate::model_loader::{LoadError, load_model};
 use crate::scene::{FiberMaterialId, Scene, SceneBuilder, SurfaceMaterial, SurfaceMaterialId};
 use crate::shapes::TriangleMesh;
 use crate::strand_diameters;
+use crate::surface_material::{ModelMaterial, texture_source};
 use crate::toml_params::raw_pairs;
 use fiberlab_io::{HairFile, LinearImage};
 use fiberlab_math::{DVec3, Rgb};
@@ -188,11 +193,32 @@ struct SphereDesc {
 struct MeshDesc {
     file: Option<Spanned<String>>,
     floor: Option<f64>,
+    cabochon: Option<Spanned<CabochonDesc>>,
     material: Spanned<String>,
     /// For `file` only (default 1).
     scale: Option<f64>,
     /// For `file` only (default 0).
     translate: Option<[f64; 3]>,
+}
+
+/// `[[mesh]] cabochon = { … }`: a sphere-cap dome ([`crate::cabochon`]).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CabochonDesc {
+    radius: f64,
+    height: f64,
+    #[serde(default = "default_rings")]
+    rings: usize,
+    #[serde(default = "default_sectors")]
+    sectors: usize,
+}
+
+fn default_rings() -> usize {
+    48
+}
+
+fn default_sectors() -> usize {
+    128
 }
 
 #[derive(Debug, Deserialize)]
@@ -500,7 +526,12 @@ impl SceneFile {
                     self.error(m.span(), format!("material `{name}`: give exactly one of model, lambert, mirror"))
                 );
             }
-            let material = if let Some(model) = &md.model {
+            let surface_model = md.model.as_ref().filter(|m| {
+                matches!(fiberlab_scatter::lookup(m.get_ref()), Ok(fiberlab_scatter::RegistryEntry::Surface(_)))
+            });
+            let material = if let Some(model) = surface_model {
+                MaterialRef::Surface(scene.surface_material(self.surface_model(name, model, md.params.as_ref())?))
+            } else if let Some(model) = &md.model {
                 MaterialRef::Fiber(scene.fiber_material(self.fiber_model(name, model, md.params.as_ref())?))
             } else {
                 let (key, value, surface): (_, _, fn(Rgb) -> SurfaceMaterial) = match (md.lambert, md.mirror) {
@@ -539,6 +570,38 @@ impl SceneFile {
         })
     }
 
+    /// The surface material `name` of a registered surface model: its `params` split into
+    /// plain values (built through the registry) and textures (read and checked here).
+    fn surface_model(
+        &self,
+        name: &str,
+        model: &Spanned<String>,
+        params: Option<&Spanned<toml::Table>>,
+    ) -> Result<SurfaceMaterial, SceneError> {
+        let span = params.map_or(model.span(), Spanned::span);
+        let fail = |message: String| self.error(span.clone(), format!("material `{name}`: {message}"));
+        let (mut plain, mut textures) = (toml::Table::new(), Vec::new());
+        for (key, value) in params.map(Spanned::get_ref).into_iter().flatten() {
+            match texture_source(value, &|p| self.resolve(p)) {
+                Some(source) => textures.push((key.clone(), source.map_err(|e| fail(format!("{key}: {e}")))?)),
+                None => {
+                    plain.insert(key.clone(), value.clone());
+                }
+            }
+        }
+        let pairs = raw_pairs(&plain).map_err(|e| fail(e.to_string()))?;
+        let spec = fiberlab_scatter::find_surface(model.get_ref()).map_err(|e| fail(e.to_string()))?;
+        let built = fiberlab_scatter::build_surface_raw(model.get_ref(), &pairs).map_err(|e| fail(e.to_string()))?;
+        let material = ModelMaterial::new(spec.name, spec.params, built, &textures).map_err(|e| fail(e.to_string()))?;
+        Ok(SurfaceMaterial::Model(Box::new(material)))
+    }
+
+    /// True when material `m` gives some parameter as a texture.
+    fn textured(&self, m: &Spanned<String>) -> bool {
+        let params = self.desc.materials.get(m.get_ref()).and_then(|d| d.get_ref().params.as_ref());
+        params.is_some_and(|p| p.get_ref().values().any(|v| texture_source(v, &|p| self.resolve(p)).is_some()))
+    }
+
     fn material(&self, names: &MaterialNames, m: &Spanned<String>) -> Result<MaterialRef, SceneError> {
         names.get(m.get_ref()).copied().ok_or_else(|| {
             let known: Vec<&str> = names.keys().map(String::as_str).collect();
@@ -553,7 +616,7 @@ impl SceneFile {
             MaterialRef::Surface(_) => Err(self.error(
                 m.span(),
                 format!(
-                    "material `{}` is a surface (lambert or mirror); hair needs a fiber model (model = …)",
+                    "material `{}` is a surface (lambert, mirror or a surface model); hair needs a fiber model (model = …)",
                     m.get_ref()
                 ),
             )),
@@ -567,7 +630,7 @@ impl SceneFile {
             MaterialRef::Fiber(_) => Err(self.error(
                 m.span(),
                 format!(
-                    "material `{}` is a fiber model; spheres and meshes need a surface (lambert or mirror)",
+                    "material `{}` is a fiber model; spheres and meshes need a surface (lambert, mirror or a surface model such as model = \"lambertian\")",
                     m.get_ref()
                 ),
             )),
@@ -745,6 +808,19 @@ impl SceneFile {
         for m in &self.desc.mesh {
             let md = m.get_ref();
             let material = self.surface_material(names, &md.material)?;
+            if let Some(c) = &md.cabochon {
+                if md.file.is_some() || md.floor.is_some() || md.scale.is_some() {
+                    return Err(
+                        self.error(m.span(), "mesh: a cabochon takes translate only (no file, floor, scale)".into())
+                    );
+                }
+                let cd = c.get_ref();
+                let translate = self.point(m.span(), "mesh: translate", md.translate.unwrap_or_default())?;
+                let dome = crate::cabochon::cabochon(cd.radius, cd.height, cd.rings, cd.sectors, translate)
+                    .map_err(|e| self.error(c.span(), format!("mesh: {e}")))?;
+                scene.mesh(dome, material);
+                continue;
+            }
             let mesh = match (&md.file, md.floor) {
                 (Some(f), None) => {
                     let scale = md.scale.unwrap_or(1.0);
@@ -753,8 +829,20 @@ impl SceneFile {
                     }
                     let translate = self.point(m.span(), "mesh: translate", md.translate.unwrap_or_default())?;
                     // Vertices that the scale or translation makes infinite are refused there.
-                    TriangleMesh::load_obj(&self.resolve(f.get_ref()), scale, translate)
-                        .map_err(|e| self.error(f.span(), format!("mesh: {e}")))?
+                    let path = self.resolve(f.get_ref());
+                    let mesh = TriangleMesh::load_obj(&path, scale, translate)
+                        .map_err(|e| self.error(f.span(), format!("mesh: {e}")))?;
+                    if !mesh.has_uvs() && self.textured(&md.material) {
+                        return Err(self.error(
+                            f.span(),
+                            format!(
+                                "mesh {}: material `{}` is textured but the mesh has no texture coordinates (vt)",
+                                path.display(),
+                                md.material.get_ref()
+                            ),
+                        ));
+                    }
+                    mesh
                 }
                 (None, Some(_)) if md.scale.is_some() || md.translate.is_some() => {
                     let (key, value) = match (md.scale, md.translate) {
@@ -770,7 +858,7 @@ impl SceneFile {
                 }
                 (None, Some(y)) if y.is_finite() => TriangleMesh::floor(y, 100.0),
                 (None, Some(y)) => return Err(self.error(m.span(), format!("mesh: floor = {y:?} must be finite"))),
-                _ => return Err(self.error(m.span(), "mesh: give exactly one of file, floor".into())),
+                _ => return Err(self.error(m.span(), "mesh: give exactly one of file, floor, cabochon".into())),
             };
             scene.mesh(mesh, material);
         }
@@ -996,6 +1084,10 @@ mod tests {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
         for entry in std::fs::read_dir(&dir).unwrap() {
             let path = entry.unwrap().path();
+            // Scenes only (not the meshes and textures they use).
+            if path.extension().is_none_or(|e| e != "toml") {
+                continue;
+            }
             let mut f = SceneFile::read(&path).unwrap_or_else(|e| panic!("{e}"));
             for h in &mut f.desc.hair {
                 if let Some(g) = h.get_mut().generator.as_mut() {
@@ -1093,7 +1185,11 @@ mod tests {
         let mats = "[materials.h]\nmodel = \"kajiya-kay\"\n[materials.s]\nlambert = [0.5, 0.5, 0.5]\n";
         let e = err(&format!("{CAMERA}{mats}[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"h\"\n"));
         assert!(e.to_string().starts_with("s.toml:14:12:"), "{e}");
-        assert!(e.to_string().contains("`h` is a fiber model") && e.to_string().contains("lambert or mirror"), "{e}");
+        assert!(
+            e.to_string().contains("`h` is a fiber model")
+                && e.to_string().contains("lambert, mirror or a surface model"),
+            "{e}"
+        );
         let e = err(&format!("{CAMERA}{mats}[[mesh]]\nfloor = 0\nmaterial = \"h\"\n"));
         assert!(e.line == 13 && e.to_string().contains("`h` is a fiber model"), "{e}");
         let e = err(&format!("{CAMERA}{mats}[[hair]]\nmaterial = \"s\"\ngenerator = {{ strands = 2 }}\n"));

@@ -16,6 +16,7 @@ pub mod radiometry;
 pub mod sampling;
 mod spec;
 mod surface;
+mod surface_model;
 
 pub mod chiang_2016;
 pub mod deon_2011;
@@ -23,14 +24,22 @@ pub mod dual_scattering_tables;
 pub mod goldman_1997;
 pub mod ideal_diffuse;
 pub mod ideal_specular;
+pub mod irawan_2012;
 pub mod kajiya_kay_1989;
+pub mod lambert_1760;
 pub mod lambertian_cylinder;
 pub mod marschner_2003;
+pub mod marschner_2005;
 pub mod measured;
+pub mod sadeghi_2013;
 pub mod yan_2017;
 
 pub use error::ModelError;
 pub use function::{ConeValue, Field, LobeInfo, Lobes, MIN_COS, Properties, Sample, ScatteringFunction};
 pub use model::{ALL_MODELS, MODELS, Model, ModelSpec, build, build_raw, find};
 pub use spec::{ExternalData, ModelInfo, Registered};
-pub use surface::{SurfaceProperties, SurfaceScattering};
+pub use surface::{SurfaceProperties, SurfaceScattering, not_texturable};
+pub use surface_model::{
+    ModelKind, RegistryEntry, SURFACE_MODELS, SurfaceModel, SurfaceModelSpec, build_surface, build_surface_raw,
+    find_surface, lookup, registry,
+};

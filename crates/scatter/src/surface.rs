@@ -17,7 +17,7 @@
 //! parameter. Texel values are validated once, when the texture is loaded, against the
 //! parameter's range in the model's parameter table.
 
-use crate::{LobeInfo, ModelError, Sample};
+use crate::{LobeInfo, ModelError, ModelInfo, Sample};
 use fiberlab_math::{DVec3, Rgb};
 
 /// What a surface model claims about itself; the validation harness tests exactly these.
@@ -65,4 +65,15 @@ pub trait SurfaceScattering: Send + Sync {
     /// library uses: radians for angles) by a texel value; scalar parameters read `value.r`.
     /// Must not allocate. An unknown or non-texturable key is an error.
     fn set_parameter(&mut self, key: &str, value: Rgb) -> Result<(), ModelError>;
+}
+
+/// The error [`SurfaceScattering::set_parameter`] returns for a key the model `info` cannot
+/// texture (unknown, or not texturable), naming the model and its parameters.
+#[must_use]
+pub fn not_texturable(info: &ModelInfo, key: &str) -> ModelError {
+    ModelError::UnknownParameter {
+        model: info.name.into(),
+        key: format!("{key} (as a textured parameter)"),
+        known: info.params.iter().map(|s| s.key).collect::<Vec<_>>().join(", "),
+    }
 }

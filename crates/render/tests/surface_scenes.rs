@@ -1,0 +1,60 @@
+//! Scene files with surface-model materials, textures and cabochons.
+
+use fiberlab_io::LinearImage;
+use fiberlab_math::DVec3;
+use fiberlab_render::bvh::Ray;
+use fiberlab_render::scene::{Hit, SurfaceMaterial};
+use fiberlab_render::scene_file::SceneFile;
+use std::path::Path;
+
+const CAMERA: &str = "[camera]\neye = [0, 3, 0.01]\ntarget = [0, 0, 0]\nfov = 30\nwidth = 4\nheight = 4\n";
+
+fn build(dir: &Path, text: &str) -> Result<fiberlab_render::scene::Scene, String> {
+    let path = dir.join("s.toml");
+    std::fs::write(&path, text).unwrap();
+    SceneFile::read(&path).and_then(|f| f.build()).map(|(s, _)| s).map_err(|e| e.to_string())
+}
+
+#[test]
+fn a_textured_surface_model_material_on_a_cabochon() {
+    let dir = tempfile::tempdir().unwrap();
+    LinearImage::from_pixels(2, 1, vec![[0.2; 3], [0.6; 3]]).unwrap().write_exr(&dir.path().join("kd.exr")).unwrap();
+    let text = format!(
+        "{CAMERA}[materials.stone]\nmodel = \"lambertian\"\nparams = {{ k_d = {{ file = \"kd.exr\", wrap = \"clamp\" }} }}\n\
+         [[mesh]]\ncabochon = {{ radius = 1.0, height = 0.5 }}\ntranslate = [0, 0.1, 0]\nmaterial = \"stone\"\n"
+    );
+    let scene = build(dir.path(), &text).unwrap();
+    let ray = Ray::new(DVec3::new(0.0, 3.0, 0.0), -DVec3::Y);
+    let Some(Hit::Surface { t, shading, material, .. }) = scene.intersect(&ray) else { panic!("the dome is hit") };
+    assert!((3.0 - t - 0.6).abs() < 1e-3, "apex at 0.1 + 0.5: {}", 3.0 - t);
+    let SurfaceMaterial::Model(m) = scene.surface_material(material) else { panic!("a model material") };
+    assert_eq!((m.model_name(), m.textures().len()), ("lambertian", 1));
+    let [u, v] = shading.uv.unwrap();
+    assert!((u - 0.5).abs() < 1e-9 && (v - 0.5).abs() < 1e-9);
+    // Untextured plain values pass through the registry, with its errors.
+    let e = build(dir.path(), &format!("{CAMERA}[materials.s]\nmodel = \"lambertian\"\nparams = {{ k_d = 2 }}\n"))
+        .unwrap_err();
+    assert!(e.contains("material `s`") && e.contains("k_d"), "{e}");
+    let e = build(
+        dir.path(),
+        &format!("{CAMERA}[materials.s]\nmodel = \"lambertian\"\nparams = {{ k_d = \"none.png\" }}\n"),
+    )
+    .unwrap_err();
+    assert!(e.contains("material `s`: k_d: texture ") && e.contains("none.png"), "{e}");
+}
+
+#[test]
+fn an_obj_without_uvs_under_a_textured_material_is_an_error_naming_the_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    LinearImage::from_pixels(1, 1, vec![[0.5; 3]]).unwrap().write_exr(&dir.path().join("kd.exr")).unwrap();
+    std::fs::write(dir.path().join("bare.obj"), "v 0 0 0\nv 1 0 0\nv 1 0 1\nf 1 2 3\n").unwrap();
+    let text = format!(
+        "{CAMERA}[materials.t]\nmodel = \"lambertian\"\nparams = {{ k_d = \"kd.exr\" }}\n\
+         [[mesh]]\nfile = \"bare.obj\"\nmaterial = \"t\"\n"
+    );
+    let e = build(dir.path(), &text).unwrap_err();
+    assert!(e.contains("bare.obj: material `t` is textured but the mesh has no texture coordinates"), "{e}");
+    // The same mesh under an untextured model material is fine.
+    let ok = text.replace("params = { k_d = \"kd.exr\" }", "params = { k_d = 0.5 }");
+    assert!(build(dir.path(), &ok).is_ok());
+}

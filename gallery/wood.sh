@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# The surfaces row of the README: scenes/wood.toml (figured maple, the wood model with the
+# procedural fiber map of `fiberlab texture wood`) and scenes/tigers_eye.toml (a cabochon, the
+# tigers-eye preset), each under two light directions, to docs/gallery/wood/*.png:
+#   wood_left / wood_right        distant light from −x / +x (along the grain): the curl
+#                                 stripes move along the board
+#   tigers_eye_left / _right      sun from −x / +x (across the fibers): the band glides
+#   gallery/wood.sh                      # the committed images (256², 64 spp)
+#   SIZE=512 SPP=256 gallery/wood.sh     # larger and cleaner
+set -euo pipefail
+cd "$(dirname "$0")/.."
+SIZE=${SIZE:-256} SPP=${SPP:-64}
+cargo build --release -q -p fiberlab-cli
+bin=target/release/fiberlab
+out=docs/gallery/wood
+mkdir -p "$out"
+$bin texture wood --out scenes/textures/maple > /dev/null
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+scenes=$(pwd)/scenes
+while IFS='|' read -r name scene from to; do
+  # Relative paths of the scene (plank.obj, textures/…) are made absolute for the copy.
+  sed -e "s/width = 256/width = $SIZE/; s/height = 256/height = $SIZE/; s/spp = 64/spp = $SPP/" \
+      -e "s|\"textures/|\"$scenes/textures/|g; s|\"plank.obj\"|\"$scenes/plank.obj\"|" \
+      -e "s/^direction = $from\$/direction = $to/" "scenes/$scene.toml" > "$tmp/$name.toml"
+  grep -qF "direction = $to" "$tmp/$name.toml" || {
+    echo "gallery/wood.sh: scenes/$scene.toml changed; the light line 'direction = $from' was not found" >&2
+    exit 1
+  }
+  t0=$(date +%s)
+  $bin render "$tmp/$name.toml" --out "$tmp/$name" --quiet 2> "$tmp/$name.log"
+  cp "$tmp/$name.png" "$out/$name.png"
+  echo "$name: $(( $(date +%s) - t0 )) s"
+done <<TABLE
+wood_left|wood|\[0.9, 1.0, -0.35\]|[-0.9, 1.0, -0.35]
+wood_right|wood|\[0.9, 1.0, -0.35\]|[0.9, 1.0, -0.35]
+tigers_eye_left|tigers_eye|\[-0.6, 1.0, 0.2\]|[-0.6, 1.0, 0.2]
+tigers_eye_right|tigers_eye|\[-0.6, 1.0, 0.2\]|[0.5, 1.0, 0.2]
+TABLE
+echo "wrote $out/{wood,tigers_eye}_{left,right}.png (${SIZE}², $SPP spp)"

@@ -116,6 +116,9 @@ struct ChildRef;
 /// Leaf-size value of an unused child slot.
 const EMPTY_SLOT: u32 = 15;
 const _: () = assert!((MAX_LEAF as u32) < EMPTY_SLOT, "leaf sizes must fit below EMPTY_SLOT");
+/// The whole reference of an unused slot (leaf size [`EMPTY_SLOT`], index 0).
+const EMPTY_REF: u32 = EMPTY_SLOT << 28;
+const _: () = assert!(f32::from_bits(EMPTY_REF).is_normal(), "the slot test compares EMPTY_REF as an f32");
 /// Primitive offsets and node indices must fit below this.
 const MAX_REF: u32 = 1 << 28;
 
@@ -585,15 +588,17 @@ fn with_stack<R>(f: impl FnOnce(&mut Stack) -> R) -> R {
 /// A ray prepared for slab tests against quantized `f32` boxes: per axis, which box row
 /// (lower or upper corner) the ray meets first, and the inverse direction.
 struct Slabs {
-    o: Vec3,
-    inv: Vec3,
-    /// `|inv|`, per axis.
-    inv_abs: Vec3,
+    /// Origin, inverse direction and `|inv|` by axis in lanes x, y, z (w: 0).
+    o: Vec4,
+    inv: Vec4,
+    inv_abs: Vec4,
     /// Box widening in scene units for the `f32` origin, off by up to half an ulp of |o|.
     slack: f32,
     /// Row of `Node4::q` holding the near (entry) plane per axis: `axis` when the direction
     /// component is ≥ 0, else `3 + axis`; the far row is the other.
     near_row: [usize; 3],
+    /// The other row per axis (`near_row ± 3`).
+    far_row: [usize; 3],
     t_min: f32,
 }
 
@@ -605,12 +610,14 @@ impl Slabs {
     fn new(ray: &Ray) -> Self {
         let d = ray.d.map(|c| if c.abs() < MIN_DIRECTION { MIN_DIRECTION.copysign(c) } else { c });
         let inv = d.recip().as_vec3();
+        let near_row = [0, 1, 2].map(|a| if inv[a] >= 0.0 { a } else { 3 + a });
         Self {
-            o: ray.o.as_vec3(),
-            inv,
-            inv_abs: inv.abs(),
+            o: ray.o.as_vec3().extend(0.0),
+            inv: inv.extend(0.0),
+            inv_abs: inv.abs().extend(0.0),
             slack: (ray.o.abs().max_element() as f32) * f32::EPSILON * 4.0,
-            near_row: [0, 1, 2].map(|a| if inv[a] >= 0.0 { a } else { 3 + a }),
+            near_row,
+            far_row: near_row.map(|r| if r < 3 { r + 3 } else { r - 3 }),
             t_min: ray.t_min as f32 - 1e-6,
         }
     }
@@ -623,26 +630,29 @@ impl Slabs {
     fn enter(&self, n: &Node4, t_max: f64) -> (u32, [f32; 4]) {
         let mut t0 = Vec4::splat(self.t_min);
         let mut t1 = Vec4::splat(t_max as f32);
+        // The per-axis terms for all three axes at once (lanes x, y, z), then per axis the
+        // four children's planes.
+        let scale = Vec4::new(n.scale[0], n.scale[1], n.scale[2], 0.0);
+        let offset = Vec4::new(n.origin[0], n.origin[1], n.origin[2], 0.0) - self.o;
+        let step = scale * self.inv;
+        let base = offset * self.inv;
+        let widen = (Vec4::splat(self.slack) + (offset.abs() + scale * 256.0) * (4.0 * f32::EPSILON)) * self.inv_abs;
+        let (lo, hi) = ((base - widen).to_array(), (base + widen).to_array());
+        let step = step.to_array();
         for axis in 0..3 {
-            let row = self.near_row[axis];
-            let step = Vec4::splat(n.scale[axis] * self.inv[axis]);
-            let offset = n.origin[axis] - self.o[axis];
-            let base = offset * self.inv[axis];
-            let widen =
-                (self.slack + (offset.abs() + 256.0 * n.scale[axis]) * (4.0 * f32::EPSILON)) * self.inv_abs[axis];
-            let near = Node4::row(n, row) * step + Vec4::splat(base - widen);
-            let far = Node4::row(n, if row < 3 { row + 3 } else { row - 3 }) * step + Vec4::splat(base + widen);
+            let step = Vec4::splat(step[axis]);
+            let near = Node4::row(n, self.near_row[axis]) * step + Vec4::splat(lo[axis]);
+            let far = Node4::row(n, self.far_row[axis]) * step + Vec4::splat(hi[axis]);
             t0 = t0.max(near);
             t1 = t1.min(far);
         }
         let hit = t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask();
-        let mut valid = 0;
-        for k in 0..4 {
-            if ChildRef::count(n.child[k]) != EMPTY_SLOT {
-                valid |= 1 << k;
-            }
-        }
-        (hit & valid, t0.to_array())
+        // Unused slots hold exactly `EMPTY_REF` (`Node4::new`): compared as `f32` bit patterns,
+        // four lanes at once. That pattern is a normal number, so float equality is bit
+        // equality here (a NaN pattern of a used slot compares unequal, as it should).
+        let refs = Vec4::from_array(n.child.map(f32::from_bits));
+        let empty = refs.cmpeq(Vec4::splat(f32::from_bits(EMPTY_REF))).bitmask();
+        (hit & !empty & 0xF, t0.to_array())
     }
 }
 
@@ -662,7 +672,7 @@ impl Node4 {
 
     /// A node over up to four binary-tree boxes with their child references.
     fn new(children: &[(&Node, u32)]) -> Self {
-        let mut n = Self { origin: [0.0; 3], scale: [0.0; 3], q: [[0; 4]; 6], child: [EMPTY_SLOT << 28; 4] };
+        let mut n = Self { origin: [0.0; 3], scale: [0.0; 3], q: [[0; 4]; 6], child: [EMPTY_REF; 4] };
         for axis in 0..3 {
             let lo = children.iter().map(|c| clamp_finite(c.0.bounds.min[axis])).fold(f32::INFINITY, f32::min);
             let hi = children.iter().map(|c| clamp_finite(c.0.bounds.max[axis])).fold(f32::NEG_INFINITY, f32::max);

@@ -28,6 +28,7 @@ use crate::scene::{Hit, Scene, SurfaceMaterial};
 use fiberlab_io::LinearImage;
 use fiberlab_math::frame::cos_theta;
 use fiberlab_math::{DVec3, FiberFrame, Rgb};
+use fiberlab_scatter::chiang_2016::ChiangAtVertex;
 use fiberlab_scatter::{Lobes, Model, ScatteringFunction, SurfaceModel, SurfaceScattering};
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -104,13 +105,17 @@ pub fn power_heuristic(a: f64, b: f64) -> f64 {
 }
 
 /// The scattering function at a hit, in world directions.
+#[allow(clippy::large_enum_variant, reason = "one per path vertex on the stack; boxing would allocate per vertex")]
 enum Local<'a> {
+    /// `chiang`: the model prepared once at this vertex ([`ChiangAtVertex`]), shared by the
+    /// light sample and the bounce sample; other models are evaluated from scratch each time.
     Fiber {
         model: &'a Model,
         frame: FiberFrame,
         wo: DVec3,
         h: f64,
         delta: bool,
+        chiang: Option<ChiangAtVertex<'a>>,
     },
     Lambert {
         albedo: Rgb,
@@ -144,7 +149,9 @@ impl<'a> Local<'a> {
     fn fiber(model: &'a Model, hit: &CurveHit, ray_d: DVec3) -> Self {
         let frame = hit.frame(ray_d);
         let delta = model.properties().lobes == Lobes::Delta;
-        Local::Fiber { model, frame, wo: frame.to_local(-ray_d), h: hit.h, delta }
+        let wo = frame.to_local(-ray_d);
+        let chiang = if let Model::Chiang(c) = model { Some(c.at_vertex(wo, hit.h)) } else { None };
+        Local::Fiber { model, frame, wo, h: hit.h, delta, chiang }
     }
 
     fn is_delta(&self) -> bool {
@@ -159,9 +166,12 @@ impl<'a> Local<'a> {
     /// `f·cos` for light direction `wi` (world) and the density with which `sample` draws it.
     fn eval_cos_and_pdf(&self, wi: DVec3) -> (Rgb, f64) {
         match self {
-            Local::Fiber { model, frame, wo, h, .. } => {
+            Local::Fiber { model, frame, wo, h, chiang, .. } => {
                 let wi_l = frame.to_local(wi);
-                let (f, pdf) = model.eval_and_pdf(wi_l, *wo, *h);
+                let (f, pdf) = match chiang {
+                    Some(c) => c.eval_and_pdf(wi_l),
+                    None => model.eval_and_pdf(wi_l, *wo, *h),
+                };
                 (f * cos_theta(wi_l), pdf)
             }
             Local::Lambert { albedo, n } => {
@@ -182,8 +192,11 @@ impl<'a> Local<'a> {
 
     fn sample(&self, u: [f64; 4]) -> Option<Scatter> {
         match self {
-            Local::Fiber { model, frame, wo, h, .. } => {
-                let s = model.sample(*wo, *h, u)?;
+            Local::Fiber { model, frame, wo, h, chiang, .. } => {
+                let s = match chiang {
+                    Some(c) => c.sample(u)?,
+                    None => model.sample(*wo, *h, u)?,
+                };
                 Some(Scatter { wi: frame.to_world(s.wi).normalize(), weight: s.weight, pdf: s.pdf, delta: s.delta })
             }
             Local::Lambert { albedo, n } => {

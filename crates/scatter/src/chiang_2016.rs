@@ -121,7 +121,7 @@ use crate::hair::tilt::{lobe_tilts, rotate};
 use crate::params::{ParamSet, ParamSpec, parameter_error};
 use crate::{Field, LobeInfo, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
-use fiberlab_math::special::{logistic, logistic_cdf, safe_sqrt, sample_trimmed_logistic};
+use fiberlab_math::special::{logistic, logistic_cdf, safe_sqrt};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -172,6 +172,8 @@ pub struct Chiang {
     s: f64,
     /// `1/(F_ℓ(π) − F_ℓ(−π))`.
     logistic_norm: f64,
+    /// `(F_ℓ(−π), F_ℓ(π))`, the logistic CDF at the trimmed range's ends.
+    logistic_cdf_ends: (f64, f64),
 }
 
 impl Chiang {
@@ -187,6 +189,7 @@ impl Chiang {
             tilt: lobe_tilts(alpha),
             s,
             logistic_norm: 1.0 / (logistic_cdf(PI, s) - logistic_cdf(-PI, s)),
+            logistic_cdf_ends: (logistic_cdf(-PI, s), logistic_cdf(PI, s)),
         })
     }
 
@@ -206,11 +209,24 @@ impl Chiang {
         self.s
     }
 
-    /// `N_p(φ)` for p < 3: trimmed logistic of `wrap(φ − Φ(p, h))`.
-    #[inline]
-    fn azimuthal(&self, p: usize, dphi: f64, hit: &Hit) -> f64 {
-        let x = wrap_pi(dphi - exit_azimuth(p, hit.gamma_o, hit.gamma_t));
-        logistic(x, self.s) * self.logistic_norm
+    /// Everything of the fiber at one path vertex that depends on `ω_o` and `h` only: the
+    /// attenuations `A_p`, the lobe weights, the tilted camera-side inclinations and the exit
+    /// azimuths `Φ(p, h)`. A renderer computes it once per vertex and shares it between the
+    /// light-sample evaluations and the bounce sample; [`ScatteringFunction::eval`] and
+    /// [`ScatteringFunction::sample`] go through it too, so both give the same bits.
+    #[must_use]
+    pub fn at_vertex(&self, wo: DVec3, h: f64) -> ChiangAtVertex<'_> {
+        let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
+        let hit = hit_attenuation(self.params.eta, self.sigma_a, sin_o, cos_o, h);
+        let weights = Self::lobe_weights(&hit);
+        ChiangAtVertex {
+            fiber: self,
+            phi_o: phi(wo),
+            tilted: self.tilt.map(|tau| rotate(sin_o, cos_o, tau)),
+            exit: [0, 1, 2].map(|p| exit_azimuth(p, hit.gamma_o, hit.gamma_t)),
+            a: hit.a,
+            weights,
+        }
     }
 
     /// Lobe-selection weights `w_p = Y(A_p)/Σ Y(A_q)`; `None` if all vanish.
@@ -219,34 +235,6 @@ impl Chiang {
         let y = hit.a.map(Rgb::luminance);
         let total: f64 = y.iter().sum();
         (total > 0.0).then(|| y.map(|x| x / total))
-    }
-
-    /// `(g_h(ω_o, ω_i), pdf(ω_i))`: the per-h integrand (sr⁻¹, Σ_p M_p A_p N_p) and the
-    /// sampling density per steradian (Σ_p w_p M_p N_p).
-    fn integrand_and_pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> (Rgb, f64) {
-        let hit = hit_attenuation(self.params.eta, self.sigma_a, sin_theta(wo), cos_theta(wo), h);
-        match Self::lobe_weights(&hit) {
-            Some(w) => self.integrand_and_pdf_at(wi, wo, &hit, &w),
-            None => (Rgb::ZERO, 0.0),
-        }
-    }
-
-    /// [`Self::integrand_and_pdf`] with the hit's attenuations and lobe weights given.
-    #[inline]
-    fn integrand_and_pdf_at(&self, wi: DVec3, wo: DVec3, hit: &Hit, w: &[f64; 4]) -> (Rgb, f64) {
-        let (sin_i, cos_i) = (sin_theta(wi), cos_theta(wi));
-        let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
-        let dphi = phi(wi) - phi(wo);
-        let (mut g, mut pdf) = (Rgb::ZERO, 0.0);
-        for (p, w_p) in w.iter().enumerate() {
-            let (so, co) = rotate(sin_o, cos_o, self.tilt[p]);
-            let m = self.longitudinal[p].eval(sin_i, cos_i, so, co);
-            let n = if p < 3 { self.azimuthal(p, dphi, hit) } else { 1.0 / TAU };
-            g += hit.a[p] * (m * n);
-            pdf += w_p * m * n;
-        }
-        debug_assert!(g.is_finite() && pdf.is_finite());
-        (g, pdf)
     }
 
     /// Light-side albedo `ρ(ω_i) = ∫ f̄_s(ω_i, ω_r) cosθ_r dω_r` of the h-averaged `f_s` at
@@ -294,17 +282,15 @@ impl ScatteringFunction for Chiang {
     }
 
     fn eval(&self, wi: DVec3, wo: DVec3, h: f64) -> Rgb {
-        let (g, _) = self.integrand_and_pdf(wi, wo, h);
-        g / cos_theta(wi).max(MIN_COS)
+        self.at_vertex(wo, h).eval_and_pdf(wi).0
     }
 
     fn pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> f64 {
-        self.integrand_and_pdf(wi, wo, h).1
+        self.at_vertex(wo, h).integrand_and_pdf(wi).1
     }
 
     fn eval_and_pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> (Rgb, f64) {
-        let (g, pdf) = self.integrand_and_pdf(wi, wo, h);
-        (g / cos_theta(wi).max(MIN_COS), pdf)
+        self.at_vertex(wo, h).eval_and_pdf(wi)
     }
 
     /// `R`, `TT`, `TRT` (index p) and `TRRT+`, the residual of every order p ≥ 3.
@@ -313,9 +299,89 @@ impl ScatteringFunction for Chiang {
     }
 
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {
-        let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
-        let hit = hit_attenuation(self.params.eta, self.sigma_a, sin_o, cos_o, h);
-        let w = Self::lobe_weights(&hit)?;
+        self.at_vertex(wo, h).sample(u)
+    }
+}
+
+/// `x` wrapped to (−π, π] by whole turns, for the relative azimuths of the lobes (at most a few
+/// turns from the range): cheaper than a remainder; far or non-finite input goes to
+/// [`wrap_pi`].
+#[inline]
+fn wrap_few_turns(x: f64) -> f64 {
+    if x.is_nan() || x.abs() >= 8.0 * PI {
+        return wrap_pi(x);
+    }
+    let mut y = x;
+    while y > PI {
+        y -= TAU;
+    }
+    while y <= -PI {
+        y += TAU;
+    }
+    y
+}
+
+/// A [`Chiang`] fiber prepared at one path vertex (fixed `ω_o`, `h`) by [`Chiang::at_vertex`]:
+/// evaluates and samples without recomputing what depends on `ω_o` and `h` alone.
+#[derive(Clone, Copy, Debug)]
+pub struct ChiangAtVertex<'a> {
+    fiber: &'a Chiang,
+    /// `φ_o`, the camera direction's azimuth.
+    phi_o: f64,
+    /// `(sinθ_o^(p), cosθ_o^(p))`, the camera-side direction rotated by lobe p's tilt.
+    tilted: [(f64, f64); 4],
+    /// `Φ(p, h)` for p < 3.
+    exit: [f64; 3],
+    /// `A_p` at this hit.
+    a: [Rgb; 4],
+    /// Lobe-selection weights; `None` when every `A_p` vanishes.
+    weights: Option<[f64; 4]>,
+}
+
+impl ChiangAtVertex<'_> {
+    /// `(g_h(ω_o, ω_i), pdf(ω_i))`: the per-h integrand (sr⁻¹, Σ_p M_p A_p N_p) and the
+    /// sampling density per steradian (Σ_p w_p M_p N_p).
+    #[inline]
+    fn integrand_and_pdf(&self, wi: DVec3) -> (Rgb, f64) {
+        self.integrand_and_pdf_at(sin_theta(wi), cos_theta(wi), phi(wi) - self.phi_o)
+    }
+
+    /// [`Self::integrand_and_pdf`] at the light direction given by `sinθ_i`, `cosθ_i` and the
+    /// relative azimuth `φ = φ_i − φ_o` (any angle within a few turns).
+    #[inline]
+    fn integrand_and_pdf_at(&self, sin_i: f64, cos_i: f64, dphi: f64) -> (Rgb, f64) {
+        let Some(w) = &self.weights else { return (Rgb::ZERO, 0.0) };
+        let fiber = self.fiber;
+        let (mut g, mut pdf) = (Rgb::ZERO, 0.0);
+        for (p, w_p) in w.iter().enumerate() {
+            let (so, co) = self.tilted[p];
+            let m = fiber.longitudinal[p].eval(sin_i, cos_i, so, co);
+            // N_p(φ): the trimmed logistic of wrap(φ − Φ(p, h)) for p < 3, uniform for p = 3.
+            let n = if p < 3 {
+                logistic(wrap_few_turns(dphi - self.exit[p]), fiber.s) * fiber.logistic_norm
+            } else {
+                1.0 / TAU
+            };
+            g += self.a[p] * (m * n);
+            pdf += w_p * m * n;
+        }
+        debug_assert!(g.is_finite() && pdf.is_finite());
+        (g, pdf)
+    }
+
+    /// `f_s(ω_i, ω_o; h)` and the density with which [`Self::sample`] draws `ω_i`.
+    #[inline]
+    #[must_use]
+    pub fn eval_and_pdf(&self, wi: DVec3) -> (Rgb, f64) {
+        let (g, pdf) = self.integrand_and_pdf(wi);
+        (g / cos_theta(wi).max(MIN_COS), pdf)
+    }
+
+    /// Draws `ω_i` from four uniforms, as [`ScatteringFunction::sample`].
+    #[must_use]
+    pub fn sample(&self, u: [f64; 4]) -> Option<Sample> {
+        let w = self.weights?;
+        let fiber = self.fiber;
         // Lobe from u[0].
         let mut p = 0;
         let mut acc = w[0];
@@ -327,20 +393,77 @@ impl ScatteringFunction for Chiang {
             p -= 1;
         }
         // θ_i from M_p(·, θ_o^(p)) with u[1], u[2].
-        let (so, co) = rotate(sin_o, cos_o, self.tilt[p]);
-        let sin_i = self.longitudinal[p].sample_sin_theta(so, co, u[1], u[2]);
+        let (so, co) = self.tilted[p];
+        let sin_i = fiber.longitudinal[p].sample_sin_theta(so, co, u[1], u[2]);
         let cos_i = safe_sqrt(1.0 - sin_i * sin_i);
-        // φ_i from N_p with u[3].
+        // φ_i from N_p with u[3]: the trimmed logistic on [−π, π] by its inverse CDF.
         let dphi = if p < 3 {
-            exit_azimuth(p, hit.gamma_o, hit.gamma_t) + sample_trimmed_logistic(u[3], self.s, -PI, PI)
+            let (lo, hi) = fiber.logistic_cdf_ends;
+            let c = lo + u[3] * (hi - lo);
+            let x = fiber.s * (c.ln() - (-c).ln_1p());
+            self.exit[p] + if x.is_nan() { 0.0 } else { x.clamp(-PI, PI) }
         } else {
             TAU * u[3]
         };
-        let wi = direction_from_sin_cos(sin_i, cos_i, phi(wo) + dphi);
-        let (g, pdf) = self.integrand_and_pdf_at(wi, wo, &hit, &w);
+        let wi = direction_from_sin_cos(sin_i, cos_i, self.phi_o + dphi);
+        // Evaluated at the drawn angles themselves (not re-derived from wi).
+        let (g, pdf) = self.integrand_and_pdf_at(sin_i, cos_i, dphi);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         Some(Sample { wi, weight: g / pdf, pdf, delta: false, lobe: p as u8 })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fiberlab_math::frame::direction;
+
+    /// One vertex prepared once and then used for many light directions and bounce samples
+    /// gives what a fresh preparation gives each time, bit for bit, and its sample's weight
+    /// is `f_s cosθ_i / pdf` of the returned direction.
+    #[test]
+    fn a_vertex_prepared_once_serves_every_evaluation_and_sample() {
+        let fiber = Chiang::new(ChiangParams::brown()).unwrap();
+        let wo = direction(0.3, 1.1);
+        let h = -0.37;
+        let vertex = fiber.at_vertex(wo, h);
+        let mut checked = 0;
+        for k in 0..64 {
+            let (a, b) = (k as f64 / 64.0, ((k * 37) % 64) as f64 / 64.0);
+            let wi = direction(-1.4 + 2.8 * a, TAU * b);
+            assert_eq!(vertex.eval_and_pdf(wi), fiber.at_vertex(wo, h).eval_and_pdf(wi));
+            let u = [a, b, (a + 0.31) % 1.0, (b + 0.77) % 1.0];
+            let (s, fresh) = (vertex.sample(u), fiber.at_vertex(wo, h).sample(u));
+            assert_eq!(s, fresh);
+            if let Some(s) = s {
+                let (f, pdf) = fiber.eval_and_pdf(s.wi, wo, h);
+                assert!((s.pdf - pdf).abs() <= 1e-12 * pdf);
+                let want = f * (cos_theta(s.wi) / pdf);
+                for c in 0..3 {
+                    assert!((s.weight[c] - want[c]).abs() <= 1e-12 * want[c].abs().max(1e-300));
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 50);
+    }
+
+    /// The loop wrap agrees with the remainder wrap to rounding and lands in (−π, π], also
+    /// at the range's ends and far outside it.
+    #[test]
+    fn wrapping_by_whole_turns_matches_the_remainder_wrap() {
+        for k in -4000..=4000 {
+            let x = f64::from(k) * (7.9 * PI / 4000.0);
+            let (got, want) = (wrap_few_turns(x), wrap_pi(x));
+            assert!(got > -PI && got <= PI, "{x}: {got}");
+            let diff = wrap_pi(got - want).abs();
+            assert!(diff < 1e-14, "{x}: {got} vs {want}");
+        }
+        assert_eq!(wrap_few_turns(PI), PI);
+        assert_eq!(wrap_few_turns(-PI), PI);
+        assert!((wrap_few_turns(1e6) - wrap_pi(1e6)).abs() < 1e-9);
+        assert!(wrap_few_turns(f64::INFINITY).is_nan());
     }
 }

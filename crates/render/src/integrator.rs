@@ -21,6 +21,7 @@
 use crate::accumulation::{Accumulation, ResumeError};
 use crate::bvh::Ray;
 use crate::curves::CurveHit;
+use crate::dual_scattering::Integrator;
 pub use crate::region::Region;
 use crate::sampler::PixelSampler;
 use crate::scene::{Hit, Scene, SurfaceMaterial};
@@ -52,11 +53,23 @@ pub struct RenderSettings {
     pub threads: usize,
     /// Stop after this instant (within one pixel's samples of the pass in flight).
     pub deadline: Option<Instant>,
+    /// Path tracing or dual scattering ([`crate::dual_scattering`]).
+    pub integrator: Integrator,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { spp: 16, max_depth: 64, rr_depth: 3, seed: 0, region: None, tile_size: 16, threads: 0, deadline: None }
+        Self {
+            spp: 16,
+            max_depth: 64,
+            rr_depth: 3,
+            seed: 0,
+            region: None,
+            tile_size: 16,
+            threads: 0,
+            deadline: None,
+            integrator: Integrator::Path,
+        }
     }
 }
 
@@ -103,17 +116,17 @@ pub fn power_heuristic(a: f64, b: f64) -> f64 {
 }
 
 /// The scattering function at a hit, in world directions.
-enum Local<'a> {
+pub(crate) enum Local<'a> {
     Fiber { model: &'a Model, frame: FiberFrame, wo: DVec3, h: f64, delta: bool },
     Lambert { albedo: Rgb, n: DVec3 },
     Mirror { reflectance: Rgb, n: DVec3, wo: DVec3 },
 }
 
-struct Scatter {
-    wi: DVec3,
-    weight: Rgb,
-    pdf: f64,
-    delta: bool,
+pub(crate) struct Scatter {
+    pub(crate) wi: DVec3,
+    pub(crate) weight: Rgb,
+    pub(crate) pdf: f64,
+    pub(crate) delta: bool,
 }
 
 impl<'a> Local<'a> {
@@ -123,7 +136,7 @@ impl<'a> Local<'a> {
         Local::Fiber { model, frame, wo: frame.to_local(-ray_d), h: hit.h, delta }
     }
 
-    fn is_delta(&self) -> bool {
+    pub(crate) fn is_delta(&self) -> bool {
         match self {
             Local::Fiber { delta, .. } => *delta,
             Local::Mirror { .. } => true,
@@ -132,7 +145,7 @@ impl<'a> Local<'a> {
     }
 
     /// `f·cos` for light direction `wi` (world) and the density with which `sample` draws it.
-    fn eval_cos_and_pdf(&self, wi: DVec3) -> (Rgb, f64) {
+    pub(crate) fn eval_cos_and_pdf(&self, wi: DVec3) -> (Rgb, f64) {
         match self {
             Local::Fiber { model, frame, wo, h, .. } => {
                 let wi_l = frame.to_local(wi);
@@ -147,7 +160,7 @@ impl<'a> Local<'a> {
         }
     }
 
-    fn sample(&self, u: [f64; 4]) -> Option<Scatter> {
+    pub(crate) fn sample(&self, u: [f64; 4]) -> Option<Scatter> {
         match self {
             Local::Fiber { model, frame, wo, h, .. } => {
                 let s = model.sample(*wo, *h, u)?;
@@ -170,7 +183,7 @@ impl<'a> Local<'a> {
 }
 
 /// Smallest ray distance for rays spawned at `p` (relative to the coordinates' magnitude).
-fn spawn_epsilon(p: DVec3) -> f64 {
+pub(crate) fn spawn_epsilon(p: DVec3) -> f64 {
     1e-9 * (1.0 + p.abs().max_element())
 }
 
@@ -317,7 +330,10 @@ fn render_tile(
                 sampler.start(u64::from(i));
                 let [jx, jy] = sampler.next_2d();
                 let ray = scene.camera().ray(f64::from(x) + jx, f64::from(y) + jy);
-                let l = radiance(scene, ray, &mut sampler, settings, &mut job.rays);
+                let l = match &settings.integrator {
+                    Integrator::Path => radiance(scene, ray, &mut sampler, settings, &mut job.rays),
+                    Integrator::DualScattering(d) => d.radiance(scene, ray, &mut sampler, settings, &mut job.rays),
+                };
                 if l.is_finite() {
                     *sum += l;
                 } else {

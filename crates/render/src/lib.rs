@@ -15,6 +15,8 @@ pub mod bench;
 pub mod bvh;
 pub mod camera;
 pub mod curves;
+pub mod dual_scattering;
+pub mod fiber_count;
 pub mod generator;
 pub mod integrator;
 pub mod light;

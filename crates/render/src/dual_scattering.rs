@@ -1,0 +1,427 @@
+//! The dual-scattering integrator (Zinke, Yuksel, Weber and Keyser 2008, *Dual scattering
+//! approximation for fast multiple scattering in hair*): at a fiber hit, each light sample
+//! (sun, sky, sphere lights: the path tracer's next-event estimation) is shaded with the
+//! multiple-scattering approximation instead of a shadow test and further bounces; camera
+//! rays that hit ordinary surfaces (floor, meshes, spheres) are path traced as before, and a
+//! path ends at the first fiber it reaches.
+//!
+//! # At a fiber hit, for a light direction ω_d (θ its inclination to the fiber)
+//! The shadow ray toward the light is blocked by surfaces as usual; the fibers it crosses are
+//! counted ([`crate::fiber_count`]: exactly, or from a density grid), `n` of them, the k-th at
+//! its own inclination θ^k. Then (per colour channel; tables of
+//! `fiberlab_scatter::dual_scattering_tables`, looked up at |θ|)
+//! * forward transmittance `T_f = d_f ∏_k ā_f(θ^k)` (d_f counted once) and spread
+//!   `σ̄_f² = Σ_k β̄_f²(θ^k)`;
+//! * broadened single scattering `f_s^G = Σ_p c_G · g(θ_h − α_p; β_p² + σ̄_f²) · A^G_p(θ) / cos²θ_d`,
+//!   with g a unit-area Gaussian in θ_h and `A^G_p` per [`GlobalAzimuth`];
+//! * local backscatter, over the back half-circle (the outgoing direction on the light's side
+//!   of the fiber), `f_back(σ²) = k_back · 2Ā_b g(θ_h − Δ̄_b; σ̄_b² + σ²)/(π cos²θ_d)` with
+//!   `σ̄_b = (1 + d_b ā_f²)·σ̄_b⁰` (σ̄_b⁰ per [`Spread`]);
+//! * `F = w·(f_s + d_b f_back(0)) + (1 − w)·T_f·(f_s^G + c_π d_b f_back(σ̄_f²))`, with the
+//!   direct fraction `w = max(0, 1 − n)` (1 with nothing in front, 0 behind a whole fiber), and
+//!   `c_π = π` (the paper's pseudo-code) or 1;
+//! * `L += F · cosθ_i · L_d / p_light`.
+//!
+//! The constants and the disputed choices are [`DualScatteringSettings`]; their defaults are
+//! the ones the slab benchmark of `bench/dual_scattering/` selected (ARCHITECTURE.md, "Dual
+//! scattering").
+
+use crate::bvh::Ray;
+use crate::fiber_count::{Crossing, DensityGrid, FiberCount, exact_crossings};
+use crate::integrator::{Local, RenderSettings, power_heuristic, spawn_epsilon};
+use crate::sampler::PixelSampler;
+use crate::scene::{FiberMaterialId, Hit, Scene, SurfaceMaterial};
+use crate::shapes::sphere_hit;
+use fiberlab_math::{DVec3, Rgb};
+use fiberlab_scatter::dual_scattering_tables::{DualTables, DualTablesError, Resolution};
+use fiberlab_scatter::{Lobes, ScatteringFunction};
+use std::f64::consts::PI;
+use std::sync::Arc;
+use thiserror::Error;
+
+/// Which integrator renders the image.
+#[derive(Clone, Debug, Default)]
+pub enum Integrator {
+    /// Unidirectional path tracing ([`crate::integrator::radiance`]).
+    #[default]
+    Path,
+    /// Dual scattering at fiber hits, path tracing elsewhere.
+    DualScattering(Arc<DualScattering>),
+}
+
+impl PartialEq for Integrator {
+    fn eq(&self, other: &Self) -> bool {
+        match (self, other) {
+            (Self::Path, Self::Path) => true,
+            (Self::DualScattering(a), Self::DualScattering(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
+    }
+}
+
+/// The azimuthal factor of the broadened single scattering `f_s^G`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GlobalAzimuth {
+    /// `A^G_p = N^G_p = a_{f,p}/π`, the mean over the forward half-circle (paper eq. 25, as
+    /// Yan 2017 reproduces it), with `c_G = 1`.
+    ForwardMean,
+    /// `A^G_p = (a_{f,p} + a_{b,p})/(2π)` with `c_G = ½`: the lobe's whole energy spread
+    /// uniformly over the circle, the ½ undoing `dθ_r = 2 dθ_h` — `∫ f_s^G cosθ_r dω_r` equals
+    /// the lobe's albedo.
+    Energy,
+}
+
+/// The denominator of the backscatter spread σ̄_b (eq. 17).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Spread {
+    /// The weights `ā_b + ā_b³` (a weighted mean of the two widths).
+    Weighted,
+    /// The printed `ā_b + ā_b³ (2β̄_f + 3β̄_b)`.
+    Literal,
+}
+
+/// The constants and disputed choices of dual scattering.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DualScatteringSettings {
+    /// How fibers toward the light are counted.
+    pub count: FiberCount,
+    /// Forward density factor d_f.
+    pub forward_density: f64,
+    /// Backward density factor d_b.
+    pub backward_density: f64,
+    /// `k_back`: 1 is the paper's form, ¼ makes `∫ f_back cosθ_o dω_o ≈ Ā_b`.
+    pub back_scale: f64,
+    /// `c_π` of the shadowed combination: true for the paper's π, false for 1.
+    pub back_pi: bool,
+    /// σ̄_b's denominator.
+    pub spread: Spread,
+    /// `f_s^G`'s azimuthal factor.
+    pub global: GlobalAzimuth,
+    /// Density grid cells along the scene's longest side (grid counting).
+    pub grid_resolution: usize,
+}
+
+impl Default for DualScatteringSettings {
+    fn default() -> Self {
+        Self {
+            count: FiberCount::Exact,
+            forward_density: 0.7,
+            backward_density: 0.7,
+            back_scale: 0.25,
+            back_pi: false,
+            spread: Spread::Weighted,
+            global: GlobalAzimuth::Energy,
+            grid_resolution: 64,
+        }
+    }
+}
+
+/// Why dual scattering cannot render a scene.
+#[non_exhaustive]
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum DualScatteringError {
+    /// The scene has no fibers.
+    #[error("dual scattering needs fibers, and the scene has none (use integrator = \"path\")")]
+    NoFibers,
+    /// A fiber material's model has no far-field form the tables can integrate.
+    #[error("dual scattering: fiber material {index}: {source}")]
+    Tables {
+        /// Index of the fiber assembly.
+        index: usize,
+        /// The tables' error.
+        source: DualTablesError,
+    },
+}
+
+/// The tables per fiber material, the fiber counter and the settings.
+#[derive(Debug)]
+pub struct DualScattering {
+    tables: Vec<(FiberMaterialId, DualTables)>,
+    grid: Option<DensityGrid>,
+    settings: DualScatteringSettings,
+}
+
+/// Table resolution used for rendering (32 θ nodes over (−90°, 90°), linearly interpolated).
+pub const RENDER_TABLE_RESOLUTION: Resolution =
+    Resolution { inclinations: 32, incident_azimuths: 4, outgoing_inclinations: 48, outgoing_azimuths: 48, offsets: 4 };
+
+/// Per-channel unit-area Gaussian `exp(−x²/2v)/√(2πv)`.
+fn gaussian(x: Rgb, variance: Rgb) -> Rgb {
+    Rgb::new(
+        (-x[0] * x[0] / (2.0 * variance[0])).exp() / (2.0 * PI * variance[0]).sqrt(),
+        (-x[1] * x[1] / (2.0 * variance[1])).exp() / (2.0 * PI * variance[1]).sqrt(),
+        (-x[2] * x[2] / (2.0 * variance[2])).exp() / (2.0 * PI * variance[2]).sqrt(),
+    )
+}
+
+/// Smallest variance of a lobe at render time (rad²): keeps g finite for a table value of 0.
+const MIN_VARIANCE: f64 = 1e-8;
+
+impl DualScattering {
+    /// Tables for every fiber material of `scene` (at `resolution`) and, for grid counting,
+    /// the density grid. Refuses a scene without fibers and delta models.
+    pub fn new(
+        scene: &Scene,
+        settings: DualScatteringSettings,
+        resolution: &Resolution,
+    ) -> Result<Self, DualScatteringError> {
+        if scene.fibers().iter().all(|f| f.curves().segment_count() == 0) {
+            return Err(DualScatteringError::NoFibers);
+        }
+        let mut tables: Vec<(FiberMaterialId, DualTables)> = Vec::new();
+        for (index, f) in scene.fibers().iter().enumerate() {
+            if tables.iter().any(|(m, _)| *m == f.material()) {
+                continue;
+            }
+            let model = scene.fiber_model(f.material());
+            if model.properties().lobes == Lobes::Delta {
+                return Err(DualScatteringError::Tables { index, source: DualTablesError::DeltaLobes });
+            }
+            let t =
+                DualTables::new(model, resolution).map_err(|source| DualScatteringError::Tables { index, source })?;
+            tables.push((f.material(), t));
+        }
+        let grid = match settings.count {
+            FiberCount::Exact => None,
+            FiberCount::Grid => DensityGrid::build(scene, settings.grid_resolution),
+        };
+        Ok(Self { tables, grid, settings })
+    }
+
+    /// The settings.
+    #[must_use]
+    pub fn settings(&self) -> &DualScatteringSettings {
+        &self.settings
+    }
+
+    /// The density grid (grid counting only).
+    #[must_use]
+    pub fn grid(&self) -> Option<&DensityGrid> {
+        self.grid.as_ref()
+    }
+
+    fn tables_of(&self, material: FiberMaterialId) -> &DualTables {
+        self.tables.iter().find(|(m, _)| *m == material).map_or(&self.tables[0].1, |(_, t)| t)
+    }
+
+    /// `(n, ∏ ā_f(θ^k) as exp Σ ln, Σ β̄_f²(θ^k))` over the fibers crossed by `ray`.
+    #[must_use]
+    pub fn count(&self, scene: &Scene, ray: &Ray, skip: Option<(usize, u32)>, skip_distance: f64) -> (f64, Rgb, Rgb) {
+        let (mut n, mut log_t, mut var) = (0.0, Rgb::ZERO, Rgb::ZERO);
+        let mut add = |c: Crossing| {
+            let t = self.tables_of(c.material);
+            let theta = c.sin_theta.asin();
+            let af = t.lookup(theta, |r| r.forward);
+            n += c.count;
+            log_t += af.map(|a| a.max(1e-300).min(1.0).ln()) * c.count;
+            var += t.lookup(theta, |r| r.forward_variance) * c.count;
+        };
+        match &self.grid {
+            Some(g) => g.crossings(ray, &mut add),
+            None => exact_crossings(scene, ray, skip, skip_distance, &mut add),
+        }
+        (n, log_t.exp(), var)
+    }
+
+    /// `F(ω_i, ω_o)` (sr⁻¹, module docs) at a fiber of `material` for local directions `wi`
+    /// (toward the light) and `wo`, offset `h`, behind `n` fibers with transmittance product
+    /// `product` and spread `spread2`.
+    #[must_use]
+    #[allow(clippy::too_many_arguments)]
+    pub fn scattering(
+        &self,
+        scene: &Scene,
+        material: FiberMaterialId,
+        wi: DVec3,
+        wo: DVec3,
+        h: f64,
+        n: f64,
+        product: Rgb,
+        spread2: Rgb,
+    ) -> Rgb {
+        let s = &self.settings;
+        let t = self.tables_of(material);
+        let theta_i = wi.x.clamp(-1.0, 1.0).asin();
+        let theta_o = wo.x.clamp(-1.0, 1.0).asin();
+        let theta_h = 0.5 * (theta_i + theta_o);
+        let cos_d = (0.5 * (theta_o - theta_i)).cos().max(1e-4);
+        let inv_cos2 = 1.0 / (cos_d * cos_d);
+        let back_half = wi.y * wo.y + wi.z * wo.z > 0.0;
+        let (k, w) = t.locate(theta_i);
+        let rows = t.rows();
+        let (r0, r1) = (&rows[k], &rows[k + 1]);
+        let mix = |a: Rgb, b: Rgb| a * (1.0 - w) + b * w;
+        let af = mix(r0.forward, r1.forward);
+        let f_back = |extra: Rgb| -> Rgb {
+            if !back_half {
+                return Rgb::ZERO;
+            }
+            let base = match s.spread {
+                Spread::Weighted => mix(r0.backscatter_spread, r1.backscatter_spread),
+                Spread::Literal => mix(r0.backscatter_spread_literal, r1.backscatter_spread_literal),
+            };
+            let sigma = base * (af * af * s.backward_density + Rgb::ONE);
+            let variance = (sigma * sigma + extra).map(|v| v.max(MIN_VARIANCE));
+            let shift = mix(r0.backscatter_shift, r1.backscatter_shift);
+            let ab = mix(r0.backscatter, r1.backscatter);
+            ab * gaussian(Rgb::splat(theta_h) - shift, variance) * (s.back_scale * 2.0 / PI * inv_cos2)
+        };
+        let direct = (1.0 - n).max(0.0);
+        let mut total = Rgb::ZERO;
+        if direct > 0.0 {
+            let f_s = scene.fiber_model(material).eval(wi, wo, h);
+            total += (f_s + f_back(Rgb::ZERO) * s.backward_density) * direct;
+        }
+        if direct < 1.0 {
+            let mut f_g = Rgb::ZERO;
+            for (l0, l1) in r0.lobes.iter().zip(&r1.lobes) {
+                let (amplitude, c_g) = match s.global {
+                    GlobalAzimuth::ForwardMean => (mix(l0.global_azimuthal, l1.global_azimuthal), 1.0),
+                    GlobalAzimuth::Energy => {
+                        (mix(l0.forward + l0.backward, l1.forward + l1.backward) / (2.0 * PI), 0.5)
+                    }
+                };
+                let variance = (mix(l0.variance, l1.variance) + spread2).map(|v| v.max(MIN_VARIANCE));
+                let shift = mix(l0.shift, l1.shift);
+                f_g += amplitude * gaussian(Rgb::splat(theta_h) - shift, variance) * (c_g * inv_cos2);
+            }
+            let c_pi = if s.back_pi { PI } else { 1.0 };
+            let t_f = product * s.forward_density;
+            total += t_f * (f_g + f_back(spread2) * (c_pi * s.backward_density)) * (1.0 - direct);
+        }
+        total
+    }
+
+    /// Radiance along a camera ray: surfaces path traced with next-event estimation and MIS
+    /// (as [`crate::integrator::radiance`]), the path ending at the first fiber, shaded with
+    /// [`DualScattering::scattering`] for one light sample.
+    #[must_use]
+    pub fn radiance(
+        &self,
+        scene: &Scene,
+        ray: Ray,
+        sampler: &mut PixelSampler,
+        settings: &RenderSettings,
+        rays: &mut u64,
+    ) -> Rgb {
+        let mut ray = ray;
+        let mut l = Rgb::ZERO;
+        let mut beta = Rgb::ONE;
+        let mut prev_delta = true;
+        let mut prev_pdf = 0.0;
+        let mut prev_p = ray.o;
+        let picker = scene.light_picker();
+        let mut depth = 0u32;
+        loop {
+            *rays += 1;
+            let Some(hit) = scene.intersect(&ray) else {
+                for (i, light) in scene.lights().iter().enumerate() {
+                    let le = light.escaped(ray.d);
+                    if le.is_black() {
+                        continue;
+                    }
+                    let w = if prev_delta {
+                        1.0
+                    } else {
+                        power_heuristic(prev_pdf, picker.light_probability(i) * light.pdf(ray.d))
+                    };
+                    l += beta * le * w;
+                }
+                break;
+            };
+            let [u_pick, _] = sampler.next_2d();
+            let u_light = sampler.next_2d();
+            match hit {
+                Hit::Fiber { hit: fiber, material } => {
+                    let p = fiber.p;
+                    let eps = spawn_epsilon(p);
+                    let Some((emitter, select)) = picker.pick(u_pick) else { break };
+                    let Some(ls) = scene.sample_emitter(emitter, p, u_light) else { break };
+                    if ls.radiance.is_black() {
+                        break;
+                    }
+                    let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
+                    let shadow = Ray { o: p, d: ls.wi, t_min: eps, t_max };
+                    *rays += 1;
+                    if !surfaces_unoccluded(scene, &shadow) {
+                        break;
+                    }
+                    let assembly = scene.fibers().iter().position(|f| f.material() == material);
+                    let skip = assembly.map(|a| (a, fiber.strand));
+                    let (n, product, spread2) = self.count(scene, &shadow, skip, 4.0 * fiber.radius);
+                    let frame = fiber.frame(ray.d);
+                    let (wi, wo) = (frame.to_local(ls.wi), frame.to_local(-ray.d));
+                    let f = self.scattering(scene, material, wi, wo, fiber.h, n, product, spread2);
+                    let cos_i = (1.0 - wi.x * wi.x).max(0.0).sqrt();
+                    l += beta * f * ls.radiance * (cos_i / (select * ls.pdf));
+                    break;
+                }
+                Hit::Surface { p, n, material, emitter, .. } => {
+                    if let Some(i) = emitter
+                        && let Some(light) = scene.spheres()[i].light()
+                        && n.dot(ray.d) < 0.0
+                    {
+                        let w = if prev_delta {
+                            1.0
+                        } else {
+                            power_heuristic(prev_pdf, picker.sphere_probability(i) * light.pdf(prev_p, ray.d))
+                        };
+                        l += beta * light.radiance * w;
+                    }
+                    if depth >= settings.max_depth {
+                        break;
+                    }
+                    let facing = if n.dot(ray.d) < 0.0 { n } else { -n };
+                    let local = match scene.surface_material(material) {
+                        SurfaceMaterial::Lambert(albedo) => Local::Lambert { albedo: *albedo, n: facing },
+                        SurfaceMaterial::Mirror(r) => Local::Mirror { reflectance: *r, n: facing, wo: -ray.d },
+                    };
+                    let eps = spawn_epsilon(p);
+                    if !local.is_delta()
+                        && let Some((emitter, select)) = picker.pick(u_pick)
+                        && let Some(ls) = scene.sample_emitter(emitter, p, u_light)
+                    {
+                        let (f, bsdf_pdf) = local.eval_cos_and_pdf(ls.wi);
+                        if !f.is_black() && !ls.radiance.is_black() {
+                            let t_max =
+                                if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
+                            let shadow = Ray { o: p, d: ls.wi, t_min: eps, t_max };
+                            *rays += 1;
+                            if scene.unoccluded(&shadow) {
+                                let p_light = select * ls.pdf;
+                                let w = if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf_pdf) };
+                                l += beta * f * ls.radiance * (w / p_light);
+                            }
+                        }
+                    }
+                    let (a, b) = (sampler.next_2d(), sampler.next_2d());
+                    let [u_rr, _] = sampler.next_2d();
+                    let Some(s) = local.sample([a[0], a[1], b[0], b[1]]) else { break };
+                    beta *= s.weight;
+                    if beta.is_black() || !beta.is_finite() {
+                        break;
+                    }
+                    prev_delta = s.delta;
+                    prev_pdf = s.pdf;
+                    prev_p = p;
+                    depth += 1;
+                    if depth >= settings.rr_depth {
+                        let survive = beta.max_component().min(1.0);
+                        if u_rr >= survive {
+                            break;
+                        }
+                        beta = beta / survive;
+                    }
+                    ray = Ray { o: p, d: s.wi, t_min: eps, t_max: f64::INFINITY };
+                }
+            }
+        }
+        l
+    }
+}
+
+/// True when no sphere or mesh blocks the ray (fibers are counted, not tested).
+fn surfaces_unoccluded(scene: &Scene, ray: &Ray) -> bool {
+    !(scene.spheres().iter().any(|s| sphere_hit(ray.o, ray.d, s.center(), s.radius(), ray.t_min, ray.t_max).is_some())
+        || scene.meshes().iter().any(|m| m.mesh().occluded(ray)))
+}

@@ -20,7 +20,8 @@ ap.add_argument("--phi", type=float, default=0.2)
 ap.add_argument("--work", default="/tmp/dual_bench")
 ap.add_argument("--thetas", default="0,30,60")
 ap.add_argument("--colours", default="blond:0.15,brown:0.8")
-ap.add_argument("--fit", action="store_true", help="also sweep d_f, d_b")
+ap.add_argument("--fit", action="store_true", help="also sweep d_f, d_b (with pi off and on)")
+ap.add_argument("--only-fit", action="store_true", help="the sweep of d_f, d_b alone")
 a = ap.parse_args()
 
 
@@ -47,9 +48,11 @@ variants = {
     "count=grid": ["--fiber-count", "grid"],
     "global=forward-mean,pi=on": ["--dual", "global=forward-mean", "--dual", "pi=on"],
 }
-if a.fit:
-    for df, db in itertools.product([0.5, 0.7, 0.85, 1.0], [0.35, 0.7, 1.0]):
-        variants[f"d_f={df},d_b={db}"] = ["--dual", f"d_f={df}", "--dual", f"d_b={db}"]
+if a.only_fit:
+    variants = {}
+if a.fit or a.only_fit:
+    for pi, df, db in itertools.product(["off", "on"], [0.5, 0.6, 0.7, 0.85, 1.0], [0.35, 0.5, 0.7, 1.0, 1.3]):
+        variants[f"pi={pi},d_f={df},d_b={db}"] = ["--dual", f"pi={pi}", "--dual", f"d_f={df}", "--dual", f"d_b={db}"]
 rows = []
 for colour, theta in itertools.product(a.colours.split(","), a.thetas.split(",")):
     name, eu = colour.split(":")

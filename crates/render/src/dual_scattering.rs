@@ -213,7 +213,7 @@ impl DualScattering {
             let theta = c.sin_theta.asin();
             let af = t.lookup(theta, |r| r.forward);
             n += c.count;
-            log_t += af.map(|a| a.max(1e-300).min(1.0).ln()) * c.count;
+            log_t += af.map(|a| a.clamp(1e-300, 1.0).ln()) * c.count;
             var += t.lookup(theta, |r| r.forward_variance) * c.count;
         };
         match &self.grid {

@@ -159,7 +159,7 @@ impl DensityGrid {
             t0 = t0.max(near);
             t1 = t1.min(far);
         }
-        if !(t1 > t0) {
+        if t1.partial_cmp(&t0) != Some(std::cmp::Ordering::Greater) {
             return;
         }
         let step = 0.5 * self.cell;

@@ -299,8 +299,8 @@ impl DualTables {
         resolution: Resolution,
     ) -> Result<Self, DualTablesInvalid> {
         if rows.len() < 2
-            || rows.windows(2).any(|w| !(w[0].theta < w[1].theta))
-            || rows.iter().any(|r| !(r.theta.abs() < FRAC_PI_2))
+            || !rows.windows(2).all(|w| w[0].theta < w[1].theta)
+            || !rows.iter().all(|r| r.theta.abs() < FRAC_PI_2)
         {
             return Err(DualTablesInvalid::Rows);
         }

@@ -59,8 +59,8 @@ pub struct Args {
     /// BVH) or from a density `grid` (default: the scene's `[render] fiber_count`).
     #[arg(long, value_name = "exact|grid", value_parser = ["exact", "grid"])]
     fiber_count: Option<String>,
-    /// With dual scattering, a constant or choice: `d_f=0.7`, `d_b=0.7`, `k_back=0.25`,
-    /// `pi=on|off`, `spread=weighted|literal`, `global=energy|forward-mean`, `grid=64`
+    /// With dual scattering, a constant or choice (defaults shown): `d_f=0.5`, `d_b=1`, `k_back=0.25`,
+    /// `pi=on|off` (on), `spread=weighted|literal`, `global=energy|forward-mean`, `grid=64`
     /// (cells along the longest side). Repeatable.
     #[arg(long = "dual", value_name = "KEY=VALUE")]
     dual: Vec<String>,

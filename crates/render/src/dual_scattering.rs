@@ -105,10 +105,10 @@ impl Default for DualScatteringSettings {
     fn default() -> Self {
         Self {
             count: FiberCount::Exact,
-            forward_density: 0.7,
-            backward_density: 0.7,
+            forward_density: 0.5,
+            backward_density: 1.0,
             back_scale: 0.25,
-            back_pi: false,
+            back_pi: true,
             spread: Spread::Weighted,
             global: GlobalAzimuth::Energy,
             grid_resolution: 64,

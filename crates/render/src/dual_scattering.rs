@@ -1,9 +1,10 @@
 //! The dual-scattering integrator (Zinke, Yuksel, Weber and Keyser 2008, *Dual scattering
-//! approximation for fast multiple scattering in hair*): at a fiber hit, each light sample
-//! (sun, sky, sphere lights: the path tracer's next-event estimation) is shaded with the
-//! multiple-scattering approximation instead of a shadow test and further bounces; camera
-//! rays that hit ordinary surfaces (floor, meshes, spheres) are path traced as before, and a
-//! path ends at the first fiber it reaches.
+//! approximation for fast multiple scattering in hair*): the path tracer
+//! ([`crate::integrator::radiance`]) with, at the first fiber a path reaches, one light sample
+//! (sun, sky, sphere lights: its next-event estimation) shaded with the multiple-scattering
+//! approximation ([`DualScattering::shade_fiber`]) instead of a shadow test and further
+//! bounces; the path ends there. Ordinary surfaces (floor, meshes, spheres) are path traced as
+//! before.
 //!
 //! # At a fiber hit, for a light direction ω_d (θ its inclination to the fiber)
 //! The shadow ray toward the light is blocked by surfaces as usual; the fibers it crosses are
@@ -27,10 +28,9 @@
 //! scattering").
 
 use crate::bvh::Ray;
+use crate::curves::CurveHit;
 use crate::fiber_count::{Crossing, DensityGrid, FiberCount, exact_crossings};
-use crate::integrator::{Local, RenderSettings, power_heuristic, spawn_epsilon};
-use crate::sampler::PixelSampler;
-use crate::scene::{FiberMaterialId, Hit, Scene, SurfaceMaterial};
+use crate::scene::{FiberMaterialId, Scene};
 use crate::shapes::sphere_hit;
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::dual_scattering_tables::{DualTables, DualTablesError, Resolution};
@@ -292,131 +292,44 @@ impl DualScattering {
         total
     }
 
-    /// Radiance along a camera ray: surfaces path traced with next-event estimation and MIS
-    /// (as [`crate::integrator::radiance`]), the path ending at the first fiber, shaded with
-    /// [`DualScattering::scattering`] for one light sample.
+    /// Light leaving the fiber hit `fiber` (of `material`, seen along `ray_d`) toward the
+    /// camera, from one light sample (`u_pick`, `u_light`): [`DualScattering::scattering`] for
+    /// the sampled light direction, `F·cosθ_i·L/p`. Adds the shadow ray to `rays`. The path
+    /// tracer calls this at the first fiber a path reaches and ends the path there.
     #[must_use]
-    pub fn radiance(
+    #[allow(clippy::too_many_arguments)]
+    pub fn shade_fiber(
         &self,
         scene: &Scene,
-        ray: Ray,
-        sampler: &mut PixelSampler,
-        settings: &RenderSettings,
+        fiber: &CurveHit,
+        material: FiberMaterialId,
+        ray_d: DVec3,
+        u_pick: f64,
+        u_light: [f64; 2],
         rays: &mut u64,
     ) -> Rgb {
-        let mut ray = ray;
-        let mut l = Rgb::ZERO;
-        let mut beta = Rgb::ONE;
-        let mut prev_delta = true;
-        let mut prev_pdf = 0.0;
-        let mut prev_p = ray.o;
+        let p = fiber.p;
+        let eps = 1e-9 * (1.0 + p.abs().max_element());
         let picker = scene.light_picker();
-        let mut depth = 0u32;
-        loop {
-            *rays += 1;
-            let Some(hit) = scene.intersect(&ray) else {
-                for (i, light) in scene.lights().iter().enumerate() {
-                    let le = light.escaped(ray.d);
-                    if le.is_black() {
-                        continue;
-                    }
-                    let w = if prev_delta {
-                        1.0
-                    } else {
-                        power_heuristic(prev_pdf, picker.light_probability(i) * light.pdf(ray.d))
-                    };
-                    l += beta * le * w;
-                }
-                break;
-            };
-            let [u_pick, _] = sampler.next_2d();
-            let u_light = sampler.next_2d();
-            match hit {
-                Hit::Fiber { hit: fiber, material } => {
-                    let p = fiber.p;
-                    let eps = spawn_epsilon(p);
-                    let Some((emitter, select)) = picker.pick(u_pick) else { break };
-                    let Some(ls) = scene.sample_emitter(emitter, p, u_light) else { break };
-                    if ls.radiance.is_black() {
-                        break;
-                    }
-                    let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
-                    let shadow = Ray { o: p, d: ls.wi, t_min: eps, t_max };
-                    *rays += 1;
-                    if !surfaces_unoccluded(scene, &shadow) {
-                        break;
-                    }
-                    let assembly = scene.fibers().iter().position(|f| f.material() == material);
-                    let skip = assembly.map(|a| (a, fiber.strand));
-                    let (n, product, spread2) = self.count(scene, &shadow, skip, 4.0 * fiber.radius);
-                    let frame = fiber.frame(ray.d);
-                    let (wi, wo) = (frame.to_local(ls.wi), frame.to_local(-ray.d));
-                    let f = self.scattering(scene, material, wi, wo, fiber.h, n, product, spread2);
-                    let cos_i = (1.0 - wi.x * wi.x).max(0.0).sqrt();
-                    l += beta * f * ls.radiance * (cos_i / (select * ls.pdf));
-                    break;
-                }
-                Hit::Surface { p, n, material, emitter, .. } => {
-                    if let Some(i) = emitter
-                        && let Some(light) = scene.spheres()[i].light()
-                        && n.dot(ray.d) < 0.0
-                    {
-                        let w = if prev_delta {
-                            1.0
-                        } else {
-                            power_heuristic(prev_pdf, picker.sphere_probability(i) * light.pdf(prev_p, ray.d))
-                        };
-                        l += beta * light.radiance * w;
-                    }
-                    if depth >= settings.max_depth {
-                        break;
-                    }
-                    let facing = if n.dot(ray.d) < 0.0 { n } else { -n };
-                    let local = match scene.surface_material(material) {
-                        SurfaceMaterial::Lambert(albedo) => Local::Lambert { albedo: *albedo, n: facing },
-                        SurfaceMaterial::Mirror(r) => Local::Mirror { reflectance: *r, n: facing, wo: -ray.d },
-                    };
-                    let eps = spawn_epsilon(p);
-                    if !local.is_delta()
-                        && let Some((emitter, select)) = picker.pick(u_pick)
-                        && let Some(ls) = scene.sample_emitter(emitter, p, u_light)
-                    {
-                        let (f, bsdf_pdf) = local.eval_cos_and_pdf(ls.wi);
-                        if !f.is_black() && !ls.radiance.is_black() {
-                            let t_max =
-                                if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
-                            let shadow = Ray { o: p, d: ls.wi, t_min: eps, t_max };
-                            *rays += 1;
-                            if scene.unoccluded(&shadow) {
-                                let p_light = select * ls.pdf;
-                                let w = if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf_pdf) };
-                                l += beta * f * ls.radiance * (w / p_light);
-                            }
-                        }
-                    }
-                    let (a, b) = (sampler.next_2d(), sampler.next_2d());
-                    let [u_rr, _] = sampler.next_2d();
-                    let Some(s) = local.sample([a[0], a[1], b[0], b[1]]) else { break };
-                    beta *= s.weight;
-                    if beta.is_black() || !beta.is_finite() {
-                        break;
-                    }
-                    prev_delta = s.delta;
-                    prev_pdf = s.pdf;
-                    prev_p = p;
-                    depth += 1;
-                    if depth >= settings.rr_depth {
-                        let survive = beta.max_component().min(1.0);
-                        if u_rr >= survive {
-                            break;
-                        }
-                        beta = beta / survive;
-                    }
-                    ray = Ray { o: p, d: s.wi, t_min: eps, t_max: f64::INFINITY };
-                }
-            }
+        let Some((emitter, select)) = picker.pick(u_pick) else { return Rgb::ZERO };
+        let Some(ls) = scene.sample_emitter(emitter, p, u_light) else { return Rgb::ZERO };
+        if ls.radiance.is_black() {
+            return Rgb::ZERO;
         }
-        l
+        let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
+        let shadow = Ray { o: p, d: ls.wi, t_min: eps, t_max };
+        *rays += 1;
+        if !surfaces_unoccluded(scene, &shadow) {
+            return Rgb::ZERO;
+        }
+        let assembly = scene.fibers().iter().position(|f| f.material() == material);
+        let skip = assembly.map(|a| (a, fiber.strand));
+        let (n, product, spread2) = self.count(scene, &shadow, skip, 4.0 * fiber.radius);
+        let frame = fiber.frame(ray_d);
+        let (wi, wo) = (frame.to_local(ls.wi), frame.to_local(-ray_d));
+        let f = self.scattering(scene, material, wi, wo, fiber.h, n, product, spread2);
+        let cos_i = (1.0 - wi.x * wi.x).max(0.0).sqrt();
+        f * ls.radiance * (cos_i / (select * ls.pdf))
     }
 }
 

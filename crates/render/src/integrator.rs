@@ -116,17 +116,17 @@ pub fn power_heuristic(a: f64, b: f64) -> f64 {
 }
 
 /// The scattering function at a hit, in world directions.
-pub(crate) enum Local<'a> {
+enum Local<'a> {
     Fiber { model: &'a Model, frame: FiberFrame, wo: DVec3, h: f64, delta: bool },
     Lambert { albedo: Rgb, n: DVec3 },
     Mirror { reflectance: Rgb, n: DVec3, wo: DVec3 },
 }
 
-pub(crate) struct Scatter {
-    pub(crate) wi: DVec3,
-    pub(crate) weight: Rgb,
-    pub(crate) pdf: f64,
-    pub(crate) delta: bool,
+struct Scatter {
+    wi: DVec3,
+    weight: Rgb,
+    pdf: f64,
+    delta: bool,
 }
 
 impl<'a> Local<'a> {
@@ -136,7 +136,7 @@ impl<'a> Local<'a> {
         Local::Fiber { model, frame, wo: frame.to_local(-ray_d), h: hit.h, delta }
     }
 
-    pub(crate) fn is_delta(&self) -> bool {
+    fn is_delta(&self) -> bool {
         match self {
             Local::Fiber { delta, .. } => *delta,
             Local::Mirror { .. } => true,
@@ -145,7 +145,7 @@ impl<'a> Local<'a> {
     }
 
     /// `f·cos` for light direction `wi` (world) and the density with which `sample` draws it.
-    pub(crate) fn eval_cos_and_pdf(&self, wi: DVec3) -> (Rgb, f64) {
+    fn eval_cos_and_pdf(&self, wi: DVec3) -> (Rgb, f64) {
         match self {
             Local::Fiber { model, frame, wo, h, .. } => {
                 let wi_l = frame.to_local(wi);
@@ -160,7 +160,7 @@ impl<'a> Local<'a> {
         }
     }
 
-    pub(crate) fn sample(&self, u: [f64; 4]) -> Option<Scatter> {
+    fn sample(&self, u: [f64; 4]) -> Option<Scatter> {
         match self {
             Local::Fiber { model, frame, wo, h, .. } => {
                 let s = model.sample(*wo, *h, u)?;
@@ -183,7 +183,7 @@ impl<'a> Local<'a> {
 }
 
 /// Smallest ray distance for rays spawned at `p` (relative to the coordinates' magnitude).
-pub(crate) fn spawn_epsilon(p: DVec3) -> f64 {
+fn spawn_epsilon(p: DVec3) -> f64 {
     1e-9 * (1.0 + p.abs().max_element())
 }
 
@@ -216,6 +216,13 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
             }
             break;
         };
+        // Dual scattering: one light sample at the first fiber, and the path ends.
+        if let (Hit::Fiber { hit, material }, Integrator::DualScattering(dual)) = (&hit, &settings.integrator) {
+            let [u_pick, _] = sampler.next_2d();
+            let u_light = sampler.next_2d();
+            l += beta * dual.shade_fiber(scene, hit, *material, ray.d, u_pick, u_light, rays);
+            break;
+        }
         let (p, local) = match hit {
             Hit::Fiber { hit, material } => (hit.p, Local::fiber(scene.fiber_model(material), &hit, ray.d)),
             Hit::Surface { p, n, material, emitter, .. } => {
@@ -330,10 +337,7 @@ fn render_tile(
                 sampler.start(u64::from(i));
                 let [jx, jy] = sampler.next_2d();
                 let ray = scene.camera().ray(f64::from(x) + jx, f64::from(y) + jy);
-                let l = match &settings.integrator {
-                    Integrator::Path => radiance(scene, ray, &mut sampler, settings, &mut job.rays),
-                    Integrator::DualScattering(d) => d.radiance(scene, ray, &mut sampler, settings, &mut job.rays),
-                };
+                let l = radiance(scene, ray, &mut sampler, settings, &mut job.rays);
                 if l.is_finite() {
                     *sum += l;
                 } else {

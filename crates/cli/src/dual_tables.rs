@@ -1,9 +1,14 @@
 //! `fiberlab dual-tables`: the dual-scattering tables of one far-field model
 //! (`fiberlab_scatter::dual_scattering_tables`; Zinke, Yuksel, Weber and Keyser 2008) as CSV,
 //! with a figure:
-//! * `PREFIX.csv`: `theta_deg,af_r,af_g,af_b,ab_r,ab_g,ab_b,abar_b_r,abar_b_g,abar_b_b` — per
-//!   light inclination θ (degrees), the average forward attenuation ā_f, the average backward
-//!   attenuation ā_b and the backscatter attenuation Ā_b, per colour channel;
+//! * `PREFIX.csv`: `theta_deg,af_r,af_g,af_b,ab_r,ab_g,ab_b,abar_b_r,abar_b_g,abar_b_b,…` — per
+//!   light inclination θ (degrees), per colour channel: the average forward attenuation ā_f, the
+//!   average backward attenuation ā_b, the backscatter attenuation Ā_b, then the lobe-weighted
+//!   shifts and widths `alpha_f, beta2_f, alpha_b, beta2_b` (radians, rad²), the backscatter
+//!   shift `delta_b` and spread `sigma_b` (weighted-mean denominator) and `sigma_b_literal`
+//!   (the printed one), both without the density factor `1 + d_b ā_f²`; then per lobe
+//!   (`r_…`, `tt_…`, `trt_…`, …; `all_…` for a model that does not separate its lobes) its
+//!   parts of ā_f and ā_b, its shift and width, and `ng`, its `N^G_p` (rad⁻¹);
 //! * `PREFIX.png`: the three quantities over θ, per channel.
 
 use crate::arg_values::{self, OutPrefix};
@@ -52,10 +57,40 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let tables = DualTables::new(&model, &resolution)
         .with_context(|| format!("dual-scattering tables of `{}`", args.model.model))?;
     eprintln!("dual-scattering tables: {} nodes, built in {:.2} s", tables.rows().len(), start.elapsed().as_secs_f64());
-    let mut csv = String::from("theta_deg,af_r,af_g,af_b,ab_r,ab_g,ab_b,abar_b_r,abar_b_g,abar_b_b\n");
+    let mut csv = String::from("theta_deg");
+    let mut columns: Vec<String> =
+        ["af", "ab", "abar_b", "alpha_f", "beta2_f", "alpha_b", "beta2_b", "delta_b", "sigma_b", "sigma_b_literal"]
+            .iter()
+            .map(|s| (*s).to_owned())
+            .collect();
+    for lobe in tables.lobe_names() {
+        let lobe = lobe.to_lowercase().replace('+', "plus").replace('≥', "ge");
+        for q in ["af", "ab", "alpha", "beta2", "ng"] {
+            columns.push(format!("{lobe}_{q}"));
+        }
+    }
+    for c in &columns {
+        write!(csv, ",{c}_r,{c}_g,{c}_b")?;
+    }
+    csv.push('\n');
     for row in tables.rows() {
         write!(csv, "{:.6}", row.theta.to_degrees())?;
-        for v in [row.forward, row.backward, row.backscatter] {
+        let mut values = vec![
+            row.forward,
+            row.backward,
+            row.backscatter,
+            row.forward_shift,
+            row.forward_variance,
+            row.backward_shift,
+            row.backward_variance,
+            row.backscatter_shift,
+            row.backscatter_spread,
+            row.backscatter_spread_literal,
+        ];
+        for l in &row.lobes {
+            values.extend([l.forward, l.backward, l.shift, l.variance, l.global_azimuthal]);
+        }
+        for v in values {
             write!(csv, ",{:.9e},{:.9e},{:.9e}", v[0], v[1], v[2])?;
         }
         csv.push('\n');

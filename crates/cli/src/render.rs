@@ -17,6 +17,10 @@ use anyhow::Context;
 use fiberlab_io::LinearImage;
 use fiberlab_io::ToneMap;
 use fiberlab_render::accumulation::Accumulation;
+use fiberlab_render::dual_scattering::{
+    DualScattering, DualScatteringSettings, GlobalAzimuth, Integrator, RENDER_TABLE_RESOLUTION, Spread,
+};
+use fiberlab_render::fiber_count::FiberCount;
 use fiberlab_render::integrator::{Progress, Region, RenderSettings, render_continuing};
 use fiberlab_render::scene_file::SceneFile;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -48,6 +52,18 @@ pub struct Args {
     /// Maximum path depth (default: the scene's).
     #[arg(long)]
     max_depth: Option<u32>,
+    /// `path` or `dual-scattering` (default: the scene's `[render] integrator`).
+    #[arg(long, value_name = "NAME", value_parser = ["path", "dual-scattering"])]
+    integrator: Option<String>,
+    /// With dual scattering: count the fibers toward the light `exact`ly (a walk through the
+    /// BVH) or from a density `grid` (default: the scene's `[render] fiber_count`).
+    #[arg(long, value_name = "exact|grid", value_parser = ["exact", "grid"])]
+    fiber_count: Option<String>,
+    /// With dual scattering, a constant or choice (defaults shown): `d_f=0.5`, `d_b=1`, `k_back=0.25`,
+    /// `pi=on|off` (on), `spread=weighted|literal`, `global=energy|forward-mean`, `grid=64`
+    /// (cells along the longest side). Repeatable.
+    #[arg(long = "dual", value_name = "KEY=VALUE")]
+    dual: Vec<String>,
     /// Render only part I of N (0-based bands of rows), for `fiberlab merge`.
     #[arg(long, value_name = "I/N", value_parser = arg_values::tile)]
     tile: Option<Tile>,
@@ -218,6 +234,10 @@ fn scene_hash(args: &Args) -> anyhow::Result<String> {
         h = fnv1a(fnv1a(h, b"hair"), &read(p)?);
     }
     h = fnv1a(h, format!("max_depth={:?}", args.max_depth).as_bytes());
+    if args.integrator.is_some() || args.fiber_count.is_some() || !args.dual.is_empty() {
+        let text = format!("integrator={:?} fiber_count={:?} dual={:?}", args.integrator, args.fiber_count, args.dual);
+        h = fnv1a(h, text.as_bytes());
+    }
     Ok(format!("{h:016x}"))
 }
 
@@ -273,6 +293,24 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
     }
     let (scene, _) = file.build()?;
+    let integrator = args.integrator.clone().unwrap_or_else(|| file.render_settings().integrator.clone());
+    let settings = if integrator == "dual-scattering" {
+        let count = args.fiber_count.clone().unwrap_or_else(|| file.render_settings().fiber_count.clone());
+        let dual = dual_settings(&count, &args.dual)?;
+        let t = Instant::now();
+        let d = DualScattering::new(&scene, dual, &RENDER_TABLE_RESOLUTION)?;
+        eprintln!(
+            "dual scattering: tables in {:.2} s, fibers counted {}",
+            t.elapsed().as_secs_f64(),
+            match d.grid() {
+                Some(g) => format!("from a {:?} density grid ({:.1} MB)", g.dims(), g.bytes() as f64 / 1e6),
+                None => "exactly (BVH walk)".into(),
+            }
+        );
+        RenderSettings { integrator: Integrator::DualScattering(Arc::new(d)), ..settings }
+    } else {
+        settings
+    };
     let build_seconds = t0.elapsed().as_secs_f64();
     let settings = RenderSettings { deadline: config.time_limit.map(|limit| Instant::now() + limit), ..settings };
     let stop = Arc::new(AtomicBool::new(false));
@@ -372,4 +410,47 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     eprintln!("stopped by --time-limit: {how}");
     Ok(())
+}
+
+/// Dual-scattering settings from `--fiber-count` and the `--dual KEY=VALUE` flags.
+fn dual_settings(count: &str, pairs: &[String]) -> anyhow::Result<DualScatteringSettings> {
+    let mut s =
+        DualScatteringSettings { count: FiberCount::parse(count).map_err(anyhow::Error::msg)?, ..Default::default() };
+    for pair in pairs {
+        let (key, value) = pair.split_once('=').ok_or_else(|| anyhow::anyhow!("--dual {pair}: expected KEY=VALUE"))?;
+        let number = || -> anyhow::Result<f64> {
+            let v: f64 = value.parse().map_err(|_| anyhow::anyhow!("--dual {key}: `{value}` is not a number"))?;
+            anyhow::ensure!(v.is_finite() && v >= 0.0, "--dual {key} = {v} must be finite and ≥ 0");
+            Ok(v)
+        };
+        match key {
+            "d_f" => s.forward_density = number()?,
+            "d_b" => s.backward_density = number()?,
+            "k_back" => s.back_scale = number()?,
+            "grid" => s.grid_resolution = (number()? as usize).max(1),
+            "pi" => {
+                s.back_pi = match value {
+                    "on" | "true" => true,
+                    "off" | "false" => false,
+                    _ => anyhow::bail!("--dual pi: `{value}` (known: on, off)"),
+                }
+            }
+            "spread" => {
+                s.spread = match value {
+                    "weighted" => Spread::Weighted,
+                    "literal" => Spread::Literal,
+                    _ => anyhow::bail!("--dual spread: `{value}` (known: weighted, literal)"),
+                }
+            }
+            "global" => {
+                s.global = match value {
+                    "energy" => GlobalAzimuth::Energy,
+                    "forward-mean" => GlobalAzimuth::ForwardMean,
+                    _ => anyhow::bail!("--dual global: `{value}` (known: energy, forward-mean)"),
+                }
+            }
+            _ => anyhow::bail!("--dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, global, grid)"),
+        }
+    }
+    Ok(s)
 }

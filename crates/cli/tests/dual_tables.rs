@@ -42,6 +42,11 @@ fn lossless_diffuse_table_splits_evenly_and_sums_to_one() {
             // Ā_b = ā_b ā_f²/(1 − ā_f²) + ā_b³ ā_f²/(1 − ā_f²)³ at ā_f = ā_b = ½.
             let want = 0.5 * 0.25 / 0.75 + 0.125 * 0.25 / 0.75_f64.powi(3);
             assert!((row[col(&format!("abar_b_{c}"))] - want).abs() < 5e-3, "{row:?}");
+            // Constant f_s: the mean of θ_h = (θ + θ_r)/2 under the weight cos²θ_r is θ/2.
+            assert!((row[col(&format!("alpha_f_{c}"))] - 0.5 * row[0].to_radians()).abs() < 1e-6, "{row:?}");
+            assert!(
+                (row[col(&format!("all_ng_{c}"))] - row[col(&format!("af_{c}"))] / std::f64::consts::PI).abs() < 1e-9
+            );
         }
     }
 }

@@ -339,6 +339,34 @@ impl CurveSet {
         })
     }
 
+    /// Calls `each` with every tube entry along the ray within `(t_min, t_max)`, each segment
+    /// once, in no particular order (the counting walk of dual scattering).
+    pub fn each_entry(&self, ray: &Ray, mut each: impl FnMut(&CurveHit)) {
+        let quick = QuickRay::new(ray);
+        let mut last = u32::MAX;
+        // A segment split into pieces sits in several leaves: remember the ones reported.
+        let mut seen: Vec<u32> = Vec::new();
+        self.bvh.traverse_leaves(ray, |prims, _| {
+            for seg in self.candidates(&quick, prims, &mut last) {
+                if seen.contains(&seg) {
+                    continue;
+                }
+                if let Some(hit) = self.intersect_segment(seg, ray, ray.t_max) {
+                    seen.push(seg);
+                    each(&hit);
+                }
+            }
+            None
+        });
+    }
+
+    /// Calls `each(p0, p1, radius)` for every segment (axis ends and tube radius).
+    pub fn each_segment(&self, mut each: impl FnMut(DVec3, DVec3, f64)) {
+        for s in &self.segments {
+            each(s.p0.as_dvec3(), s.p1().as_dvec3(), f64::from(s.radius));
+        }
+    }
+
     /// The segments of a leaf that pass the `f32` pre-test, in leaf order, skipping the
     /// segment tested just before (`last`, updated).
     fn candidates<'a>(&'a self, quick: &QuickRay, prims: &'a [u32], last: &mut u32) -> impl Iterator<Item = u32> + 'a {

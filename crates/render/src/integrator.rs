@@ -21,6 +21,7 @@
 use crate::accumulation::{Accumulation, ResumeError};
 use crate::bvh::Ray;
 use crate::curves::CurveHit;
+use crate::dual_scattering::Integrator;
 use crate::mesh::ShadingFrame;
 pub use crate::region::Region;
 use crate::sampler::PixelSampler;
@@ -54,11 +55,23 @@ pub struct RenderSettings {
     pub threads: usize,
     /// Stop after this instant (within one pixel's samples of the pass in flight).
     pub deadline: Option<Instant>,
+    /// Path tracing or dual scattering ([`crate::dual_scattering`]).
+    pub integrator: Integrator,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { spp: 16, max_depth: 64, rr_depth: 3, seed: 0, region: None, tile_size: 16, threads: 0, deadline: None }
+        Self {
+            spp: 16,
+            max_depth: 64,
+            rr_depth: 3,
+            seed: 0,
+            region: None,
+            tile_size: 16,
+            threads: 0,
+            deadline: None,
+            integrator: Integrator::Path,
+        }
     }
 }
 
@@ -254,6 +267,13 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
             }
             break;
         };
+        // Dual scattering: one light sample at the first fiber, and the path ends.
+        if let (Hit::Fiber { hit, material }, Integrator::DualScattering(dual)) = (&hit, &settings.integrator) {
+            let [u_pick, _] = sampler.next_2d();
+            let u_light = sampler.next_2d();
+            l += beta * dual.shade_fiber(scene, hit, *material, ray.d, u_pick, u_light, rays);
+            break;
+        }
         let (p, local) = match hit {
             Hit::Fiber { hit, material } => (hit.p, Local::fiber(scene.fiber_model(material), &hit, ray.d)),
             Hit::Surface { p, n, shading, material, emitter, .. } => {

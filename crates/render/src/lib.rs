@@ -16,6 +16,8 @@ pub mod bvh;
 pub mod cabochon;
 pub mod camera;
 pub mod curves;
+pub mod dual_scattering;
+pub mod fiber_count;
 pub mod figured_maple;
 pub mod generator;
 pub mod integrator;

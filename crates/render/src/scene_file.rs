@@ -3,7 +3,8 @@
 //!
 //! ```toml
 //! [camera]            # eye, target, up, fov (vertical, degrees), width, height
-//! [render]            # spp, max_depth, seed, exposure (stops, for the PNG)
+//! [render]            # spp, max_depth, seed, exposure (stops, for the PNG),
+//!                     # integrator = "path" | "dual-scattering", fiber_count = "exact" | "grid"
 //! [materials.NAME]    # model = "<scatter model>", params = { key = value }   (fibers)
 //!                     # or model = "<surface model>", params = { key = value | texture }
 //!                     #   (texture: "x.png" | "x.exr" | { file, wrap, scale, remap,
@@ -143,11 +144,15 @@ pub struct RenderDesc {
     pub seed: u64,
     /// Exposure for the PNG, stops.
     pub exposure: f64,
+    /// `"path"` or `"dual-scattering"` ([`crate::dual_scattering`]).
+    pub integrator: String,
+    /// With dual scattering: `"exact"` or `"grid"` ([`crate::fiber_count`]).
+    pub fiber_count: String,
 }
 
 impl Default for RenderDesc {
     fn default() -> Self {
-        Self { spp: 16, max_depth: 64, seed: 0, exposure: 0.0 }
+        Self { spp: 16, max_depth: 64, seed: 0, exposure: 0.0, integrator: "path".into(), fiber_count: "exact".into() }
     }
 }
 
@@ -336,6 +341,13 @@ impl SceneFile {
             }
             if !d.exposure.is_finite() {
                 return Err(file.error(r.span(), format!("render: exposure = {:?} stops must be finite", d.exposure)));
+            }
+            if !matches!(d.integrator.as_str(), "path" | "dual-scattering") {
+                let msg = format!("render: integrator = {:?}; known: \"path\", \"dual-scattering\"", d.integrator);
+                return Err(file.error(r.span(), msg));
+            }
+            if let Err(e) = crate::fiber_count::FiberCount::parse(&d.fiber_count) {
+                return Err(file.error(r.span(), format!("render: fiber_count: {e}")));
             }
             file.render = d.clone();
         }
@@ -1113,6 +1125,19 @@ mod tests {
         assert!(e.line == 7 && e.to_string().contains("exposure = NaN stops must be finite"), "{e}");
         let f = SceneFile::parse(&format!("{CAMERA}[render]\nspp = 3\n"), Path::new("s.toml")).unwrap();
         assert_eq!((f.render_settings().spp, f.render_settings().max_depth), (3, 64));
+        let e = err(&format!("{CAMERA}[render]\nintegrator = \"photon\"\n"));
+        assert!(e.to_string().contains("integrator = \"photon\""), "{e}");
+        let e = err(&format!("{CAMERA}[render]\nfiber_count = \"guess\"\n"));
+        assert!(e.to_string().contains("unknown fiber count `guess`"), "{e}");
+        let f = SceneFile::parse(
+            &format!("{CAMERA}[render]\nintegrator = \"dual-scattering\"\nfiber_count = \"grid\"\n"),
+            Path::new("s.toml"),
+        )
+        .unwrap();
+        assert_eq!(
+            (f.render_settings().integrator.as_str(), f.render_settings().fiber_count.as_str()),
+            ("dual-scattering", "grid")
+        );
     }
 
     #[test]

@@ -293,6 +293,21 @@ impl ScatteringFunction for Chiang {
         self.at_vertex(wo, h).eval_and_pdf(wi)
     }
 
+    /// `M_p A_p N_p / cosθ_i` for p = 0, 1, 2 and the residual p ≥ 3.
+    fn eval_lobes(&self, wi: DVec3, wo: DVec3, h: f64, out: &mut [Rgb]) -> bool {
+        let hit = hit_attenuation(self.params.eta, self.sigma_a, sin_theta(wo), cos_theta(wo), h);
+        let (sin_i, cos_i) = (sin_theta(wi), cos_theta(wi));
+        let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
+        let dphi = phi(wi) - phi(wo);
+        for (p, slot) in out.iter_mut().take(4).enumerate() {
+            let (so, co) = rotate(sin_o, cos_o, self.tilt[p]);
+            let m = self.longitudinal[p].eval(sin_i, cos_i, so, co);
+            let n = if p < 3 { self.azimuthal(p, dphi, &hit) } else { 1.0 / TAU };
+            *slot = hit.a[p] * (m * n / cos_i.max(MIN_COS));
+        }
+        true
+    }
+
     /// `R`, `TT`, `TRT` (index p) and `TRRT+`, the residual of every order p ≥ 3.
     fn lobes(&self) -> Vec<LobeInfo> {
         ["R", "TT", "TRT", "TRRT+"].map(LobeInfo::smooth).to_vec()

@@ -117,6 +117,14 @@ pub trait ScatteringFunction: Send + Sync {
         vec![LobeInfo { name: "all", delta: self.properties().lobes == Lobes::Delta }]
     }
 
+    /// The terms of `f_s(ω_i, ω_o; h)` lobe by lobe, in the order of
+    /// [`ScatteringFunction::lobes`], written to `out[..lobes().len()]` (sr⁻¹; they sum to
+    /// `eval`). Returns `false`, leaving `out` alone, for models that do not separate their
+    /// lobes (the default); the dual-scattering tables then treat the whole model as one lobe.
+    fn eval_lobes(&self, _wi: DVec3, _wo: DVec3, _h: f64, _out: &mut [Rgb]) -> bool {
+        false
+    }
+
     /// For [`Lobes::Delta`] models: the lobe at relative azimuth `phi` (φ_o − φ_i) for a
     /// viewer at inclination `theta_o`. Smooth models return zero.
     fn cone(&self, _theta_o: f64, _phi: f64) -> ConeValue {

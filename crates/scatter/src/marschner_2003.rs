@@ -541,6 +541,31 @@ pub struct Marschner {
 }
 
 impl Marschner {
+    /// Calls `each(p, M_p N_p / cos²θ_d)` for every enabled lobe within its cut-off.
+    fn each_lobe(&self, wi: DVec3, wo: DVec3, mut each: impl FnMut(usize, Rgb)) {
+        let angles = PairAngles::new(wi, wo);
+        let mut circular: Option<NormalPlane> = None;
+        let c = angles.cos_theta_d.max(MIN_COS_THETA_D);
+        let inv_c2 = 1.0 / (c * c);
+        for lobe in Lobe::ALL {
+            let p = lobe.p();
+            if !self.params.lobes[p]
+                || (angles.theta_h - self.lobes.alpha[p]).abs() > LOBE_CUTOFF_SIGMAS * self.lobes.beta[p]
+            {
+                continue;
+            }
+            let m = self.longitudinal(lobe, angles.theta_h);
+            let n = if lobe == Lobe::TRT && self.params.eccentricity < 1.0 {
+                self.azimuthal_at(lobe, angles.sin_theta_d, angles.cos_theta_d, angles.phi, angles.cos_2phi_h)
+            } else {
+                let plane = *circular
+                    .get_or_insert_with(|| self.plane(self.params.eta, angles.sin_theta_d, angles.cos_theta_d));
+                self.azimuthal_in(&plane, lobe, angles.phi)
+            };
+            each(p, n * (m * inv_c2));
+        }
+    }
+
     /// Validates the parameters and precomputes the lobe constants and sampling table; the
     /// error names the parameter and its range (angles in degrees).
     pub fn new(params: MarschnerParams) -> Result<Self, MarschnerError> {
@@ -906,30 +931,21 @@ impl ScatteringFunction for Marschner {
 
     /// `S = Σ_p M_p(θ_h)·N_p(η′(θ_d), φ)/cos²θ_d` (sr⁻¹); `h` is ignored (far field).
     fn eval(&self, wi: DVec3, wo: DVec3, _h: f64) -> Rgb {
-        let angles = PairAngles::new(wi, wo);
         let mut s = Rgb::ZERO;
-        let mut circular: Option<NormalPlane> = None;
-        for lobe in Lobe::ALL {
-            let p = lobe.p();
-            if !self.params.lobes[p]
-                || (angles.theta_h - self.lobes.alpha[p]).abs() > LOBE_CUTOFF_SIGMAS * self.lobes.beta[p]
-            {
-                continue;
-            }
-            let m = self.longitudinal(lobe, angles.theta_h);
-            let n = if lobe == Lobe::TRT && self.params.eccentricity < 1.0 {
-                self.azimuthal_at(lobe, angles.sin_theta_d, angles.cos_theta_d, angles.phi, angles.cos_2phi_h)
-            } else {
-                let plane = *circular
-                    .get_or_insert_with(|| self.plane(self.params.eta, angles.sin_theta_d, angles.cos_theta_d));
-                self.azimuthal_in(&plane, lobe, angles.phi)
-            };
-            s += n * m;
-        }
-        let c = angles.cos_theta_d.max(MIN_COS_THETA_D);
-        let s = s / (c * c);
+        self.each_lobe(wi, wo, |_, v| s += v);
         debug_assert!(s.is_finite(), "marschner eval {s:?} at {wi:?} {wo:?}");
         s
+    }
+
+    /// The `R`, `TT`, `TRT` terms of [`ScatteringFunction::eval`] (index p).
+    fn eval_lobes(&self, wi: DVec3, wo: DVec3, _h: f64, out: &mut [Rgb]) -> bool {
+        out.iter_mut().take(3).for_each(|v| *v = Rgb::ZERO);
+        self.each_lobe(wi, wo, |p, v| {
+            if let Some(slot) = out.get_mut(p) {
+                *slot = v;
+            }
+        });
+        true
     }
 
     fn pdf(&self, wi: DVec3, wo: DVec3, _h: f64) -> f64 {

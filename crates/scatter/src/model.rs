@@ -95,6 +95,9 @@ macro_rules! models {
             fn lobes(&self) -> Vec<LobeInfo> {
                 match self { $(Model::$variant(m) => m.lobes(),)* }
             }
+            fn eval_lobes(&self, wi: DVec3, wo: DVec3, h: f64, out: &mut [Rgb]) -> bool {
+                match self { $(Model::$variant(m) => m.eval_lobes(wi, wo, h, out),)* }
+            }
             #[inline]
             fn cone(&self, theta_o: f64, phi: f64) -> ConeValue {
                 match self { $(Model::$variant(m) => m.cone(theta_o, phi),)* }

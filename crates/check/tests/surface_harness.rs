@@ -11,8 +11,13 @@ use std::f64::consts::{PI, TAU};
 
 #[test]
 fn every_surface_case_passes() {
-    let cases: Vec<_> =
-        default_cases().into_iter().filter(|c| lookup(&c.model).unwrap().kind() == ModelKind::Surface).collect();
+    // Sadeghi et al.'s other fabrics are covered preset by preset in the scatter crate's
+    // `cloth_sampling.rs` (χ², sample weights) and energy tests; `fiberlab check` runs them all.
+    let cases: Vec<_> = default_cases()
+        .into_iter()
+        .filter(|c| lookup(&c.model).unwrap().kind() == ModelKind::Surface)
+        .filter(|c| !(c.model == "sadeghi-2013" && c.params.iter().any(|(k, _)| k == "preset")))
+        .collect();
     assert!(cases.iter().any(|c| c.model == "wood") && cases.iter().any(|c| c.model == "lambertian"));
     let rows = check_cases(&cases, &Effort::default());
     let failed: Vec<_> = rows.iter().filter(|r| !r.pass).collect();

@@ -20,8 +20,8 @@ fn workspace() -> PathBuf {
 /// The layer of each crate: a crate may depend only on crates of lower layers.
 const LAYERS: &[(&str, u32)] = &[
     ("fiberlab-math", 0),
-    ("fiberlab-io", 1),
     ("fiberlab-scatter", 1),
+    ("fiberlab-io", 2),
     ("fiberlab-check", 2),
     ("fiberlab-gonio", 2),
     ("fiberlab-fit", 2),

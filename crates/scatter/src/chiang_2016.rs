@@ -295,15 +295,11 @@ impl ScatteringFunction for Chiang {
 
     /// `M_p A_p N_p / cosθ_i` for p = 0, 1, 2 and the residual p ≥ 3.
     fn eval_lobes(&self, wi: DVec3, wo: DVec3, h: f64, out: &mut [Rgb]) -> bool {
-        let hit = hit_attenuation(self.params.eta, self.sigma_a, sin_theta(wo), cos_theta(wo), h);
+        let vertex = self.at_vertex(wo, h);
         let (sin_i, cos_i) = (sin_theta(wi), cos_theta(wi));
-        let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
-        let dphi = phi(wi) - phi(wo);
+        let dphi = phi(wi) - vertex.phi_o;
         for (p, slot) in out.iter_mut().take(4).enumerate() {
-            let (so, co) = rotate(sin_o, cos_o, self.tilt[p]);
-            let m = self.longitudinal[p].eval(sin_i, cos_i, so, co);
-            let n = if p < 3 { self.azimuthal(p, dphi, &hit) } else { 1.0 / TAU };
-            *slot = hit.a[p] * (m * n / cos_i.max(MIN_COS));
+            *slot = vertex.a[p] * (vertex.m_n(p, sin_i, cos_i, dphi) / cos_i.max(MIN_COS));
         }
         true
     }
@@ -366,22 +362,30 @@ impl ChiangAtVertex<'_> {
     #[inline]
     fn integrand_and_pdf_at(&self, sin_i: f64, cos_i: f64, dphi: f64) -> (Rgb, f64) {
         let Some(w) = &self.weights else { return (Rgb::ZERO, 0.0) };
-        let fiber = self.fiber;
         let (mut g, mut pdf) = (Rgb::ZERO, 0.0);
         for (p, w_p) in w.iter().enumerate() {
-            let (so, co) = self.tilted[p];
-            let m = fiber.longitudinal[p].eval(sin_i, cos_i, so, co);
-            // N_p(φ): the trimmed logistic of wrap(φ − Φ(p, h)) for p < 3, uniform for p = 3.
-            let n = if p < 3 {
-                logistic(wrap_few_turns(dphi - self.exit[p]), fiber.s) * fiber.logistic_norm
-            } else {
-                1.0 / TAU
-            };
-            g += self.a[p] * (m * n);
-            pdf += w_p * m * n;
+            let mn = self.m_n(p, sin_i, cos_i, dphi);
+            g += self.a[p] * mn;
+            pdf += w_p * mn;
         }
         debug_assert!(g.is_finite() && pdf.is_finite());
         (g, pdf)
+    }
+
+    /// `M_p N_p` of lobe `p` at the light direction (`sinθ_i`, `cosθ_i`, relative azimuth
+    /// `φ = φ_i − φ_o`): `N_p` is the trimmed logistic of wrap(φ − Φ(p, h)) for p < 3 and
+    /// uniform for p = 3.
+    #[inline]
+    fn m_n(&self, p: usize, sin_i: f64, cos_i: f64, dphi: f64) -> f64 {
+        let fiber = self.fiber;
+        let (so, co) = self.tilted[p];
+        let m = fiber.longitudinal[p].eval(sin_i, cos_i, so, co);
+        let n = if p < 3 {
+            logistic(wrap_few_turns(dphi - self.exit[p]), fiber.s) * fiber.logistic_norm
+        } else {
+            1.0 / TAU
+        };
+        m * n
     }
 
     /// `f_s(ω_i, ω_o; h)` and the density with which [`Self::sample`] draws `ω_i`.

@@ -95,6 +95,16 @@ pub fn default_cases() -> Vec<CheckCase> {
         CheckCase::new("wood", &[("k_d", "0"), ("k_f", "0.159"), ("roughness", "0.1"), ("fiber_dip", "-20")]),
         CheckCase::new("wood", &[("eta", "1"), ("k_f", "0"), ("k_d", "1")]),
     ]);
+    // Every fabric of Sadeghi et al. 2013's table (the default, linen-plain, is above).
+    cases.extend(
+        fiberlab_scatter::sadeghi_2013::SADEGHI_PRESETS[1..]
+            .iter()
+            .map(|&name| CheckCase::new("sadeghi-2013", &[("preset", name)])),
+    );
+    cases.push(CheckCase::new(
+        "sadeghi-thread",
+        &[("eta", "1.345"), ("k_d", "0.1"), ("gamma_s", "4"), ("gamma_v", "8")],
+    ));
     cases.extend([
         CheckCase::new("diffuse", &[("albedo", "1")]),
         CheckCase::new("diffuse", &[("albedo", "0.2,0.5,0.9")]),

@@ -1,10 +1,17 @@
 //! `fiberlab compare-model`: a model evaluated on the bins of a measured table, per lobe:
 //! relative L2 error, peak positions and heights, and difference figures; `--json` prints the
 //! same as one object keyed by lobe.
+//!
+//! A surface table (`fiberlab measure --surface`) is compared with a surface model that has a
+//! fiber axis (`wood`, Marschner et al. 2005) on its `fiber` class (single-fiber paths), the
+//! model reduced to its fiber term (`k_d = 0`, smooth finish whose delta `eval` leaves out):
+//! the highlight's locus (per φ_o column, the θ_o of the peak), its width (energy-weighted RMS
+//! of ψ_h = ψ_i′ + ψ_o′ over the bins) and its strength (albedo of the class), each against a
+//! stated tolerance (see [`SURFACE_TOLERANCES`]); `--out PREFIX` draws PREFIX_highlight.png.
 
 use crate::model_args::ModelArgs;
 use crate::plot::{Grids, Scale, write_figure};
-use fiberlab_io::table::{LobeSlices, read};
+use fiberlab_io::table::{LobeSlices, TableKind, read, read_kind};
 use fiberlab_math::frame::direction;
 use fiberlab_scatter::params::RawValue;
 use fiberlab_scatter::{Field, Model, ScatteringFunction};
@@ -90,6 +97,9 @@ fn lobe_model(args: &ModelArgs, lobes: Option<&str>) -> anyhow::Result<Option<Mo
 
 /// Runs the comparison and prints one line per (incidence, lobe), or the JSON object.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    if read_kind(&args.table)? == TableKind::Surface {
+        return run_surface(args);
+    }
     let table = read(&args.table)?;
     if !args.json {
         println!(
@@ -253,4 +263,354 @@ fn compare_slice(model: &Model, t: &LobeSlices, s: usize, sub: usize) -> Compari
         height_model: modelled[bf],
         difference: Grids { image: diff, azimuthal, cone },
     }
+}
+
+/// Tolerances of the surface comparison: the locus within this many θ_o bins in every
+/// column, the RMS width of ψ_h within this many θ_o bins, the strength (albedo of the
+/// `fiber` class) within this relative error.
+pub const SURFACE_TOLERANCES: (f64, f64, f64) = (1.0, 1.0, 0.25);
+
+/// Fraction of the highest column's energy below which a column's peak is not located.
+const COLUMN_THRESHOLD: f64 = 0.05;
+
+/// One incidence of a surface comparison.
+struct SurfaceComparison {
+    theta_i: f64,
+    phi_i: f64,
+    /// Per column with enough energy: (φ_o°, measured peak θ_o°, model peak θ_o°).
+    locus: Vec<(f64, f64, f64)>,
+    /// RMS ψ_h (degrees), measured and model.
+    width: (f64, f64),
+    /// Albedo of the class: measured, its standard error, model.
+    strength: (f64, f64, f64),
+    /// The column through φ_i + 180°: (φ_o°, θ_o° bin centres, measured, std, model).
+    profile: (f64, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>),
+    bin_degrees: f64,
+}
+
+impl SurfaceComparison {
+    /// Largest `|θ_peak measured − θ_peak model|` over the columns, in units of the extent of
+    /// the bin the model's locus crosses: one θ_o bin plus the θ_o the locus travels across
+    /// the column (where the cone runs steeply through a column its peak is only defined to
+    /// that travel).
+    fn locus_error_bins(&self) -> f64 {
+        let n = self.locus.len();
+        (0..n)
+            .map(|k| {
+                let (prev, next) = (self.locus[k.saturating_sub(1)].2, self.locus[(k + 1).min(n - 1)].2);
+                let travel = if k == 0 || k + 1 == n { (next - prev).abs() } else { 0.5 * (next - prev).abs() };
+                (self.locus[k].1 - self.locus[k].2).abs() / (self.bin_degrees + travel)
+            })
+            .fold(0.0, f64::max)
+    }
+
+    fn strength_ratio(&self) -> f64 {
+        self.strength.0 / self.strength.2
+    }
+
+    fn passes(&self) -> (bool, bool, bool) {
+        let (l, w, s) = SURFACE_TOLERANCES;
+        (
+            !self.locus.is_empty() && self.locus_error_bins() <= l,
+            (self.width.0 - self.width.1).abs() <= w * self.bin_degrees,
+            (self.strength_ratio() - 1.0).abs() <= s,
+        )
+    }
+}
+
+/// Peak position of `v` (index space, parabolic interpolation about the highest sample).
+fn interpolated_peak(v: &[f64]) -> f64 {
+    let k = (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b])).unwrap_or(0);
+    if k == 0 || k + 1 >= v.len() {
+        return k as f64;
+    }
+    let (a, b, c) = (v[k - 1], v[k], v[k + 1]);
+    let den = a - 2.0 * b + c;
+    if den.abs() < 1e-300 { k as f64 } else { k as f64 + (0.5 * (a - c) / den).clamp(-0.5, 0.5) }
+}
+
+fn compare_surface_slice(
+    wood: &fiberlab_scatter::marschner_2005::Wood,
+    t: &LobeSlices,
+    s: usize,
+    sub: usize,
+) -> SurfaceComparison {
+    use fiberlab_scatter::SurfaceScattering;
+    let (nt, np) = (t.bins_theta, t.bins_phi);
+    let (theta_i, phi_i) = (t.theta_in[s], t.phi_in[s]);
+    let dir = |th: f64, ph: f64| fiberlab_math::DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+    let wi = dir(theta_i, phi_i);
+    let dt = FRAC_PI_2 / nt as f64;
+    let dp = TAU / np as f64;
+    let modelled: Vec<f64> = (0..nt * np)
+        .into_par_iter()
+        .map(|b| {
+            let (i, j) = (b / np, b % np);
+            let (mut num, mut den) = (0.0, 0.0);
+            for a in 0..sub {
+                let th = (i as f64 + (a as f64 + 0.5) / sub as f64) * dt;
+                let w = th.sin() * th.cos();
+                for c in 0..PHI_SUBSAMPLES {
+                    let ph = -PI + (j as f64 + (c as f64 + 0.5) / PHI_SUBSAMPLES as f64) * dp;
+                    num += wood.eval(wi, dir(th, ph)).luminance() * w;
+                    den += w;
+                }
+            }
+            num / den
+        })
+        .collect();
+    let measured: Vec<f64> = t.f[s].iter().map(|v| v.luminance()).collect();
+    let std: Vec<f64> = t.std[s].iter().map(|v| v.luminance()).collect();
+    let omega = |i: usize| 0.5 * (((i + 1) as f64 * dt).sin().powi(2) - (i as f64 * dt).sin().powi(2)) * dp;
+    let centre = |i: usize, j: usize| ((i as f64 + 0.5) * dt, -PI + (j as f64 + 0.5) * dp);
+    // ψ_h of each bin centre, on the directions refracted into the finish.
+    let u = wood.axis();
+    let psi_i = wood.refract_in(wi).dot(u).clamp(-1.0, 1.0).asin();
+    let psi_h = |i: usize, j: usize| {
+        let (th, ph) = centre(i, j);
+        psi_i + wood.refract_in(dir(th, ph)).dot(u).clamp(-1.0, 1.0).asin()
+    };
+    let (mut a_meas, mut var, mut a_mod) = (0.0, 0.0, 0.0);
+    let (mut w2_meas, mut w2_mod) = (0.0, 0.0);
+    for i in 0..nt {
+        for j in 0..np {
+            let b = i * np + j;
+            let h2 = psi_h(i, j).powi(2);
+            a_meas += measured[b] * omega(i);
+            var += (std[b] * omega(i)).powi(2);
+            a_mod += modelled[b] * omega(i);
+            w2_meas += measured[b] * omega(i) * h2;
+            w2_mod += modelled[b] * omega(i) * h2;
+        }
+    }
+    let rms = |w2: f64, a: f64| if a > 0.0 { (w2 / a).sqrt().to_degrees() } else { f64::NAN };
+    let column = |v: &[f64], j: usize| -> Vec<f64> { (0..nt).map(|i| v[i * np + j]).collect() };
+    let energy = |v: &[f64], j: usize| (0..nt).map(|i| v[i * np + j] * omega(i)).sum::<f64>();
+    let max_meas = (0..np).map(|j| energy(&measured, j)).fold(0.0, f64::max);
+    let max_mod = (0..np).map(|j| energy(&modelled, j)).fold(0.0, f64::max);
+    let locus = (0..np)
+        .filter(|&j| {
+            energy(&measured, j) > COLUMN_THRESHOLD * max_meas && energy(&modelled, j) > COLUMN_THRESHOLD * max_mod
+        })
+        .map(|j| {
+            let to_deg = |k: f64| ((k + 0.5) * dt).to_degrees();
+            (
+                centre(0, j).1.to_degrees(),
+                to_deg(interpolated_peak(&column(&measured, j))),
+                to_deg(interpolated_peak(&column(&modelled, j))),
+            )
+        })
+        .collect();
+    let back = fiberlab_math::frame::wrap_pi(phi_i + PI);
+    let jb = (((back + PI) / dp) as usize).min(np - 1);
+    let thetas = (0..nt).map(|i| centre(i, jb).0.to_degrees()).collect();
+    let profile =
+        (centre(0, jb).1.to_degrees(), thetas, column(&measured, jb), column(&std, jb), column(&modelled, jb));
+    SurfaceComparison {
+        theta_i,
+        phi_i,
+        locus,
+        width: (rms(w2_meas, a_meas), rms(w2_mod, a_mod)),
+        strength: (a_meas, var.sqrt(), a_mod),
+        profile,
+        bin_degrees: dt.to_degrees(),
+    }
+}
+
+/// `compare-model` on a surface table.
+fn run_surface(args: &Args) -> anyhow::Result<()> {
+    let table = read(&args.table)?;
+    let Some(fiber) = table.get("fiber") else {
+        anyhow::bail!("{}: a surface table needs its `fiber` lobe (single-fiber paths)", args.table.display())
+    };
+    let mut pairs = args.model.pairs()?;
+    pairs.retain(|(k, _)| k != "k_d" && k != "roughness");
+    pairs.push(("k_d".into(), RawValue::from("0")));
+    pairs.push(("roughness".into(), RawValue::from("0")));
+    let model = fiberlab_scatter::build_surface_raw(&args.model.model, &pairs)
+        .map_err(|e| anyhow::anyhow!("model `{}`: {e}", args.model.model))?;
+    let fiberlab_scatter::SurfaceModel::Wood(wood) = &model else {
+        anyhow::bail!(
+            "{} is a surface table: compare it with a surface model with a fiber axis (`wood`), not `{}`",
+            args.table.display(),
+            args.model.model
+        )
+    };
+    let k_f = wood.params().k_f.luminance();
+    let rows: Vec<SurfaceComparison> =
+        (0..fiber.theta_in.len()).map(|s| compare_surface_slice(wood, fiber, s, args.subsamples)).collect();
+    let (tl, tw, ts) = SURFACE_TOLERANCES;
+    let verdict = |ok: bool| if ok { "pass" } else { "FAIL" };
+    let mut json = Vec::new();
+    for r in &rows {
+        let (pl, pw, ps) = r.passes();
+        let ratio = r.strength_ratio();
+        let back = &r.profile;
+        let k = |v: &[f64]| interpolated_peak(v);
+        // No peak in a column without highlight.
+        let peak_deg = |v: &[f64]| if v.iter().any(|&x| x > 0.0) { (k(v) + 0.5) * r.bin_degrees } else { f64::NAN };
+        let (back_meas, back_mod) = (peak_deg(&back.2), peak_deg(&back.4));
+        if !args.json {
+            println!(
+                "surface table {}: θ_i = {:.2}°, φ_i = {:.2}°, `fiber` class vs {} (k_d = 0)",
+                args.table.display(),
+                r.theta_i.to_degrees(),
+                r.phi_i.to_degrees(),
+                args.model.label()
+            );
+            println!(
+                "  locus: {} columns, max |θ_peak measured − model| = {:.2} of the crossed bin's extent, tolerance {tl}: {}",
+                r.locus.len(),
+                r.locus_error_bins(),
+                verdict(pl)
+            );
+            println!(
+                "  highlight in the column φ_o = {:.1}°: θ_o = {back_meas:.2}° measured, {back_mod:.2}° model",
+                back.0
+            );
+            println!(
+                "  width: RMS ψ_h = {:.3}° measured, {:.3}° model (bins {:.2}°), tolerance {tw} bin: {}",
+                r.width.0,
+                r.width.1,
+                r.bin_degrees,
+                verdict(pw)
+            );
+            println!(
+                "  strength: albedo {:.5} ± {:.5} measured, {:.5} model; ratio {ratio:.3} (k_f fitting it {:.5}), tolerance {:.0}%: {}",
+                r.strength.0,
+                r.strength.1,
+                r.strength.2,
+                k_f * ratio,
+                100.0 * ts,
+                verdict(ps)
+            );
+        }
+        json.push(serde_json::json!({
+            "theta_i": number(r.theta_i.to_degrees()),
+            "phi_i": number(r.phi_i.to_degrees()),
+            "locus_max_error_bins": number(r.locus_error_bins()),
+            "locus_columns": r.locus.len(),
+            "locus_pass": pl,
+            "back_column_phi": number(back.0),
+            "back_peak_measured": number(back_meas),
+            "back_peak_model": number(back_mod),
+            "width_measured": number(r.width.0),
+            "width_model": number(r.width.1),
+            "width_pass": pw,
+            "albedo_measured": number(r.strength.0),
+            "albedo_std": number(r.strength.1),
+            "albedo_model": number(r.strength.2),
+            "k_f_fit": number(k_f * ratio),
+            "strength_pass": ps,
+        }));
+    }
+    if args.json {
+        println!("{}", serde_json::json!({ "fiber": json }));
+    }
+    if let Some(prefix) = &args.out {
+        let path = prefix.with("_highlight.png");
+        let title = format!("{} vs {} (fiber class)", args.table.display(), args.model.label());
+        draw_highlight(&path, &rows, &title)?;
+        if !args.json {
+            println!("wrote {}", path.display());
+        }
+    }
+    Ok(())
+}
+
+/// Measured vs model highlight, one row per incidence: its locus θ_peak(φ_o) and the
+/// profile through φ_i + 180°.
+fn draw_highlight(path: &std::path::Path, rows: &[SurfaceComparison], title: &str) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    crate::plot::register_font();
+    let size = (1400u32, 40 + 480 * rows.len().max(1) as u32);
+    let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        let err = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("drawing: {e:?}");
+        root.fill(&WHITE).map_err(err)?;
+        let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
+        for (r, area) in rows.iter().zip(root.split_evenly((rows.len().max(1), 1))) {
+            let (left, right) = area.split_horizontally(700);
+            let mut chart = ChartBuilder::on(&left)
+                .margin(15)
+                .x_label_area_size(40)
+                .y_label_area_size(50)
+                .caption(
+                    format!("θ_i = {:.0}°: highlight locus, θ_o of the peak per φ_o column", r.theta_i.to_degrees()),
+                    ("sans-serif", 16),
+                )
+                .build_cartesian_2d(-180.0..180.0, 0.0..90.0)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc("φ_o (degrees)")
+                .y_desc("θ_o (degrees)")
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(err)?;
+            chart
+                .draw_series(r.locus.iter().map(|&(p, _, m)| Circle::new((p, m), 3, RGBColor(214, 39, 40).filled())))
+                .map_err(err)?
+                .label("model (wood)")
+                .legend(|(x, y)| Circle::new((x, y), 3, RGBColor(214, 39, 40).filled()));
+            chart
+                .draw_series(r.locus.iter().map(|&(p, t, _)| Cross::new((p, t), 4, RGBColor(31, 119, 180))))
+                .map_err(err)?
+                .label("measured (explicit fibers)")
+                .legend(|(x, y)| Cross::new((x, y), 4, RGBColor(31, 119, 180)));
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 13))
+                .draw()
+                .map_err(err)?;
+            let (phi, thetas, meas, std, model) = &r.profile;
+            let top = meas.iter().chain(model.iter()).copied().fold(0.0, f64::max).max(1e-12) * 1.1;
+            let mut chart = ChartBuilder::on(&right)
+                .margin(15)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .caption(format!("f_r (1/sr) along θ_o at φ_o = {phi:.1}°"), ("sans-serif", 16))
+                .build_cartesian_2d(0.0..90.0, 0.0..top)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc("θ_o (degrees)")
+                .y_desc("f_r (1/sr)")
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(err)?;
+            chart
+                .draw_series(LineSeries::new(thetas.iter().copied().zip(model.iter().copied()), RGBColor(214, 39, 40)))
+                .map_err(err)?
+                .label("model (wood)")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RGBColor(214, 39, 40)));
+            chart
+                .draw_series(
+                    thetas
+                        .iter()
+                        .zip(meas.iter().zip(std.iter()))
+                        .map(|(&t, (&m, &s))| PathElement::new(vec![(t, m - s), (t, m + s)], RGBColor(31, 119, 180))),
+                )
+                .map_err(err)?;
+            chart
+                .draw_series(
+                    thetas.iter().zip(meas.iter()).map(|(&t, &m)| Cross::new((t, m), 4, RGBColor(31, 119, 180))),
+                )
+                .map_err(err)?
+                .label("measured ± 1σ")
+                .legend(|(x, y)| Cross::new((x, y), 4, RGBColor(31, 119, 180)));
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 13))
+                .draw()
+                .map_err(err)?;
+        }
+        root.present().map_err(err)?;
+    }
+    crate::plot::write_png(path, &buf, size)
 }

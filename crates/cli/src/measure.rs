@@ -2,13 +2,21 @@
 //! and writes `PREFIX.csv` (one row per bin and lobe, streamed to the file) and `PREFIX.png`
 //! (the `all` lobe over (φ, θ_r), like the figures of Marschner et al. 2003). The memory of
 //! the bins is checked before any ray is traced.
+//!
+//! `--surface` measures a surface instead (`fiberlab_gonio::fiber_slab`): parallel fibers
+//! under a flat dielectric finish, tabulated as a BRDF over θ_o (from the normal) and the
+//! absolute azimuth φ_o, `f_r = P_bin / ∫_bin cosθ_o dω_o`; the CSV's first line is the
+//! comment [`fiberlab_io::table::SURFACE_HEADER`] and its lobes are the path classes
+//! `finish, fiber, substrate, multiple, all`.
 
 use crate::arg_values::{self, Angle, Bins, KeyValue};
 use crate::files::{read_toml, stream_atomically};
 use crate::memory_budget::{MemoryLimit, measure_needs};
 use crate::plot::{Grids, Scale, write_figure};
 use anyhow::Context;
+use fiberlab_gonio::fiber_slab::{FiberSlab, SurfaceMeasurement, SurfaceSetup, measure_surface};
 use fiberlab_gonio::{Fiber, Measurement, Setup, measure};
+use fiberlab_math::Rgb;
 use fiberlab_render::toml_params::raw_pairs;
 use fiberlab_scatter::params::RawValue;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -23,11 +31,46 @@ pub struct Args {
     /// Fiber parameter as KEY=VALUE (repeatable): eta, sigma_a, aspect, orientation (degrees
     /// or `average`), scale_angle (degrees), scale_length, medulla_radius, medulla_sigma_s,
     /// medulla_sigma_a, medulla_g, surface, albedo.
-    #[arg(long = "param", value_name = "KEY=VALUE", value_parser = arg_values::key_value)]
+    #[arg(long = "param", value_name = "KEY=VALUE", value_parser = arg_values::key_value, conflicts_with = "surface")]
     params: Vec<KeyValue>,
     /// A TOML file with the same keys (command-line --param values override it).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "surface")]
     fiber: Option<PathBuf>,
+    /// Measure a surface: parallel fibers under a flat dielectric finish (the flags below);
+    /// θ_i is then from the normal, in [0°, 89.9°), and --bins spans θ_o ∈ [0°, 90°].
+    #[arg(long)]
+    surface: bool,
+    /// Surface: index of the finish (and of the matrix between the fibers).
+    #[arg(long, default_value_t = 1.5, requires = "surface")]
+    eta: f64,
+    /// Surface: in-plane angle of the fiber axis from +x toward +y, degrees.
+    #[arg(long, default_value = "0", allow_hyphen_values = true, value_parser = arg_values::degrees, requires = "surface")]
+    fiber_angle: Angle,
+    /// Surface: dip of the fiber axis below the surface, degrees in [0, 89).
+    #[arg(long, default_value = "0", value_parser = arg_values::degrees, requires = "surface")]
+    fiber_dip: Angle,
+    /// Surface: area fraction of the fibers across their axis, [0, 0.5].
+    #[arg(long, default_value_t = 0.3, requires = "surface")]
+    packing: f64,
+    /// Surface: absolute index of the fibers.
+    #[arg(long, default_value_t = 1.55, requires = "surface")]
+    fiber_eta: f64,
+    /// Surface: absorption inside the fibers per fiber radius, one number or R,G,B.
+    #[arg(long, default_value = "0", value_parser = rgb, requires = "surface")]
+    sigma_a: Rgb,
+    /// Surface: Lambertian albedo of the substrate below the fibers (0 = absorbing), one
+    /// number or R,G,B.
+    #[arg(long, default_value = "0", value_parser = rgb, requires = "surface")]
+    substrate: Rgb,
+    /// Surface: depth of the fiber slab's top below the finish, in fiber radii (> 0).
+    #[arg(long, default_value_t = 0.5, requires = "surface")]
+    depth: f64,
+    /// Surface: thickness of the fiber slab, in fiber radii.
+    #[arg(long, default_value_t = 10.0, requires = "surface")]
+    thickness: f64,
+    /// Surface: fibers per periodic cell of the random layout.
+    #[arg(long, default_value_t = 24, requires = "surface")]
+    fibers_per_cell: usize,
     /// Light inclination θ_i from the normal plane, degrees in (−89.9, 89.9); a
     /// comma-separated list measures several incidences into one table (what `--model
     /// measured` needs).
@@ -70,8 +113,25 @@ fn fiber(args: &Args) -> anyhow::Result<Fiber> {
     }
 }
 
+/// One number or `R,G,B`, each finite.
+fn rgb(text: &str) -> Result<Rgb, String> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+        .collect::<Option<_>>()
+        .ok_or_else(|| format!("expected a number or R,G,B, got `{text}`"))?;
+    match v[..] {
+        [x] => Ok(Rgb::splat(x)),
+        [r, g, b] => Ok(Rgb::new(r, g, b)),
+        _ => Err(format!("expected a number or R,G,B, got `{text}`")),
+    }
+}
+
 /// Runs the measurement and writes the outputs.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    if args.surface {
+        return run_surface(args);
+    }
     let fiber = fiber(args)?;
     let Bins { theta: nt, phi: np } = args.bins;
     let thetas = &args.theta_i;
@@ -205,4 +265,121 @@ fn figure(m: &Measurement) -> Grids {
     let cone_row =
         ((((-m.setup.theta_i) + std::f64::consts::FRAC_PI_2) / std::f64::consts::PI * nt as f64) as usize).min(nt - 1);
     Grids { azimuthal, cone: image[cone_row].clone(), image }
+}
+
+/// The sample of `--surface`, from the flags (radius 1: lengths in fiber radii).
+fn slab(args: &Args) -> FiberSlab {
+    FiberSlab {
+        eta: args.eta,
+        fiber_angle: args.fiber_angle.radians,
+        fiber_dip: args.fiber_dip.radians,
+        radius: 1.0,
+        packing: args.packing,
+        fiber_eta: args.fiber_eta,
+        sigma_a: args.sigma_a,
+        depth: args.depth,
+        thickness: args.thickness,
+        substrate: args.substrate,
+        fibers_per_cell: args.fibers_per_cell,
+        layout_seed: args.seed,
+    }
+}
+
+/// `measure --surface`: the slab's BRDF at every --theta-i into one surface table.
+fn run_surface(args: &Args) -> anyhow::Result<()> {
+    let slab = slab(args);
+    slab.validate()?;
+    let Bins { theta: nt, phi: np } = args.bins;
+    let bins = (nt as u64).checked_mul(np as u64);
+    let per_incidence = bins.and_then(|b| b.checked_mul(4 * fiberlab_gonio::RESULT_BYTES_PER_BIN));
+    let needs = vec![crate::memory_budget::Need {
+        what: format!("surface goniophotometer bins {nt}×{np} of {} incidences", args.theta_i.len()),
+        bytes: per_incidence.and_then(|b| b.checked_mul(args.theta_i.len() as u64)),
+    }];
+    args.memory.check(&needs)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        let _ = ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed));
+    }
+    let bar = ProgressBar::new((args.rays as u64).saturating_mul(args.theta_i.len() as u64)).with_style(
+        ProgressStyle::with_template("{wide_bar} {pos}/{len} rays {per_sec} eta {eta}").expect("valid template"),
+    );
+    let start = Instant::now();
+    let mut measurements = Vec::new();
+    for t in &args.theta_i {
+        if stop.load(Ordering::Relaxed) {
+            break;
+        }
+        let setup = SurfaceSetup {
+            theta_i: t.radians,
+            phi_i: args.phi_i.radians,
+            rays: args.rays,
+            bins_theta: nt,
+            bins_phi: np,
+            seed: args.seed,
+        };
+        measurements.push(measure_surface(&slab, &setup, &stop, |n| bar.inc(n as u64))?);
+    }
+    bar.finish_and_clear();
+    let seconds = start.elapsed().as_secs_f64();
+    if stop.load(Ordering::Relaxed) {
+        eprintln!("interrupted: writing what was traced so far");
+    }
+    let path = args.out.with(".csv");
+    write_surface_csv(&measurements, &path)?;
+    write_surface_exr(&measurements[0], &args.out.with(".exr"))?;
+    let traced: usize = measurements.iter().map(|m| m.traced).sum();
+    println!("traced {traced} rays in {seconds:.2} s: {:.3} Mrays/s", traced as f64 / seconds / 1e6);
+    for m in &measurements {
+        println!("θ_i = {:.2}°: dropped {} (> event limit)", m.setup.theta_i.to_degrees(), m.dropped);
+        for (name, lobe) in SurfaceMeasurement::LOBE_NAMES.iter().zip(&m.lobes) {
+            println!("  albedo {name:<9} {:.6} {:.6} {:.6}", lobe.albedo[0], lobe.albedo[1], lobe.albedo[2]);
+        }
+    }
+    println!("wrote {} and {}", path.display(), args.out.with(".exr").display());
+    Ok(())
+}
+
+/// The surface table: the header comment, then the rows of every incidence.
+fn write_surface_csv(measurements: &[SurfaceMeasurement], path: &Path) -> anyhow::Result<()> {
+    stream_atomically(path, |out| {
+        writeln!(out, "{}", fiberlab_io::table::SURFACE_HEADER)?;
+        let mut w = csv::Writer::from_writer(out);
+        w.write_record([
+            "lobe", "theta_i", "phi_i", "theta_r", "phi_r", "f_r", "f_g", "f_b", "std_r", "std_g", "std_b",
+        ])?;
+        for m in measurements {
+            let (ti, pi) = (m.setup.theta_i.to_degrees().to_string(), m.setup.phi_i.to_degrees().to_string());
+            for (name, lobe) in SurfaceMeasurement::LOBE_NAMES.iter().zip(&m.lobes) {
+                for i in 0..m.setup.bins_theta {
+                    for j in 0..m.setup.bins_phi {
+                        let (tr, p) = m.bin_centre(i, j);
+                        let k = i * m.setup.bins_phi + j;
+                        let (f, s) = (lobe.f[k], lobe.std[k]);
+                        let fields = [tr.to_degrees(), p.to_degrees(), f[0], f[1], f[2], s[0], s[1], s[2]]
+                            .map(|x| x.to_string());
+                        w.write_record(
+                            [*name, ti.as_str(), pi.as_str()].into_iter().chain(fields.iter().map(String::as_str)),
+                        )?;
+                    }
+                }
+            }
+        }
+        w.flush()?;
+        Ok(())
+    })
+}
+
+/// The `all` class's f_r over (φ_o from −180° left, θ_o from 0° at the top to 90°).
+fn write_surface_exr(m: &SurfaceMeasurement, path: &Path) -> anyhow::Result<()> {
+    let (nt, np) = (m.setup.bins_theta, m.setup.bins_phi);
+    let mut img = fiberlab_io::LinearImage::new(np, nt);
+    for i in 0..nt {
+        for j in 0..np {
+            let f = m.lobes[4].f[i * np + j];
+            img.set(j, i, [f[0] as f32, f[1] as f32, f[2] as f32]);
+        }
+    }
+    img.write_exr(path).with_context(|| format!("writing {}", path.display()))
 }

@@ -10,6 +10,7 @@
 #![forbid(unsafe_code)]
 
 pub mod fiber;
+pub mod fiber_slab;
 pub mod surface;
 pub mod trace;
 

@@ -3,10 +3,41 @@
 //! inclinations θ in [−90°, 90°], azimuths φ in [−360°, 360°], one turn either way, so that
 //! both the (−180°, 180°] and the [0°, 360°) conventions are read). Errors name the file and
 //! the line (and column).
+//!
+//! A surface table (`fiberlab measure --surface`) has the same columns, preceded by the
+//! comment line [`SURFACE_HEADER`]: θ is then measured from the surface normal (θ_r in
+//! [0°, 90°]), φ is the absolute azimuth from the tangent `x` toward `y`, the values are a
+//! BRDF `f_r` (sr⁻¹), and the lobes are the path classes `finish, fiber, substrate,
+//! multiple, all`. Lines starting with `#` are comments.
 
 use fiberlab_math::Rgb;
 use std::collections::BTreeMap;
 use std::path::Path;
+
+/// First line of a surface table.
+pub const SURFACE_HEADER: &str = "# fiberlab surface table: BRDF f_r (1/sr) = power fraction per cos-weighted solid angle of the bin; theta from the normal, phi from +x toward +y (degrees)";
+
+/// What a table tabulates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TableKind {
+    /// A fiber's `f_s` (θ from the normal plane, φ relative to the light).
+    Fiber,
+    /// A surface BRDF (θ from the normal, absolute φ).
+    Surface,
+}
+
+/// The kind of table `text` is: a surface table starts with [`SURFACE_HEADER`]'s prefix
+/// `# fiberlab surface table`.
+#[must_use]
+pub fn kind_of(text: &str) -> TableKind {
+    if text.trim_start().starts_with("# fiberlab surface table") { TableKind::Surface } else { TableKind::Fiber }
+}
+
+/// Reads the kind of the table at `path` (its first line).
+pub fn read_kind(path: &Path) -> Result<TableKind, TableError> {
+    let text = std::fs::read_to_string(path).map_err(|e| TableError(format!("reading {}: {e}", path.display())))?;
+    Ok(kind_of(&text))
+}
 
 /// A malformed or unreadable table.
 #[derive(Debug, thiserror::Error)]
@@ -44,7 +75,7 @@ pub fn read(path: &Path) -> Result<BTreeMap<String, LobeSlices>, TableError> {
 pub fn parse(text: &str, name: &str) -> Result<BTreeMap<String, LobeSlices>, TableError> {
     const COLS: [&str; 11] =
         ["lobe", "theta_i", "phi_i", "theta_r", "phi_r", "f_r", "f_g", "f_b", "std_r", "std_g", "std_b"];
-    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
+    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).comment(Some(b'#')).from_reader(text.as_bytes());
     let header =
         reader.headers().map_err(|e| TableError(format!("{name}: line 1: cannot read the header: {e}")))?.clone();
     let idx: Vec<usize> = COLS
@@ -160,5 +191,10 @@ mod tests {
         assert!(e.to_string().contains("(`theta_i`): 1e308 degrees"), "{e}");
         let missing: String = text.lines().take(8).collect::<Vec<_>>().join("\n");
         assert!(parse(&missing, "t.csv").unwrap_err().to_string().contains("grid"));
+        // A surface table: the header comment is skipped and names the kind.
+        let surface = format!("{SURFACE_HEADER}\n{text}");
+        assert_eq!(kind_of(&surface), TableKind::Surface);
+        assert_eq!(kind_of(&text), TableKind::Fiber);
+        assert_eq!(parse(&surface, "s.csv").unwrap()["all"].f[1][3], Rgb::new(1.0, 2.0, 3.0));
     }
 }

@@ -24,12 +24,14 @@ pub mod dual_scattering_tables;
 pub mod goldman_1997;
 pub mod ideal_diffuse;
 pub mod ideal_specular;
+pub mod irawan_2012;
 pub mod kajiya_kay_1989;
 pub mod lambert_1760;
 pub mod lambertian_cylinder;
 pub mod marschner_2003;
 pub mod marschner_2005;
 pub mod measured;
+pub mod sadeghi_2013;
 pub mod yan_2017;
 
 pub use error::ModelError;

@@ -113,7 +113,8 @@ models! {
         Marschner(crate::marschner_2003::Marschner),
         Chiang(crate::chiang_2016::Chiang),
         Deon(crate::deon_2011::Deon),
-        YanFur(crate::yan_2017::YanFur);
+        YanFur(crate::yan_2017::YanFur),
+        SadeghiThread(crate::sadeghi_2013::SadeghiThread);
     from_data:
         Measured(crate::measured::Measured);
 }
@@ -190,6 +191,11 @@ mod tests {
         assert_eq!(e::DeonParams::from_param_set(&defaults(&e::Deon::INFO)), Ok(e::DeonParams::default()));
         use crate::yan_2017 as y;
         assert_eq!(y::YanFurParams::from_param_set(&defaults(&y::YanFur::INFO)), Ok(y::YanFurParams::default()));
+        use crate::sadeghi_2013 as sd;
+        let thread = sd::ThreadParams::from_param_set(&defaults(&sd::SadeghiThread::INFO)).unwrap();
+        let expected = sd::ThreadParams::default();
+        assert!((thread.gamma_s - expected.gamma_s).abs() < 1e-15 && (thread.gamma_v - expected.gamma_v).abs() < 1e-15);
+        assert_eq!((thread.eta, thread.k_d, thread.albedo), (expected.eta, expected.k_d, expected.albedo));
         // Goldman names Kajiya–Kay's entries by index: the indices must point at the keys.
         let kk = &k::KajiyaKay::INFO.params;
         assert_eq!([kk[k::K_D].key, kk[k::K_S].key, kk[k::P].key], ["k_d", "k_s", "p"]);

@@ -90,6 +90,8 @@ macro_rules! surface_models {
 surface_models! {
     Lambertian(crate::lambert_1760::Lambertian),
     Wood(crate::marschner_2005::Wood),
+    Sadeghi(crate::sadeghi_2013::Sadeghi2013),
+    Irawan(crate::irawan_2012::Irawan2012),
 }
 
 /// Which registry a model belongs to, as `fiberlab models` prints it (`kind: fiber`).

@@ -17,6 +17,7 @@ mod measure;
 mod medulla_tables;
 mod memory_budget;
 mod merge;
+mod mesh;
 mod model_args;
 mod models;
 mod plot;
@@ -65,6 +66,8 @@ enum Command {
     Scene(scene::Args),
     /// Write procedural textures: `texture wood` (a figured-maple fiber map).
     Texture(texture::Args),
+    /// Write procedural meshes: `mesh cloth` (a cloth draped over a sphere, with uvs).
+    Mesh(mesh::Args),
     /// Compare a model with a measured table, per lobe (errors, peaks, difference figures).
     CompareModel(compare_model::Args),
     /// Fit model parameters to a measured table or CSV by weighted least squares.
@@ -101,6 +104,7 @@ fn main() {
         Command::Hair(a) => hair::run(a),
         Command::Scene(a) => scene::run(a),
         Command::Texture(a) => texture::run(a),
+        Command::Mesh(a) => mesh::run(a),
         Command::CompareModel(a) => compare_model::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Compare(a) => compare::run(a),

@@ -20,6 +20,7 @@ pub mod bvh;
 pub mod cabochon;
 pub mod camera;
 pub mod curves;
+pub mod draped_cloth;
 pub mod figured_maple;
 pub mod generator;
 pub mod integrator;

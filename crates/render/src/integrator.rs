@@ -103,7 +103,10 @@ pub fn power_heuristic(a: f64, b: f64) -> f64 {
     if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }
 
-/// The scattering function at a hit, in world directions.
+/// The scattering function at a hit, in world directions. A short-lived value on the stack of
+/// one path vertex: the surface variant holds the model by value (boxing it would allocate at
+/// every hit), hence the size difference between the variants.
+#[allow(clippy::large_enum_variant)]
 enum Local<'a> {
     Fiber {
         model: &'a Model,

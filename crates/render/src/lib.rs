@@ -3,7 +3,8 @@
 //! ([`shapes`]), camera, lights, a unidirectional path tracer with next-event estimation and
 //! MIS ([`integrator`]), tiles and part merging, the TOML scene format ([`scene_file`]), and the
 //! one model loader for user input ([`model_loader`], with [`toml_params`]). Surfaces carry
-//! texture coordinates, shading normals and tangents ([`mesh`]; cabochon domes: [`cabochon`])
+//! texture coordinates, shading normals and tangents ([`mesh`]; cabochon domes: [`cabochon`];
+//! a cloth draped over a sphere: [`draped_cloth`])
 //! and may take a registered surface model with image textures for its parameters
 //! ([`surface_material`], [`texture`]; a procedural figured-maple map: [`figured_maple`]).
 //!

@@ -17,8 +17,10 @@ mod measure;
 mod medulla_tables;
 mod memory_budget;
 mod merge;
+mod mesh;
 mod model_args;
 mod models;
+mod montage;
 mod plot;
 mod render;
 mod sample;
@@ -65,6 +67,10 @@ enum Command {
     Scene(scene::Args),
     /// Write procedural textures: `texture wood` (a figured-maple fiber map).
     Texture(texture::Args),
+    /// Write procedural meshes: `mesh cloth` (a cloth draped over a sphere, with uvs).
+    Mesh(mesh::Args),
+    /// Lay PNG images out in a labelled grid (a contact sheet).
+    Montage(montage::Args),
     /// Compare a model with a measured table, per lobe (errors, peaks, difference figures).
     CompareModel(compare_model::Args),
     /// Fit model parameters to a measured table or CSV by weighted least squares.
@@ -101,6 +107,8 @@ fn main() {
         Command::Hair(a) => hair::run(a),
         Command::Scene(a) => scene::run(a),
         Command::Texture(a) => texture::run(a),
+        Command::Mesh(a) => mesh::run(a),
+        Command::Montage(a) => montage::run(a),
         Command::CompareModel(a) => compare_model::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Compare(a) => compare::run(a),

@@ -2,12 +2,17 @@
 //! ([`bvh`]), a procedural hair generator ([`generator`]), spheres and triangle meshes
 //! ([`shapes`]), camera, lights, a unidirectional path tracer with next-event estimation and
 //! MIS ([`integrator`]), tiles and part merging, the TOML scene format ([`scene_file`]), and the
-//! one model loader for user input ([`model_loader`], with [`toml_params`]).
+//! one model loader for user input ([`model_loader`], with [`toml_params`]). Surfaces carry
+//! texture coordinates, shading normals and tangents ([`mesh`]; cabochon domes: [`cabochon`];
+//! a cloth draped over a sphere: [`draped_cloth`])
+//! and may take a registered surface model with image textures for its parameters
+//! ([`surface_material`], [`texture`]; a procedural figured-maple map: [`figured_maple`]).
 //!
 //! Fiber scattering comes from [`fiberlab_scatter`] (any registered model); file formats from
 //! [`fiberlab_io`]; the strand diameters a scene accepts are in [`strand_diameters`]. This
 //! crate owns no scattering physics: at a fiber hit it builds the fiber frame (see [`curves`])
-//! and calls the model.
+//! and calls the model; at a surface-model hit it builds the shading frame (see [`mesh`]) and
+//! calls the surface model.
 #![forbid(unsafe_code)]
 
 pub mod accumulation;
@@ -16,6 +21,7 @@ pub mod bvh;
 pub mod cabochon;
 pub mod camera;
 pub mod curves;
+pub mod draped_cloth;
 pub mod dual_scattering;
 pub mod fiber_count;
 pub mod figured_maple;

@@ -10,6 +10,7 @@
 //!                     #   (texture: "x.png" | "x.exr" | { file, wrap, scale, remap,
 //!                     #   encoding, size }: crate::surface_material)
 //!                     # or lambert = [r, g, b] | mirror = [r, g, b]            (surfaces)
+//!                     # uv_scale = [su, sv]: pattern repeats of a model with a position u, v
 //! [[hair]]            # material; file = "x.hair" | "x.pbrt" | "x.pbrt.gz" | "x.usda"
 //!                     # or generator = { … HairParams … }; segments_per_curve (cubic
 //!                     # curves, default 8) (strand diameters: crate::strand_diameters)
@@ -31,7 +32,7 @@ use crate::model_loader::{LoadError, load_model};
 use crate::scene::{FiberMaterialId, Scene, SceneBuilder, SurfaceMaterial, SurfaceMaterialId};
 use crate::shapes::TriangleMesh;
 use crate::strand_diameters;
-use crate::surface_material::{ModelMaterial, texture_source};
+use crate::surface_material::{ModelMaterial, takes_uv_position, texture_source};
 use crate::toml_params::raw_pairs;
 use fiberlab_io::{HairFile, LinearImage};
 use fiberlab_math::{DVec3, Rgb};
@@ -163,6 +164,8 @@ struct MaterialDesc {
     params: Option<Spanned<toml::Table>>,
     lambert: Option<[f64; 3]>,
     mirror: Option<[f64; 3]>,
+    /// uv scale of a model's position `u`, `v` ([`crate::surface_material`]).
+    uv_scale: Option<Spanned<[f64; 2]>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -542,7 +545,13 @@ impl SceneFile {
                 matches!(fiberlab_scatter::lookup(m.get_ref()), Ok(fiberlab_scatter::RegistryEntry::Surface(_)))
             });
             let material = if let Some(model) = surface_model {
-                MaterialRef::Surface(scene.surface_material(self.surface_model(name, model, md.params.as_ref())?))
+                let material = self.surface_model(name, model, md.params.as_ref(), md.uv_scale.as_ref())?;
+                MaterialRef::Surface(scene.surface_material(material))
+            } else if let Some(uv_scale) = &md.uv_scale {
+                return Err(self.error(
+                    uv_scale.span(),
+                    format!("material `{name}`: uv_scale is for surface models with a position (u, v)"),
+                ));
             } else if let Some(model) = &md.model {
                 MaterialRef::Fiber(scene.fiber_material(self.fiber_model(name, model, md.params.as_ref())?))
             } else {
@@ -589,6 +598,7 @@ impl SceneFile {
         name: &str,
         model: &Spanned<String>,
         params: Option<&Spanned<toml::Table>>,
+        uv_scale: Option<&Spanned<[f64; 2]>>,
     ) -> Result<SurfaceMaterial, SceneError> {
         let span = params.map_or(model.span(), Spanned::span);
         let fail = |message: String| self.error(span.clone(), format!("material `{name}`: {message}"));
@@ -604,14 +614,25 @@ impl SceneFile {
         let pairs = raw_pairs(&plain).map_err(|e| fail(e.to_string()))?;
         let spec = fiberlab_scatter::find_surface(model.get_ref()).map_err(|e| fail(e.to_string()))?;
         let built = fiberlab_scatter::build_surface_raw(model.get_ref(), &pairs).map_err(|e| fail(e.to_string()))?;
-        let material = ModelMaterial::new(spec.name, spec.params, built, &textures).map_err(|e| fail(e.to_string()))?;
+        let mut material =
+            ModelMaterial::new(spec.name, spec.params, built, &textures).map_err(|e| fail(e.to_string()))?;
+        if let Some(scale) = uv_scale {
+            let fail = |message: String| self.error(scale.span(), format!("material `{name}`: {message}"));
+            material = material.with_uv_scale(*scale.get_ref()).map_err(|e| fail(e.to_string()))?;
+        }
         Ok(SurfaceMaterial::Model(Box::new(material)))
     }
 
-    /// True when material `m` gives some parameter as a texture.
+    /// True when material `m` gives some parameter as a texture, or is a surface model that
+    /// takes its position `u`, `v` from the texture coordinates.
     fn textured(&self, m: &Spanned<String>) -> bool {
-        let params = self.desc.materials.get(m.get_ref()).and_then(|d| d.get_ref().params.as_ref());
-        params.is_some_and(|p| p.get_ref().values().any(|v| texture_source(v, &|p| self.resolve(p)).is_some()))
+        let desc = self.desc.materials.get(m.get_ref()).map(Spanned::get_ref);
+        let params = desc.and_then(|d| d.params.as_ref());
+        let positioned = desc.and_then(|d| d.model.as_ref()).is_some_and(|model| {
+            fiberlab_scatter::find_surface(model.get_ref()).is_ok_and(|spec| takes_uv_position(spec.params))
+        });
+        positioned
+            || params.is_some_and(|p| p.get_ref().values().any(|v| texture_source(v, &|p| self.resolve(p)).is_some()))
     }
 
     fn material(&self, names: &MaterialNames, m: &Spanned<String>) -> Result<MaterialRef, SceneError> {
@@ -932,6 +953,27 @@ mod tests {
     }
 
     const CAMERA: &str = "[camera]\neye = [0, 0, 5]\ntarget = [0, 0, 0]\nfov = 30\nwidth = 8\nheight = 8\n";
+
+    /// `uv_scale` only where a model takes a position, finite and non-zero; such a material
+    /// needs an OBJ with texture coordinates.
+    #[test]
+    fn uv_scale_is_refused_where_it_means_nothing() {
+        for (material, says) in [
+            ("lambert = [0.5, 0.5, 0.5]\nuv_scale = [2, 2]\n", "uv_scale is for surface models"),
+            ("model = \"wood\"\nuv_scale = [2, 2]\n", "no position parameters"),
+            ("model = \"irawan-2012\"\nuv_scale = [nan, 2]\n", "must be finite and non-zero"),
+        ] {
+            let e = err(&format!("{CAMERA}[materials.m]\n{material}")).to_string();
+            assert!(e.starts_with("s.toml:") && e.contains(says), "{material}: {e}");
+        }
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("t.obj"), "v 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 2 3\n").unwrap();
+        let scene =
+            format!("{CAMERA}[materials.m]\nmodel = \"irawan-2012\"\n[[mesh]]\nfile = \"t.obj\"\nmaterial = \"m\"\n");
+        std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+        let e = SceneFile::read(&dir.path().join("s.toml")).unwrap().build().err().unwrap().to_string();
+        assert!(e.contains("no texture coordinates"), "{e}");
+    }
 
     #[test]
     fn non_finite_and_negative_scene_numbers_are_refused_where_they_are() {

@@ -9,6 +9,14 @@
 //! the pixel. Bilinear values are convex combinations of valid texels, hence in range for the
 //! interval ranges of the parameter tables.
 //!
+//! # Position on the surface
+//! A model whose table has the number parameters `u` and `v` (the point's place in a
+//! periodic pattern, e.g. the weave tile of `irawan-2012`) gets them from the hit's texture
+//! coordinates times the material's uv scale (`uv_scale = [su, sv]` in a scene file, default
+//! `[1, 1]`): `u = su·uv₀`, `v = sv·uv₁`, so that the pattern repeats `su × sv` times over the
+//! unit square of texture coordinates. Such a material needs texture coordinates like a
+//! textured one.
+//!
 //! # Units
 //! Texels are in the parameter's unit as its table states it (degrees for angles, converted to
 //! radians here); scalar parameters read the red channel. PNG textures of colour parameters
@@ -118,6 +126,15 @@ pub struct ModelMaterial {
     name: &'static str,
     model: SurfaceModel,
     textures: Vec<TexturedParameter>,
+    /// The uv scale of a model that takes its position (`u`, `v`), see the module docs.
+    uv_position: Option<[f64; 2]>,
+}
+
+/// True when a model with parameter table `params` takes the point's position as its number
+/// parameters `u` and `v` (module documentation).
+#[must_use]
+pub fn takes_uv_position(params: &[ParamSpec]) -> bool {
+    ["u", "v"].iter().all(|k| params.iter().any(|s| s.key == *k && matches!(s.kind, ParamKind::Number(_))))
 }
 
 impl ModelMaterial {
@@ -159,7 +176,28 @@ impl ModelMaterial {
             check_texels(&model, &bound)?;
             textures.push(bound);
         }
-        Ok(Self { name, model, textures })
+        let uv_position = takes_uv_position(params).then_some([1.0, 1.0]);
+        Ok(Self { name, model, textures, uv_position })
+    }
+
+    /// The material with the uv scale `[su, sv]` of the model's position (module docs):
+    /// refused when the model takes no position, or a scale is not finite and non-zero.
+    pub fn with_uv_scale(mut self, scale: [f64; 2]) -> Result<Self, MaterialError> {
+        let fail = |message: String| MaterialError::Parameter { key: "uv_scale".into(), message };
+        if self.uv_position.is_none() {
+            return Err(fail(format!("model `{}` has no position parameters u, v to scale", self.name)));
+        }
+        if !scale.iter().all(|s| s.is_finite() && *s != 0.0) {
+            return Err(fail(format!("uv_scale = {scale:?} must be finite and non-zero")));
+        }
+        self.uv_position = Some(scale);
+        Ok(self)
+    }
+
+    /// The uv scale of the model's position, when it takes one.
+    #[must_use]
+    pub fn uv_scale(&self) -> Option<[f64; 2]> {
+        self.uv_position
     }
 
     /// The registry name of the model.
@@ -183,11 +221,12 @@ impl ModelMaterial {
     /// True when some parameter is textured (the surface must have texture coordinates).
     #[must_use]
     pub fn needs_uvs(&self) -> bool {
-        !self.textures.is_empty()
+        !self.textures.is_empty() || self.uv_position.is_some()
     }
 
     /// The model at texture coordinates `uv`: a copy with every textured parameter set to the
-    /// texture's value there (without coordinates, the untextured model).
+    /// texture's value there and the position `u`, `v` set from `uv` (module docs); without
+    /// coordinates, the untextured model.
     #[must_use]
     pub fn at(&self, uv: Option<[f64; 2]>) -> SurfaceModel {
         let mut model = self.model.clone();
@@ -196,6 +235,11 @@ impl ModelMaterial {
                 let v = t.texture.lookup(uv);
                 // Every texel was accepted at load; their interpolations are in range.
                 let _ = model.set_parameter(t.key, t.value([v[0], v[1], v[2]]));
+            }
+            if let Some([su, sv]) = self.uv_position {
+                // Finite positions are within the parameters' range of ±10⁶ for any sane uv.
+                let _ = model.set_parameter("u", Rgb::splat(su * uv[0]));
+                let _ = model.set_parameter("v", Rgb::splat(sv * uv[1]));
             }
         }
         model
@@ -290,6 +334,35 @@ mod tests {
     fn lambertian() -> (&'static str, &'static [ParamSpec], SurfaceModel) {
         let spec = find_surface("lambertian").unwrap();
         (spec.name, spec.params, fiberlab_scatter::build_surface::<&str, &str>("lambertian", &[]).unwrap())
+    }
+
+    /// A model with a position (`irawan-2012`) gets `u = su·uv₀`, `v = sv·uv₁` at a hit: the
+    /// material's model at uv equals the model with those values set by hand, and differs from
+    /// the model at another tile position; a model without a position refuses a uv scale.
+    #[test]
+    fn uv_position_is_the_scaled_texture_coordinate() {
+        let spec = find_surface("irawan-2012").unwrap();
+        assert!(takes_uv_position(spec.params));
+        let model = fiberlab_scatter::build_surface::<&str, &str>("irawan-2012", &[]).unwrap();
+        let m = ModelMaterial::new(spec.name, spec.params, model.clone(), &[]).unwrap();
+        assert!(m.needs_uvs() && m.uv_scale() == Some([1.0, 1.0]));
+        let m = m.with_uv_scale([4.0, 6.0]).unwrap();
+        let (wi, wo) = (DVec3::new(0.3, -0.2, 0.93).normalize(), DVec3::new(-0.4, 0.25, 0.88).normalize());
+        let mut grid_differs = false;
+        for (a, b) in [(0.01, 0.02), (0.13, 0.37), (0.71, 0.9)] {
+            let mut by_hand = model.clone();
+            by_hand.set_parameter("u", Rgb::splat(4.0 * a)).unwrap();
+            by_hand.set_parameter("v", Rgb::splat(6.0 * b)).unwrap();
+            assert_eq!(m.at(Some([a, b])).eval(wi, wo), by_hand.eval(wi, wo));
+            grid_differs |= m.at(Some([a, b])).eval(wi, wo) != m.at(Some([0.05, 0.05])).eval(wi, wo);
+        }
+        assert!(grid_differs, "the position changes nothing");
+        assert!(m.clone().with_uv_scale([f64::NAN, 1.0]).is_err() && m.with_uv_scale([0.0, 1.0]).is_err());
+        let (name, params, lambert) = lambertian();
+        assert!(!takes_uv_position(params));
+        let plain = ModelMaterial::new(name, params, lambert, &[]).unwrap();
+        assert!(!plain.needs_uvs());
+        assert!(plain.with_uv_scale([2.0, 2.0]).unwrap_err().to_string().contains("no position"));
     }
 
     /// A 2×2 EXR of known colours: the model at each texel centre evaluates to that colour/π,

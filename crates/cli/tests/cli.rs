@@ -1,21 +1,12 @@
 //! End-to-end tests of the `fiberlab` binary's documented interfaces.
 
-use assert_cmd::Command;
-
-fn fiberlab() -> Command {
-    Command::cargo_bin("fiberlab").expect("binary builds")
-}
+mod fiberlab_process;
+use fiberlab_process::{fiberlab, stdout_of};
 
 /// The value printed by `fiberlab fit` as `  key = value ± error`.
 fn fitted(out: &str, key: &str) -> f64 {
     let line = out.lines().find(|l| l.trim_start().starts_with(key)).unwrap();
     line.split('=').nth(1).unwrap().split('±').next().unwrap().trim().parse().unwrap()
-}
-
-fn stdout_of(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("runs");
-    assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8(out.stdout).expect("utf-8")
 }
 
 #[test]

@@ -2,13 +2,10 @@
 //! written mesh reads back with its uvs and the sphere outside it; the sheet has the grid's
 //! size and each tile's pixels; bad input is refused.
 
-use assert_cmd::Command;
+mod fiberlab_process;
 use fiberlab_math::DVec3;
+use fiberlab_process::fiberlab;
 use fiberlab_render::shapes::TriangleMesh;
-
-fn fiberlab() -> Command {
-    Command::cargo_bin("fiberlab").expect("binary builds")
-}
 
 #[test]
 fn mesh_cloth_writes_a_textured_mesh_clear_of_the_sphere() {

@@ -2,17 +2,8 @@
 //! cylinder (issue 17's interface): one JSON object keyed by lobe, and a mismatched model scores
 //! worse than the matched one.
 
-use assert_cmd::Command;
-
-fn fiberlab() -> Command {
-    Command::cargo_bin("fiberlab").expect("binary builds")
-}
-
-fn stdout_of(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("runs");
-    assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8(out.stdout).expect("utf-8")
-}
+mod fiberlab_process;
+use fiberlab_process::{fiberlab, stdout_of};
 
 /// `compare-model --json` of `yan-fur` with the fiber's parameters and `eta` as given.
 fn compare(table: &str, eta: &str) -> serde_json::Value {

@@ -1,11 +1,8 @@
 //! `fiberlab render --integrator dual-scattering`: renders a small hair scene (summary line
 //! kept), and refuses a scene without fibers and a delta fiber model with clear messages.
 
-use assert_cmd::Command;
-
-fn fiberlab() -> Command {
-    Command::cargo_bin("fiberlab").expect("binary builds")
-}
+mod fiberlab_process;
+use fiberlab_process::fiberlab;
 
 const SCENE: &str = r#"
 [camera]

@@ -1,11 +1,8 @@
 //! `fiberlab dual-tables`: the CSV it writes (header, size, ā_f + ā_b against the model's
 //! albedo) and refusals.
 
-use assert_cmd::Command;
-
-fn fiberlab() -> Command {
-    Command::cargo_bin("fiberlab").expect("binary builds")
-}
+mod fiberlab_process;
+use fiberlab_process::fiberlab;
 
 fn rows(path: &std::path::Path) -> (String, Vec<Vec<f64>>) {
     let text = std::fs::read_to_string(path).unwrap();

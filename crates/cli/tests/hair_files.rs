@@ -1,28 +1,8 @@
 //! `fiberlab hair info`/`convert` and scenes on pbrt and USD curve files, written here by
 //! string formatting (not by fiberlab's writers), against the same strands as `.hair`.
 
-use assert_cmd::Command;
-use std::path::Path;
-
-fn fiberlab(dir: &Path) -> Command {
-    let mut c = Command::cargo_bin("fiberlab").expect("binary builds");
-    c.current_dir(dir);
-    c
-}
-
-fn ok(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("runs");
-    assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn refused(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("runs");
-    assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stderr));
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!err.contains("panicked"), "{err}");
-    err
-}
+mod fiberlab_process;
+use fiberlab_process::{fiberlab_in, refused, stdout_of};
 
 const SCENE: &str = r#"
 [camera]
@@ -78,7 +58,7 @@ fn pbrt_text(hair: &fiberlab_io::HairFile) -> String {
 fn pbrt_and_usda_curves_render_like_the_same_strands_as_hair() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(fiberlab(d).args([
+    stdout_of(fiberlab_in(d).args([
         "hair",
         "generate",
         "--strands",
@@ -94,13 +74,13 @@ fn pbrt_and_usda_curves_render_like_the_same_strands_as_hair() {
     ]));
     let hair = fiberlab_io::HairFile::read(&d.join("h.hair")).unwrap();
     std::fs::write(d.join("h.pbrt"), pbrt_text(&hair)).unwrap();
-    ok(fiberlab(d).args(["hair", "convert", "h.hair", "h.usda"]));
+    stdout_of(fiberlab_in(d).args(["hair", "convert", "h.hair", "h.usda"]));
     let mut images = Vec::new();
     for file in ["h.hair", "h.pbrt", "h.usda"] {
         let scene = format!("{file}.toml");
         std::fs::write(d.join(&scene), SCENE.replace("FILE", file)).unwrap();
         let out = format!("out-{file}");
-        ok(fiberlab(d).args(["render", &scene, "--quiet", "--threads", "2", "--out", &out]));
+        stdout_of(fiberlab_in(d).args(["render", &scene, "--quiet", "--threads", "2", "--out", &out]));
         images.push(fiberlab_io::LinearImage::read_exr(&d.join(format!("{out}.exr"))).unwrap());
     }
     // The pixels (the attributes hold the scene's hash, which differs with the file name).
@@ -112,12 +92,12 @@ fn pbrt_and_usda_curves_render_like_the_same_strands_as_hair() {
     assert_eq!(differ(&images[0], &images[1]), 0, "pbrt");
     assert_eq!(differ(&images[0], &images[2]), 0, "usda");
     // The same scene through --hair.
-    ok(fiberlab(d).args(["render", "h.hair.toml", "--hair", "h.pbrt", "--quiet", "--out", "flag"]));
+    stdout_of(fiberlab_in(d).args(["render", "h.hair.toml", "--hair", "h.pbrt", "--quiet", "--out", "flag"]));
     assert_eq!(differ(&fiberlab_io::LinearImage::read_exr(&d.join("flag.exr")).unwrap(), &images[0]), 0);
     // With the default subdivision the curves are cubic and differ from the polylines.
     std::fs::write(d.join("cubic.toml"), SCENE.replace("FILE", "h.pbrt").replace("segments_per_curve = 1\n", ""))
         .unwrap();
-    ok(fiberlab(d).args(["render", "cubic.toml", "--quiet", "--out", "cubic"]));
+    stdout_of(fiberlab_in(d).args(["render", "cubic.toml", "--quiet", "--out", "cubic"]));
     assert!(differ(&fiberlab_io::LinearImage::read_exr(&d.join("cubic.exr")).unwrap(), &images[0]) > 0);
 }
 
@@ -130,7 +110,7 @@ fn info_and_convert_work_for_every_format() {
         "WorldBegin\nShape \"curve\" \"string type\" \"cylinder\" \"string basis\" \"bspline\" \"point3 P\" [0 0 0 1 1 0 2 0 0 3 1 0 4 0 0] \"float width0\" 0.2 \"float width1\" 0.1\n",
     )
     .unwrap();
-    let info = ok(fiberlab(d).args(["hair", "info", "c.pbrt"]));
+    let info = stdout_of(fiberlab_in(d).args(["hair", "info", "c.pbrt"]));
     for line in [
         "strands     1\n",
         "points      7\n",
@@ -141,19 +121,19 @@ fn info_and_convert_work_for_every_format() {
     ] {
         assert!(info.contains(line), "{info}");
     }
-    ok(fiberlab(d).args(["hair", "convert", "c.pbrt", "c.usda"]));
+    stdout_of(fiberlab_in(d).args(["hair", "convert", "c.pbrt", "c.usda"]));
     let usd = std::fs::read_to_string(d.join("c.usda")).unwrap();
     assert!(usd.starts_with("#usda 1.0\n") && usd.contains("uniform token basis = \"bezier\""), "{usd}");
-    ok(fiberlab(d).args(["hair", "convert", "c.usda", "c.hair", "--segments-per-curve", "5"]));
-    let info = ok(fiberlab(d).args(["hair", "info", "c.hair"]));
+    stdout_of(fiberlab_in(d).args(["hair", "convert", "c.usda", "c.hair", "--segments-per-curve", "5"]));
+    let info = stdout_of(fiberlab_in(d).args(["hair", "info", "c.hair"]));
     // 2 spans × 5 segments: 11 points on one strand.
     assert!(
         info.contains("strands     1\n") && info.contains("points      11\n") && info.contains("basis       linear"),
         "{info}"
     );
-    let err = refused(fiberlab(d).args(["hair", "convert", "c.hair", "c.pbrt"]));
+    let err = refused(fiberlab_in(d).args(["hair", "convert", "c.hair", "c.pbrt"]));
     assert!(err.contains("c.pbrt") && err.contains("not supported"), "{err}");
-    let err = refused(fiberlab(d).args(["hair", "info", "c.txt"]));
+    let err = refused(fiberlab_in(d).args(["hair", "info", "c.txt"]));
     assert!(err.contains("c.txt: unknown hair file format"), "{err}");
 }
 
@@ -179,11 +159,11 @@ fn hostile_curve_files_are_errors_naming_file_and_line() {
     ];
     for (name, text, want) in cases {
         std::fs::write(d.join(name), text).unwrap();
-        let err = refused(fiberlab(d).args(["hair", "info", name]));
+        let err = refused(fiberlab_in(d).args(["hair", "info", name]));
         assert!(err.contains(want), "{name}: {err}");
         // In a scene: the scene's location and the file's.
         std::fs::write(d.join("s.toml"), SCENE.replace("FILE", name)).unwrap();
-        let err = refused(fiberlab(d).args(["render", "s.toml", "--quiet", "--out", "x"]));
+        let err = refused(fiberlab_in(d).args(["render", "s.toml", "--quiet", "--out", "x"]));
         assert!(err.contains("s.toml:") && err.contains(want), "{name}: {err}");
     }
 }
@@ -207,7 +187,7 @@ fn the_memory_budget_counts_the_points_of_text_files_before_loading() {
         SCENE.replace("FILE", "big.usda").replace("segments_per_curve = 1", "segments_per_curve = 4"),
     )
     .unwrap();
-    let err = refused(fiberlab(d).args(["render", "s.toml", "--quiet", "--memory-limit", "1M", "--out", "x"]));
+    let err = refused(fiberlab_in(d).args(["render", "s.toml", "--quiet", "--memory-limit", "1M", "--out", "x"]));
     // 2000 strands × 7 spans × 4 segments.
     assert!(err.contains("hair 2000 strands × 56000 segments") && err.contains("big.usda"), "{err}");
 }

@@ -1,10 +1,7 @@
 //! `fiberlab medulla-tables`: the files it writes and their consistency, and bad input.
 
-use assert_cmd::Command;
-
-fn fiberlab() -> Command {
-    Command::cargo_bin("fiberlab").expect("binary builds")
-}
+mod fiberlab_process;
+use fiberlab_process::fiberlab;
 
 fn rows(path: &std::path::Path) -> (String, Vec<Vec<f64>>) {
     let text = std::fs::read_to_string(path).unwrap();

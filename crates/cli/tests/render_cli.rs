@@ -1,19 +1,7 @@
 //! End-to-end tests of `fiberlab hair`, `fiberlab render` and `fiberlab merge`.
 
-use assert_cmd::Command;
-use std::path::Path;
-
-fn fiberlab(dir: &Path) -> Command {
-    let mut c = Command::cargo_bin("fiberlab").expect("binary builds");
-    c.current_dir(dir);
-    c
-}
-
-fn ok(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("runs");
-    assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
+mod fiberlab_process;
+use fiberlab_process::{fiberlab_in, stderr_of};
 
 const SCENE: &str = r#"
 [camera]
@@ -57,7 +45,7 @@ irradiance = [2, 2, 2]
 fn generate_render_in_parts_and_merge_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(fiberlab(d).args([
+    stderr_of(fiberlab_in(d).args([
         "hair",
         "generate",
         "--style",
@@ -69,13 +57,13 @@ fn generate_render_in_parts_and_merge_bit_for_bit() {
         "--out",
         "h.hair",
     ]));
-    let info = fiberlab(d).args(["hair", "info", "h.hair"]).output().unwrap();
+    let info = fiberlab_in(d).args(["hair", "info", "h.hair"]).output().unwrap();
     assert!(String::from_utf8_lossy(&info.stdout).contains("strands     300"));
     std::fs::write(d.join("s.toml"), SCENE).unwrap();
-    ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--threads", "2", "--out", "full"]));
+    stderr_of(fiberlab_in(d).args(["render", "s.toml", "--quiet", "--threads", "2", "--out", "full"]));
     for i in 0..3 {
         let tile = format!("{i}/3");
-        ok(fiberlab(d).args([
+        stderr_of(fiberlab_in(d).args([
             "render",
             "s.toml",
             "--quiet",
@@ -87,7 +75,7 @@ fn generate_render_in_parts_and_merge_bit_for_bit() {
             &format!("p{i}"),
         ]));
     }
-    ok(fiberlab(d).args(["merge", "p0.exr", "p1.exr", "p2.exr", "--out", "merged"]));
+    stderr_of(fiberlab_in(d).args(["merge", "p0.exr", "p1.exr", "p2.exr", "--out", "merged"]));
     let full = fiberlab_io::LinearImage::read_exr(&d.join("full.exr")).unwrap();
     let merged = fiberlab_io::LinearImage::read_exr(&d.join("merged.exr")).unwrap();
     assert_eq!(full, merged);
@@ -99,18 +87,18 @@ fn scene_errors_name_file_line_and_key() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(d.join("bad.toml"), SCENE.replace("spp = 2", "spp = 2\nbogus = 1")).unwrap();
-    let out = fiberlab(d).args(["render", "bad.toml", "--quiet"]).output().unwrap();
+    let out = fiberlab_in(d).args(["render", "bad.toml", "--quiet"]).output().unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("bad.toml:11:1:") && err.contains("bogus"), "{err}");
     std::fs::write(d.join("s.toml"), SCENE.replace("file = \"h.hair\"", "generator = { strands = 10 }")).unwrap();
     // An output place that cannot be written is refused before the scene is even read.
-    let out = fiberlab(d).args(["render", "s.toml", "--out", "/nonexistent/dir/r"]).output().unwrap();
+    let out = fiberlab_in(d).args(["render", "s.toml", "--out", "/nonexistent/dir/r"]).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("/nonexistent/dir") && err.contains("does not exist"), "{err}");
-    let out = fiberlab(d).args(["render", "s.toml", "--out", "."]).output().unwrap();
+    let out = fiberlab_in(d).args(["render", "s.toml", "--out", "."]).output().unwrap();
     assert!(String::from_utf8_lossy(&out.stderr).contains("is a directory"));
-    let out = fiberlab(d).args(["render", "s.toml", "--tile", "3/3"]).output().unwrap();
+    let out = fiberlab_in(d).args(["render", "s.toml", "--tile", "3/3"]).output().unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("0 ≤ I < N"), "{}", String::from_utf8_lossy(&out.stderr));
 }
@@ -119,7 +107,7 @@ fn scene_errors_name_file_line_and_key() {
 fn scene_dir() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(fiberlab(d).args(["hair", "generate", "--strands", "200", "--seed", "4", "--out", "h.hair"]));
+    stderr_of(fiberlab_in(d).args(["hair", "generate", "--strands", "200", "--seed", "4", "--out", "h.hair"]));
     std::fs::write(d.join("s.toml"), SCENE).unwrap();
     dir
 }
@@ -128,26 +116,56 @@ fn scene_dir() -> tempfile::TempDir {
 fn a_stopped_render_is_partial_and_resume_is_bit_identical_to_one_render() {
     let dir = scene_dir();
     let d = dir.path();
-    ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--spp", "6", "--out", "long"]));
+    stderr_of(fiberlab_in(d).args(["render", "s.toml", "--quiet", "--spp", "6", "--out", "long"]));
     // A 0-second time limit stops at once: the finished image of that name is not replaced,
     // the partial one goes beside it, and the exit status is 0 (the limit was asked for).
     std::fs::copy(d.join("long.exr"), d.join("r.exr")).unwrap();
     let before = std::fs::read(d.join("r.exr")).unwrap();
-    let err = ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--spp", "6", "--time-limit", "0", "--out", "r"]));
+    let err = stderr_of(fiberlab_in(d).args([
+        "render",
+        "s.toml",
+        "--quiet",
+        "--spp",
+        "6",
+        "--time-limit",
+        "0",
+        "--out",
+        "r",
+    ]));
     assert!(err.contains("stopped by --time-limit") && err.contains("--resume r.partial.exr"), "{err}");
     assert_eq!(std::fs::read(d.join("r.exr")).unwrap(), before);
     let partial = fiberlab_io::LinearImage::read_exr(&d.join("r.partial.exr")).unwrap();
     assert_eq!(partial.attribute("spp"), Some("0"));
     // Continue it in two steps, to 2 spp and then to 6 (the prefix comes from the file): the
     // finished image is the one-render image bit for bit, and the partial files are gone.
-    ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--spp", "2", "--resume", "r.partial.exr", "--out", "r2"]));
-    ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--spp", "6", "--resume", "r2.exr", "--out", "r"]));
+    stderr_of(fiberlab_in(d).args([
+        "render",
+        "s.toml",
+        "--quiet",
+        "--spp",
+        "2",
+        "--resume",
+        "r.partial.exr",
+        "--out",
+        "r2",
+    ]));
+    stderr_of(fiberlab_in(d).args(["render", "s.toml", "--quiet", "--spp", "6", "--resume", "r2.exr", "--out", "r"]));
     let long = fiberlab_io::LinearImage::read_exr(&d.join("long.exr")).unwrap();
     let resumed = fiberlab_io::LinearImage::read_exr(&d.join("r.exr")).unwrap();
     assert_eq!(resumed, long);
-    let err = ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--spp", "7", "--time-limit", "0", "--out", "q"]));
+    let err = stderr_of(fiberlab_in(d).args([
+        "render",
+        "s.toml",
+        "--quiet",
+        "--spp",
+        "7",
+        "--time-limit",
+        "0",
+        "--out",
+        "q",
+    ]));
     assert!(err.contains("q.partial.exr"), "{err}");
-    ok(fiberlab(d).args(["render", "s.toml", "--quiet", "--spp", "6", "--resume", "q.partial.exr"]));
+    stderr_of(fiberlab_in(d).args(["render", "s.toml", "--quiet", "--spp", "6", "--resume", "q.partial.exr"]));
     assert_eq!(fiberlab_io::LinearImage::read_exr(&d.join("q.exr")).unwrap(), long);
     assert!(!d.join("q.partial.exr").exists() && !d.join("q.partial.png").exists());
     // What cannot be continued is refused before any work, naming the file and the reason.
@@ -159,7 +177,7 @@ fn a_stopped_render_is_partial_and_resume_is_bit_identical_to_one_render() {
         (&["s.toml", "--tile", "0/2", "--resume", "long.exr"][..], "it renders the whole image"),
         (&["s.toml", "--resume", "missing.exr"][..], "missing.exr"),
     ] {
-        let out = fiberlab(d).arg("render").args(args).args(["--quiet", "--out", "bad"]).output().unwrap();
+        let out = fiberlab_in(d).arg("render").args(args).args(["--quiet", "--out", "bad"]).output().unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(out.status.code() == Some(1) && err.contains(says), "{args:?}: {err}");
         assert!(!d.join("bad.exr").exists() && !d.join("bad.partial.exr").exists(), "{args:?}");

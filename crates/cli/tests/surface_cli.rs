@@ -1,18 +1,9 @@
 //! The surface-model interfaces of the `fiberlab` binary: `models` prints each model's kind,
 //! `eval`/`sample`/`plot`/`check` take surface models with the local-frame CSV contract.
 
-use assert_cmd::Command;
+mod fiberlab_process;
+use fiberlab_process::{fiberlab, stdout_of};
 use std::f64::consts::PI;
-
-fn fiberlab() -> Command {
-    Command::cargo_bin("fiberlab").expect("binary builds")
-}
-
-fn stdout_of(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("runs");
-    assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8(out.stdout).expect("utf-8")
-}
 
 #[test]
 fn models_prints_the_kind_under_every_title_line() {

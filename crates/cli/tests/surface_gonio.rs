@@ -1,17 +1,8 @@
 //! `fiberlab measure --surface` and `compare-model --model wood` on its table: the highlight's
 //! locus passes with the slab's dip and fails with a wrong one; surface flags need `--surface`.
 
-use assert_cmd::Command;
-
-fn fiberlab() -> Command {
-    Command::cargo_bin("fiberlab").expect("binary builds")
-}
-
-fn stdout_of(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("runs");
-    assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8(out.stdout).expect("utf-8")
-}
+mod fiberlab_process;
+use fiberlab_process::{fiberlab, stdout_of};
 
 fn compare(table: &str, dip: &str) -> serde_json::Value {
     let out = stdout_of(fiberlab().args([

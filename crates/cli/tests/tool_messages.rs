@@ -2,18 +2,10 @@
 //! `check --quiet`, `scene --default`, and error texts that name the place, once, in the
 //! unit given.
 
+mod fiberlab_process;
 use assert_cmd::Command;
+use fiberlab_process::{fiberlab, stdout_of};
 use std::path::Path;
-
-fn fiberlab() -> Command {
-    Command::cargo_bin("fiberlab").expect("binary builds")
-}
-
-fn stdout_of(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("runs");
-    assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8(out.stdout).expect("utf-8")
-}
 
 /// Stderr of a command that must fail (non-zero exit, no panic).
 fn error_of(cmd: &mut Command) -> String {

@@ -14,7 +14,7 @@
 use crate::arg_values::{self, OutPrefix};
 use crate::files::write_atomically;
 use crate::model_args::ModelArgs;
-use crate::plot::{register_font, write_png};
+use crate::plot::draw_png;
 use anyhow::Context;
 use fiberlab_math::Rgb;
 use fiberlab_scatter::dual_scattering_tables::{DualTableRow, DualTables, Resolution};
@@ -97,12 +97,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let path = args.out.with(".csv");
     write_atomically(&path, csv.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
-    let size = (1500u32, 500u32);
-    let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
-    register_font();
     let title = format!("dual-scattering tables: {}", args.model.label());
-    draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area(), &tables, &title)?;
-    write_png(&args.out.with(".png"), &buf, size)?;
+    draw_png(&args.out.with(".png"), (1500, 500), |root| draw(root, &tables, &title))?;
     eprintln!("wrote {}.csv and .png", args.out);
     Ok(())
 }

@@ -13,7 +13,7 @@
 
 use crate::arg_values::{self, OutPrefix};
 use crate::files::write_atomically;
-use crate::plot::{register_font, write_png};
+use crate::plot::draw_png;
 use anyhow::Context;
 use fiberlab_math::Rgb;
 use fiberlab_scatter::hair::medulla::{MedullaParams, MedullaTables, Resolution};
@@ -120,11 +120,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         write_atomically(&path, text.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
     }
     let title = format!("medulla tables: σ_s = {}, σ_a = {}, g = {}", args.sigma_s, args.sigma_a, args.g);
-    let size = (1400u32, 560u32);
-    let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
-    register_font();
-    draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area(), &tables, &title)?;
-    write_png(&args.out.with(".png"), &buf, size)?;
+    draw_png(&args.out.with(".png"), (1400, 560), |root| draw(root, &tables, &title))?;
     eprintln!("wrote {}_azimuthal.csv, _longitudinal.csv, _fractions.csv and .png", args.out);
     Ok(())
 }

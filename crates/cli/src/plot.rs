@@ -212,11 +212,7 @@ fn write_figure_with(
             draw(SVGBackend::with_string(&mut svg, size).into_drawing_area(), grids, title, scale, decades, axes)?;
             write_atomically(path, svg.as_bytes())
         }
-        Some("png") => {
-            let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
-            draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area(), grids, title, scale, decades, axes)?;
-            write_png(path, &buf, size)
-        }
+        Some("png") => draw_png(path, size, |root| draw(root, grids, title, scale, decades, axes)),
         _ => anyhow::bail!("--out {}: expected a .png or .svg file name", path.display()),
     }
 }
@@ -226,6 +222,18 @@ pub(crate) fn register_font() {
     ONCE.call_once(|| {
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
     });
+}
+
+/// Draws a figure of `size` pixels with `draw` and writes it to `path` as a PNG.
+pub(crate) fn draw_png(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    register_font();
+    let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
+    draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area())?;
+    write_png(path, &buf, size)
 }
 
 pub(crate) fn write_png(path: &Path, rgb: &[u8], (w, h): (u32, u32)) -> anyhow::Result<()> {

@@ -17,6 +17,7 @@
 pub mod hair;
 pub mod image_file;
 pub mod image_metrics;
+mod lookahead;
 pub mod pbrt_curves;
 mod scene_text;
 pub mod strand_files;

@@ -42,6 +42,7 @@
 //! a wrong point count, mixed curve types in one file, a missing include — names the file, the
 //! line and the column and says what was expected.
 
+use crate::lookahead::{Located, Lookahead, Scan};
 use crate::scene_text::skip_blanks_and_comments;
 use crate::strands::{Basis, CurveKind, Strands, StrandsError, line_column, utf8_text};
 use std::collections::HashMap;
@@ -122,13 +123,13 @@ impl Token<'_> {
     }
 }
 
-struct Lexer<'a> {
+/// The tokens of a pbrt file's text.
+struct Scanner<'a> {
     text: &'a str,
     pos: usize,
-    peeked: Option<Option<Token<'a>>>,
 }
 
-type Located = (usize, String);
+type Lexer<'a> = Lookahead<Scanner<'a>>;
 
 /// An error at a byte of the file being parsed, or one already located in an included file.
 enum Failure {
@@ -142,24 +143,8 @@ impl From<Located> for Failure {
     }
 }
 
-impl<'a> Lexer<'a> {
-    fn new(text: &'a str) -> Self {
-        Self { text, pos: 0, peeked: None }
-    }
-
-    fn peek(&mut self) -> Result<Option<Token<'a>>, Located> {
-        if self.peeked.is_none() {
-            self.peeked = Some(self.scan()?);
-        }
-        Ok(self.peeked.expect("just set"))
-    }
-
-    fn next(&mut self) -> Result<Option<Token<'a>>, Located> {
-        match self.peeked.take() {
-            Some(t) => Ok(t),
-            None => self.scan(),
-        }
-    }
+impl<'a> Scan for Scanner<'a> {
+    type Token = Token<'a>;
 
     fn scan(&mut self) -> Result<Option<Token<'a>>, Located> {
         let b = self.text.as_bytes();
@@ -422,7 +407,7 @@ impl Parser {
     }
 
     fn text(&mut self, text: &str, path: &Path, depth: usize) -> Result<(), StrandsError> {
-        let mut lx = Lexer::new(text);
+        let mut lx = Lexer::new(Scanner { text, pos: 0 });
         self.directives(&mut lx, path, depth).map_err(|f| match f {
             Failure::At(offset, message) => {
                 let (line, column) = line_column(text, offset);
@@ -518,7 +503,7 @@ impl Parser {
                     let root = self.files.first().map_or(path, PathBuf::as_path);
                     let target = root.parent().map_or(rel.clone(), |d| d.join(&rel));
                     // Errors inside the included file name it; errors opening it name this one.
-                    let text = lx.text;
+                    let text = lx.scanner.text;
                     self.file(&target, Some((path, text, name.offset)), depth + 1).map_err(Failure::Nested)?;
                 }
                 "ObjectBegin" => {
@@ -602,7 +587,7 @@ impl Parser {
         }
         if self.stack.len() > attribute_depth {
             return Err(Failure::from((
-                lx.text.len(),
+                lx.scanner.text.len(),
                 "end of file inside an AttributeBegin (expected AttributeEnd)".into(),
             )));
         }
@@ -876,7 +861,10 @@ fn string<'a>(lx: &mut Lexer<'a>, directive: Token<'_>) -> Result<Token<'a>, Loc
     match lx.next()? {
         Some(t) if t.kind == Kind::Str => Ok(t),
         Some(t) => Err((t.offset, format!("{}: expected a quoted name, found {}", directive.text, t.describe()))),
-        None => Err((lx.text.len(), format!("{}: expected a quoted name, found the end of the file", directive.text))),
+        None => Err((
+            lx.scanner.text.len(),
+            format!("{}: expected a quoted name, found the end of the file", directive.text),
+        )),
     }
 }
 
@@ -885,8 +873,8 @@ fn numbers(lx: &mut Lexer<'_>, n: usize, directive: Token<'_>) -> Result<Vec<f64
         .map(|i| match lx.next()? {
             Some(t) if t.kind == Kind::Number => number(t),
             other => {
-                let (at, found) =
-                    other.map_or((lx.text.len(), "the end of the file".to_string()), |t| (t.offset, t.describe()));
+                let (at, found) = other
+                    .map_or((lx.scanner.text.len(), "the end of the file".to_string()), |t| (t.offset, t.describe()));
                 Err((at, format!("{}: expected {n} numbers, found {found} as number {}", directive.text, i + 1)))
             }
         })
@@ -903,8 +891,8 @@ fn bracketed_numbers(lx: &mut Lexer<'_>, n: usize, directive: Token<'_>) -> Resu
         match lx.next()? {
             Some(t) if t.kind == Kind::Close => {}
             other => {
-                let (at, found) =
-                    other.map_or((lx.text.len(), "the end of the file".to_string()), |t| (t.offset, t.describe()));
+                let (at, found) = other
+                    .map_or((lx.scanner.text.len(), "the end of the file".to_string()), |t| (t.offset, t.describe()));
                 return Err((at, format!("{}: expected `]` after {n} numbers, found {found}", directive.text)));
             }
         }
@@ -944,9 +932,10 @@ fn value<'a>(lx: &mut Lexer<'a>, decl: Token<'_>) -> Result<Vec<Token<'a>>, Loca
         Some(t) => {
             Err((t.offset, format!("parameter \"{}\": expected a value or `[`, found {}", decl.text, t.describe())))
         }
-        None => {
-            Err((lx.text.len(), format!("parameter \"{}\": expected a value, found the end of the file", decl.text)))
-        }
+        None => Err((
+            lx.scanner.text.len(),
+            format!("parameter \"{}\": expected a value, found the end of the file", decl.text),
+        )),
     }
 }
 

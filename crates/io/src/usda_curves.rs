@@ -39,6 +39,7 @@
 //! `vertex`). Numbers are printed in Rust's shortest form that reads back to the same `f32`,
 //! so a write then a read gives the same bits.
 
+use crate::lookahead::{Located, Lookahead, Scan};
 use crate::scene_text::skip_blanks_and_comments;
 use crate::strands::{Basis, CurveKind, Strands, StrandsError, line_column, utf8_text};
 use std::fmt::Write as _;
@@ -149,32 +150,18 @@ impl Token<'_> {
     }
 }
 
-type Located = (usize, String);
-
-struct Lexer<'a> {
+/// The tokens of a `.usda` file's text.
+struct Scanner<'a> {
     text: &'a str,
     pos: usize,
-    peeked: Option<Option<Token<'a>>>,
 }
 
+type Lexer<'a> = Lookahead<Scanner<'a>>;
+
 impl<'a> Lexer<'a> {
-    fn peek(&mut self) -> Result<Option<Token<'a>>, Located> {
-        if self.peeked.is_none() {
-            self.peeked = Some(self.scan()?);
-        }
-        Ok(self.peeked.expect("just set"))
-    }
-
-    fn next(&mut self) -> Result<Option<Token<'a>>, Located> {
-        match self.peeked.take() {
-            Some(t) => Ok(t),
-            None => self.scan(),
-        }
-    }
-
     /// The next token, which must exist.
     fn expect(&mut self, what: &str) -> Result<Token<'a>, Located> {
-        self.next()?.ok_or((self.text.len(), format!("expected {what}, found the end of the file")))
+        self.next()?.ok_or((self.scanner.text.len(), format!("expected {what}, found the end of the file")))
     }
 
     /// [`Self::punct`] with a context built only for the error.
@@ -182,7 +169,7 @@ impl<'a> Lexer<'a> {
         match self.next()? {
             Some(t) if t.is(p) => Ok(t),
             Some(t) => Err((t.offset, format!("expected `{p}` {}, found {}", context(), t.describe()))),
-            None => Err((self.text.len(), format!("expected `{p}` {}, found the end of the file", context()))),
+            None => Err((self.scanner.text.len(), format!("expected `{p}` {}, found the end of the file", context()))),
         }
     }
 
@@ -190,6 +177,10 @@ impl<'a> Lexer<'a> {
         let t = self.expect(&format!("`{p}` {context}"))?;
         if t.is(p) { Ok(t) } else { Err((t.offset, format!("expected `{p}` {context}, found {}", t.describe()))) }
     }
+}
+
+impl<'a> Scan for Scanner<'a> {
+    type Token = Token<'a>;
 
     fn scan(&mut self) -> Result<Option<Token<'a>>, Located> {
         let b = self.text.as_bytes();
@@ -372,7 +363,7 @@ fn parse(text: &str, path: &Path, count_only: bool) -> Result<Strands, StrandsEr
             format!("expected the header line `#usda 1.0`, found `{}`", first.chars().take(40).collect::<String>()),
         )));
     }
-    let mut p = Parser { lx: Lexer { text, pos: first.len(), peeked: None }, count_only };
+    let mut p = Parser { lx: Lexer::new(Scanner { text, pos: first.len() }), count_only };
     let prims = p.layer().map_err(located)?;
     let mut out = Strands {
         points: Vec::new(),
@@ -471,7 +462,7 @@ impl<'a> Parser<'a> {
                         t.offset,
                         format!(
                             "expected `{want}` (to close the bracket opened at {}), found {}",
-                            opened_at(self.lx.text, opened),
+                            opened_at(self.lx.scanner.text, opened),
                             t.describe()
                         ),
                     ));
@@ -609,7 +600,7 @@ impl<'a> Parser<'a> {
             return self.rest_of_property();
         }
         self.lx.next()?;
-        let at = self.lx.peek()?.map_or(self.lx.text.len(), |x| x.offset);
+        let at = self.lx.peek()?.map_or(self.lx.scanner.text.len(), |x| x.offset);
         let check_type = |want: &str, want_array: bool| -> Result<(), Located> {
             let ok = if want == "point3f" {
                 matches!(ty, "point3f" | "float3" | "vector3f" | "normal3f" | "color3f")
@@ -710,7 +701,7 @@ impl<'a> Parser<'a> {
                     t.offset,
                     format!(
                         "in the metadata opened at {}: expected `key = value` or `)`, found {}",
-                        opened_at(self.lx.text, open.offset),
+                        opened_at(self.lx.scanner.text, open.offset),
                         t.describe()
                     ),
                 ));
@@ -734,10 +725,10 @@ impl<'a> Parser<'a> {
     /// `[ (x, y, z), … ]` as `f32`; in count mode the tuples are only counted (`count`).
     fn points(&mut self, count: &mut usize) -> Result<Vec<[f32; 3]>, Located> {
         if self.count_only {
-            let start = self.lx.pos;
+            let start = self.lx.scanner.pos;
             self.skip_balanced()?;
             // The tuples of the list: its `(`s (the numbers are not parsed).
-            *count = self.lx.text[start..self.lx.pos].bytes().filter(|&b| b == b'(').count();
+            *count = self.lx.scanner.text[start..self.lx.scanner.pos].bytes().filter(|&b| b == b'(').count();
             return Ok(Vec::new());
         }
         let open = self.lx.punct("[", "to open the points")?;
@@ -856,7 +847,7 @@ impl<'a> Parser<'a> {
                     sep.offset,
                     format!(
                         "expected `,` or `)` in the tuple opened at {}, found {}",
-                        opened_at(self.lx.text, t.offset),
+                        opened_at(self.lx.scanner.text, t.offset),
                         sep.describe()
                     ),
                 ));

@@ -248,8 +248,10 @@ pub fn measure_cloth(
         return Err(ClothGonioError::OutOfRange { key: "phi_i", value: setup.phi_i, range: "finite degrees" });
     }
     let (nt, np) = (setup.bins_theta, setup.bins_phi);
-    if nt == 0 || np == 0 || nt * np > 1 << 24 {
-        return Err(ClothGonioError::OutOfRange { key: "bins", value: (nt * np) as f64, range: "1 … 2^24 bins" });
+    if nt == 0 || np == 0 || nt.saturating_mul(np) > 1 << 24 {
+        return Err(ClothGonioError::OutOfRange {
+            key: "bins", value: nt as f64 * np as f64, range: "1 … 2^24 bins"
+        });
     }
     let (st, ct) = setup.theta_i.sin_cos();
     let wi = DVec3::new(st * setup.phi_i.cos(), st * setup.phi_i.sin(), ct);

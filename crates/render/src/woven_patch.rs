@@ -62,7 +62,7 @@ impl Weave {
     pub fn warp_over(self, i: usize, j: usize) -> bool {
         let n = self.repeat();
         match self {
-            Weave::Plain => (i + j) % 2 == 0,
+            Weave::Plain => (i + j).is_multiple_of(2),
             Weave::Twill21 | Weave::Twill22 => (i % n + n - j % n) % n < 2,
         }
     }
@@ -387,7 +387,7 @@ impl WovenPatch {
         if px == 0 || py == 0 || px > 1000 || py > 1000 {
             return Err(PatchError::OutOfRange {
                 key: "periods",
-                value: px.min(py).max(px.max(py)) as f64,
+                value: if px == 0 || px > 1000 { px as f64 } else { py as f64 },
                 range: "1 … 1000".into(),
             });
         }

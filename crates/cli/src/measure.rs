@@ -507,6 +507,15 @@ fn run_cloth(args: &Args) -> anyhow::Result<()> {
             println!("  albedo {name:<9} {:.6} {:.6} {:.6}", lobe.albedo[0], lobe.albedo[1], lobe.albedo[2]);
         }
     }
+    // A fiber model whose albedo exceeds 1 (sadeghi-thread's volume term) gains energy at
+    // every bounce: the multiple scattering of a patch then diverges. Say so.
+    if measurements.iter().any(|m| (m.lobes[3].albedo + m.transmitted).max_component() > 1.05) {
+        eprintln!(
+            "warning: reflected + transmitted exceeds 1: the fiber model `{}` gains energy (its albedo is above 1), \
+             so multiple scattering in the patch diverges; use an energy-conserving fiber model (e.g. chiang)",
+            args.fiber_model
+        );
+    }
     println!("wrote {}", path.display());
     Ok(())
 }

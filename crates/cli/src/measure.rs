@@ -404,7 +404,7 @@ fn write_surface_exr(m: &SurfaceMeasurement, path: &Path) -> anyhow::Result<()> 
 }
 
 /// `measure --surface --cloth`: the woven patch's BRDF at every --theta-i into one surface
-/// table (classes `single, multiple, substrate, all`).
+/// table (classes `fiber` (one fiber event), `multiple`, `substrate`, `all`).
 fn run_cloth(args: &Args) -> anyhow::Result<()> {
     use fiberlab_render::woven_goniophotometer::{ClothMeasurement, ClothSetup, measure_cloth, periodic_patch};
     let patch = args.patch.patch()?;

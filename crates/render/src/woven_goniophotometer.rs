@@ -27,7 +27,7 @@
 //! the table is the viewer-side one, the one an image of the explicit patch shows.
 //! `f_r = P_bin / ∫_bin cosθ dω` as in the slab.
 //!
-//! Path classes: `single` (one fiber event, no substrate), `multiple` (two or more fiber
+//! Path classes (named as the slab's): `fiber` (one fiber event, no substrate), `multiple` (two or more fiber
 //! events, no substrate), `substrate` (touched the substrate), `all`.
 
 use crate::bvh::Ray;
@@ -113,7 +113,7 @@ pub struct ClothMeasurement {
 
 impl ClothMeasurement {
     /// Classes in table order.
-    pub const LOBE_NAMES: [&'static str; 4] = ["single", "multiple", "substrate", "all"];
+    pub const LOBE_NAMES: [&'static str; 4] = ["fiber", "multiple", "substrate", "all"];
 
     /// Centre `(θ, φ)` of bin `(i, j)`.
     #[must_use]
@@ -454,7 +454,7 @@ mod tests {
 
     /// Single scattering off a flat layer of straight parallel fibers along `x` leaves on the
     /// specular cone: the exit direction keeps `ω·x = −ω_i·x` (the cone of the fiber slab and
-    /// of Marschner's R lobe without shift), so nearly all of the `single` class's power sits
+    /// of Marschner's R lobe without shift), so nearly all of the `fiber` class's power sits
     /// within a few roughness widths of the cone.
     #[test]
     fn single_scatter_of_a_parallel_layer_lies_on_the_specular_cone() {

@@ -1,9 +1,14 @@
 //! `fiberlab mesh cloth`: writes the draped-cloth mesh ([`fiberlab_render::draped_cloth`])
 //! that `scenes/cloth.toml` uses: a square cloth over a sphere on the floor, as an OBJ with
 //! texture coordinates (`u` along the cloth's `x` edge, `v` along its `z` edge) and normals.
+//!
+//! `fiberlab mesh cloth-patch`: writes the fibers of an explicit woven patch
+//! ([`fiberlab_render::woven_patch`]) as a strand file (`.usda`, `.hair`, `.pbrt`), which a
+//! scene renders with `[[hair]] file = …`.
 
 use anyhow::Context;
 use fiberlab_render::draped_cloth::DrapedCloth;
+use fiberlab_render::woven_patch::{Weave, WovenPatch};
 use std::path::PathBuf;
 
 /// Flags of `fiberlab mesh`.
@@ -30,11 +35,84 @@ enum Kind {
         #[arg(long, default_value_t = 7)]
         folds: u32,
     },
+    /// The fibers of a woven patch (warp along y, weft along x, z up), as polylines.
+    ClothPatch {
+        #[command(flatten)]
+        patch: PatchArgs,
+        /// Pattern repeats along x and y (the patch covers periods × period).
+        #[arg(long, default_value_t = 4)]
+        periods: usize,
+        /// Output strand file: .usda, .hair or .pbrt (by extension).
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+/// The woven patch's flags (shared with `measure --surface --cloth`); lengths in mm.
+#[derive(clap::Args, Clone, Debug)]
+pub struct PatchArgs {
+    /// Weave: plain, twill (= twill-2/1) or twill-2/2.
+    #[arg(long, default_value = "plain")]
+    pub weave: String,
+    /// Distance between neighbouring yarn centres (mm).
+    #[arg(long, default_value_t = 0.32)]
+    pub spacing: f64,
+    /// Yarn radius (mm, ≤ spacing/2).
+    #[arg(long, default_value_t = 0.1)]
+    pub yarn_radius: f64,
+    /// Height of a yarn centre at a crossing (mm, ≥ yarn radius; checked for clearance).
+    #[arg(long, default_value_t = 0.11)]
+    pub crimp: f64,
+    /// Plies per yarn (1 … 8).
+    #[arg(long, default_value_t = 2)]
+    pub plies: usize,
+    /// Ply twist angle, degrees [0, 80].
+    #[arg(long, default_value_t = 20.0)]
+    pub ply_twist: f64,
+    /// Fibers per ply (1 … 2000).
+    #[arg(long, default_value_t = 24)]
+    pub fibers_per_ply: usize,
+    /// Fiber radius (mm).
+    #[arg(long, default_value_t = 0.008)]
+    pub fiber_radius: f64,
+    /// Fiber twist angle ψ at the ply surface, degrees [0, 80].
+    #[arg(long, default_value_t = 30.0)]
+    pub psi: f64,
+    /// Polyline vertices per yarn spacing (≥ 4; more where the twist needs them).
+    #[arg(long, default_value_t = 24)]
+    pub samples_per_spacing: usize,
+    /// Seed of the per-yarn phases.
+    #[arg(long, default_value_t = 1)]
+    pub patch_seed: u64,
+}
+
+impl PatchArgs {
+    /// The typed, validated patch.
+    pub fn patch(&self) -> anyhow::Result<WovenPatch> {
+        let p = WovenPatch {
+            weave: Weave::parse(&self.weave)?,
+            spacing: self.spacing,
+            yarn_radius: self.yarn_radius,
+            crimp: self.crimp,
+            plies: self.plies,
+            ply_twist: self.ply_twist.to_radians(),
+            fibers_per_ply: self.fibers_per_ply,
+            fiber_radius: self.fiber_radius,
+            psi: self.psi.to_radians(),
+            samples_per_spacing: self.samples_per_spacing,
+            seed: self.patch_seed,
+        };
+        p.validate()?;
+        Ok(p)
+    }
 }
 
 /// Runs `fiberlab mesh`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let Kind::Cloth { out, resolution, half_size, folds } = &args.kind;
+    let (out, resolution, half_size, folds) = match &args.kind {
+        Kind::Cloth { out, resolution, half_size, folds } => (out, resolution, half_size, folds),
+        Kind::ClothPatch { patch, periods, out } => return cloth_patch(patch, *periods, out),
+    };
     let cloth = DrapedCloth { resolution: *resolution, half_size: *half_size, folds: *folds, ..DrapedCloth::default() };
     let grid = cloth.grid()?;
     let header = format!(
@@ -48,5 +126,35 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     std::fs::write(out, grid.to_obj(&header)).with_context(|| format!("writing {}", out.display()))?;
     println!("{} ({} triangles)", out.display(), grid.triangles.len());
+    Ok(())
+}
+
+/// `fiberlab mesh cloth-patch`: the patch's fibers as a strand file (f32 points, diameters).
+fn cloth_patch(args: &PatchArgs, periods: usize, out: &std::path::Path) -> anyhow::Result<()> {
+    let patch = args.patch()?;
+    let fibers = patch.fibers(periods, periods)?;
+    let strands = fiberlab_io::Strands {
+        points: fibers.points.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(),
+        widths: vec![(2.0 * fibers.radius) as f32; fibers.points.len()],
+        counts: fibers.counts.iter().map(|&n| n as u32).collect(),
+        basis: fiberlab_io::Basis::Linear,
+        kind: fiberlab_io::CurveKind::Cylinder,
+    };
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    fiberlab_io::strand_files::write(out, &strands, 1)?;
+    let (alpha, psi) = patch.effective_twists();
+    println!(
+        "{} ({} fibers, {} segments; patch {:.4} × {:.4} mm, period {:.4} mm; effective ply twist {:.2}°, ψ {:.2}°)",
+        out.display(),
+        fibers.counts.len(),
+        fibers.segment_count(),
+        patch.period() * periods as f64,
+        patch.period() * periods as f64,
+        patch.period(),
+        alpha.to_degrees(),
+        psi.to_degrees()
+    );
     Ok(())
 }

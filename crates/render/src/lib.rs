@@ -40,3 +40,5 @@ pub mod strand_diameters;
 pub mod surface_material;
 pub mod texture;
 pub mod toml_params;
+pub mod woven_goniophotometer;
+pub mod woven_patch;

@@ -75,7 +75,7 @@ use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
 use crate::sampling::cosine_hemisphere;
 use crate::{LobeInfo, ModelError, ModelInfo, Registered, Sample, SurfaceProperties, SurfaceScattering};
 use fiberlab_math::special::i0e;
-use fiberlab_math::split_mix::SplitMix64;
+use fiberlab_math::split_mix::{SplitMix64, mix64};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::Arc;
@@ -399,24 +399,179 @@ impl WeavePattern {
 
     /// The segment under UV position `(u, v)` (tiled) and the point's coordinates across
     /// (`x`) and along (`y`) it, in cells, plus the segment's frame change (weft: rotated).
-    fn locate(&self, u: f64, v: f64) -> (&YarnSegment, f64, f64) {
+    fn locate(&self, u: f64, v: f64) -> Located<'_> {
         let (w, h) = (self.width as f64, self.height as f64);
         let (cx, cy) = (u.rem_euclid(1.0) * w, v.rem_euclid(1.0) * h);
         let cell = (cy as usize).min(self.height - 1) * self.width + (cx as usize).min(self.width - 1);
-        let yarn = &self.yarns[self.cells[cell] - 1];
+        let id = self.cells[cell];
+        let yarn = &self.yarns[id - 1];
         let wrap = |d: f64, period: f64| d - period * (d / period).round();
         let (du, dv) = (wrap(cx - yarn.center[0], w), wrap(cy - yarn.center[1], h));
-        match yarn.kind {
-            YarnKind::Warp => (yarn, du, dv),
-            YarnKind::Weft => (yarn, -dv, du),
+        // Which copy of the tile holds the segment's centre (a segment may wrap over an edge).
+        let copy = |t: f64, c: f64, d: f64, center: f64, period: f64| t.floor() as i64 + ((c - d - center) / period).round() as i64;
+        let instance = [copy(u, cx, du, yarn.center[0], w), copy(v, cy, dv, yarn.center[1], h)];
+        let (x, y) = match yarn.kind {
+            YarnKind::Warp => (du, dv),
+            YarnKind::Weft => (-dv, du),
+        };
+        Located { yarn, id, x, y, instance }
+    }
+}
+
+/// A point of the tile in its segment: the segment, its 1-based id, the point's coordinates
+/// across (`x`) and along (`y`) it in cells, and which copy of the tile the segment is in.
+struct Located<'a> {
+    yarn: &'a YarnSegment,
+    id: usize,
+    x: f64,
+    y: f64,
+    instance: [i64; 2],
+}
+
+/// The shape of a yarn's spine (the curve of its centre line in the plane of the yarn axis
+/// and the normal).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Spine {
+    /// Every spine a circular arc, `R = (l/2)/sin u_max` (κ ignored; the default, with which
+    /// the presets are tuned).
+    Circle,
+    /// The paper's conic spines selected by κ (see the module docs).
+    Conic,
+}
+
+/// Options of a fabric beyond its pattern, fixed at construction (all off by default; the
+/// normalisation tables include them).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Variation {
+    /// Spine shape.
+    pub spine: Spine,
+    /// Fiber strips per grid cell across the fibers for the random intensity variation (0: off).
+    pub fineness: f64,
+    /// Amplitude of the smooth noise added to every `u_max`, radians (0: off).
+    pub umax_noise: f64,
+    /// Period (lattice spacing) of that noise, in tiles of UV.
+    pub umax_noise_period: f64,
+}
+
+impl Default for Variation {
+    fn default() -> Self {
+        Self { spine: Spine::Circle, fineness: 0.0, umax_noise: 0.0, umax_noise_period: 1.0 }
+    }
+}
+
+/// Largest `u_max` after noise (radians, just under 90°) and smallest.
+const UMAX_LIMITS: (f64, f64) = (0.5 * PI / 180.0, 89.5 * PI / 180.0);
+/// Seeds of the hashed noises (fixed forever: a fabric looks the same in every version).
+const FIBER_SEED: u64 = 0x2012_f1be;
+const UMAX_SEED: u64 = 0x2012_0a45;
+
+/// `r̂ = 1 + κ(1 + 1/tan u_max)`, the conic parameter of a spine.
+#[must_use]
+pub fn spine_shape(kappa: f64, u_max: f64) -> f64 {
+    1.0 + kappa * (1.0 + 1.0 / u_max.tan())
+}
+
+/// Radius of curvature of a conic spine with parameter `r_hat` (ratio of the semi-axis along
+/// the yarn to the one along the normal), half-chord `half`, end inclination `u_max`, at the
+/// point of inclination `u` (|u| ≤ u_max). Ellipse `(A sin t, B cos t)` for `r̂ > 0` (circle
+/// for `r̂ = 1`), parabola `z = −x²/(2p)` for `r̂ = 0`, hyperbola `(A sinh t, −B cosh t)` for
+/// `r̂ < 0`; the parameter at inclination `u` solves `tan t = r̂ tan u` (`tanh t = |r̂| tan u`),
+/// the chord fixes `A` (`A sin t_max = l/2`, `A sinh t_max = l/2`, `p tan u_max = l/2`) and
+/// `B = A/|r̂|`; `R = (A² cos²t + B² sin²t)^{3/2}/(AB)` (cosh, sinh for the hyperbola),
+/// `R = p(1 + tan²u)^{3/2}` for the parabola. A hyperbola needs `|r̂| tan u_max < 1` (its
+/// asymptotes are steeper than `u_max`); beyond that the argument is held just below 1.
+#[must_use]
+pub fn conic_radius(r_hat: f64, half: f64, u_max: f64, u: f64) -> f64 {
+    let u = u.abs().min(u_max);
+    if r_hat > 0.0 {
+        let t_max = (r_hat * u_max.tan()).atan();
+        let a = half / t_max.sin();
+        let b = a / r_hat;
+        let (st, ct) = (r_hat * u.tan()).atan().sin_cos();
+        (a * a * ct * ct + b * b * st * st).powf(1.5) / (a * b)
+    } else if r_hat < 0.0 {
+        let q = -r_hat;
+        let limit = 1.0 - 1e-9;
+        let t_max = (q * u_max.tan()).min(limit).atanh();
+        let a = half / t_max.sinh();
+        let b = a / q;
+        let t = (q * u.tan()).min(limit).atanh();
+        let (sh, ch) = (t.sinh(), t.cosh());
+        (a * a * ch * ch + b * b * sh * sh).powf(1.5) / (a * b)
+    } else {
+        let p = half / u_max.tan();
+        p * (1.0 + u.tan().powi(2)).powf(1.5)
+    }
+}
+
+/// Uniform in (0, 1) from a hash of the integers `keys`.
+fn hashed_unit(seed: u64, keys: &[i64]) -> f64 {
+    let h = keys.iter().fold(mix64(seed), |h, &k| mix64(h ^ (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)));
+    ((h >> 11) as f64 + 0.5) * (1.0 / (1u64 << 53) as f64)
+}
+
+/// Smooth value noise in [−1, 1]: hashed values on the integer lattice, blended with the
+/// quintic fade `6t⁵ − 15t⁴ + 10t³` (continuous with its first two derivatives).
+fn value_noise(seed: u64, x: f64, y: f64) -> f64 {
+    let (x0, y0) = (x.floor(), y.floor());
+    let fade = |t: f64| t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
+    let (fx, fy) = (fade(x - x0), fade(y - y0));
+    let (i, j) = (x0 as i64, y0 as i64);
+    let at = |di: i64, dj: i64| 2.0 * hashed_unit(seed, &[i + di, j + dj]) - 1.0;
+    let bottom = at(0, 0) + (at(1, 0) - at(0, 0)) * fx;
+    let top = at(0, 1) + (at(1, 1) - at(0, 1)) * fx;
+    bottom + (top - bottom) * fy
+}
+
+impl Variation {
+    /// The segment's `u_max` at UV `(u, v)`: plus the noise (one field for warps, one for
+    /// wefts), held in `UMAX_LIMITS`.
+    fn u_max(&self, yarn: &YarnSegment, u: f64, v: f64) -> f64 {
+        if self.umax_noise == 0.0 {
+            return yarn.u_max;
         }
+        let seed = UMAX_SEED ^ u64::from(yarn.kind == YarnKind::Weft);
+        let n = value_noise(seed, u / self.umax_noise_period, v / self.umax_noise_period);
+        (yarn.u_max + self.umax_noise * n).clamp(UMAX_LIMITS.0, UMAX_LIMITS.1)
+    }
+
+    /// The intensity factor of the fiber under the point: the fibers of a segment run at the
+    /// twist ψ to its axis, so the coordinate across them is `x cos ψ − y sin ψ`; strips of
+    /// width `1/fineness` cells of it are fibers, and each fiber of each segment copy gets
+    /// `min(−ln ξ, 10)` (ξ uniform, hashed from the copy, the yarn id and the strip): mean
+    /// `1 − e⁻¹⁰`, so the fabric's average brightness is kept.
+    fn fiber_factor(&self, at: &Located<'_>) -> f64 {
+        if self.fineness == 0.0 {
+            return 1.0;
+        }
+        let (s, c) = at.yarn.psi.sin_cos();
+        let strip = ((at.x * c - at.y * s) * self.fineness).floor() as i64;
+        let xi = hashed_unit(FIBER_SEED, &[at.instance[0], at.instance[1], at.id as i64, strip]);
+        (-xi.ln()).min(10.0)
+    }
+
+    /// The spine's radius of curvature at inclination `u` for a segment with `u_max`.
+    fn radius(&self, yarn: &YarnSegment, u_max: f64, u: f64) -> f64 {
+        let half = 0.5 * yarn.length;
+        match self.spine {
+            Spine::Circle => half / u_max.sin(),
+            Spine::Conic => conic_radius(spine_shape(yarn.kappa, u_max), half, u_max, u),
+        }
+    }
+
+    /// The side of the square of UV that the normalisation averages over: one tile, or, with
+    /// the `u_max` noise on, enough tiles to hold 8×8 cells of its lattice.
+    fn extent(&self) -> f64 {
+        if self.umax_noise == 0.0 { 1.0 } else { (8.0 * self.umax_noise_period).ceil().max(1.0) }
     }
 }
 
 /// The specular integrand at one point split as `α·X₁ + X₁·vM(β)`: returns `(X₁, cos s)` with
 /// `cos s = −ω_i·ω_o`, from which `X = X₁·(α + vM(β; cos s))`.
-fn integrand_parts(pattern: &WeavePattern, u: f64, v: f64, wi: DVec3, wo: DVec3) -> (f64, f64) {
-    let (yarn, x, y) = pattern.locate(u, v);
+fn integrand_parts(pattern: &WeavePattern, var: &Variation, u: f64, v: f64, wi: DVec3, wo: DVec3) -> (f64, f64) {
+    let at = pattern.locate(u, v);
+    let (yarn, x, y) = (at.yarn, at.x, at.y);
+    let u_max = var.u_max(yarn, u, v);
     // Directions in the segment frame: y along the yarn, x across, z the normal.
     let to_local = |d: DVec3| match yarn.kind {
         YarnKind::Warp => DVec3::new(d.x, d.y, d.z),
@@ -430,7 +585,6 @@ fn integrand_parts(pattern: &WeavePattern, u: f64, v: f64, wi: DVec3, wo: DVec3)
     }
     let hv = sum / len;
     let a = 0.5 * yarn.width;
-    let radius = 0.5 * yarn.length / yarn.u_max.sin();
     let area_share = (pattern.warp_area + pattern.weft_area)
         / match yarn.kind {
             YarnKind::Warp => pattern.warp_area,
@@ -444,10 +598,10 @@ fn integrand_parts(pattern: &WeavePattern, u: f64, v: f64, wi: DVec3, wo: DVec3)
     let value = if yarn.psi == 0.0 {
         // Filament: the highlight's inclination along the yarn.
         let u_star = hv.y.atan2(hv.z);
-        if u_star.abs() >= yarn.u_max {
+        if u_star.abs() >= u_max {
             return (0.0, cos_s);
         }
-        let y_star = u_star / yarn.u_max * (0.5 * yarn.length);
+        let y_star = u_star / u_max * (0.5 * yarn.length);
         let delta_y = yarn.length * pattern.h_width;
         if (y_star - y).abs() >= 0.5 * delta_y {
             return (0.0, cos_s);
@@ -459,12 +613,12 @@ fn integrand_parts(pattern: &WeavePattern, u: f64, v: f64, wi: DVec3, wo: DVec3)
         if txh < 1e-12 {
             return (0.0, cos_s);
         }
-        let g = a * (radius + a * vv.cos()) / (len * txh);
-        let smooth = (1.0 - pattern.ss) + pattern.ss * ((yarn.u_max - u_star.abs()) / (0.1 * yarn.u_max)).min(1.0);
+        let g = a * (var.radius(yarn, u_max, u_star) + a * vv.cos()) / (len * txh);
+        let smooth = (1.0 - pattern.ss) + pattern.ss * ((u_max - u_star.abs()) / (0.1 * u_max)).min(1.0);
         g * seeliger(n) * smooth * PI * yarn.length / delta_y
     } else {
         // Staple: the highlight's angle across the yarn at this inclination.
-        let uu = (y / (0.5 * yarn.length) * yarn.u_max).clamp(-yarn.u_max, yarn.u_max);
+        let uu = (y / (0.5 * yarn.length) * u_max).clamp(-u_max, u_max);
         let (su, cu) = uu.sin_cos();
         let denom = (hv.x * hv.x + (hv.y * su + hv.z * cu).powi(2)).sqrt() * yarn.psi.tan();
         if denom.abs() < 1e-300 {
@@ -489,10 +643,10 @@ fn integrand_parts(pattern: &WeavePattern, u: f64, v: f64, wi: DVec3, wo: DVec3)
         if nh <= 0.0 {
             return (0.0, cos_s);
         }
-        let g = a * (radius + a * v_star.cos()) / (len * nh * yarn.psi.sin().abs());
-        g * seeliger(n) * 2.0 * yarn.width * yarn.u_max / delta_x
+        let g = a * (var.radius(yarn, u_max, uu) + a * v_star.cos()) / (len * nh * yarn.psi.sin().abs());
+        g * seeliger(n) * 2.0 * yarn.width * u_max / delta_x
     };
-    (value * area_share, cos_s)
+    (value * area_share * var.fiber_factor(&at), cos_s)
 }
 
 /// Von Mises density in the scattering angle, `exp(β cos s)/(2π I₀(β))`, computed stably.
@@ -504,6 +658,7 @@ fn von_mises(beta: f64, cos_s: f64) -> f64 {
 #[derive(Debug)]
 struct Fabric {
     pattern: WeavePattern,
+    variation: Variation,
     /// `S₁ = π·E[X₁]`.
     s1: f64,
     /// `S₂(β_k) = π·E[X₁·vM(β_k)]` on `BETA_STEPS` equal steps of [0, BETA_MAX].
@@ -516,14 +671,15 @@ fn cosine_direction(u0: f64, u1: f64) -> DVec3 {
 }
 
 impl Fabric {
-    fn new(pattern: WeavePattern) -> Self {
+    fn new(pattern: WeavePattern, variation: Variation) -> Self {
         let mut rng = SplitMix64::new(0x1a7a_2012);
         let (mut s1, mut s2) = (0.0, [0.0; BETA_STEPS]);
+        let extent = variation.extent();
         for _ in 0..NORMALISATION_PAIRS {
             let wi = cosine_direction(rng.next_f64(), rng.next_f64());
             let wo = cosine_direction(rng.next_f64(), rng.next_f64());
-            let (u, v) = (rng.next_f64(), rng.next_f64());
-            let (x1, cos_s) = integrand_parts(&pattern, u, v, wi, wo);
+            let (u, v) = (rng.next_f64() * extent, rng.next_f64() * extent);
+            let (x1, cos_s) = integrand_parts(&pattern, &variation, u, v, wi, wo);
             if x1 == 0.0 {
                 continue;
             }
@@ -533,7 +689,7 @@ impl Fabric {
             }
         }
         let scale = PI / NORMALISATION_PAIRS as f64;
-        Self { pattern, s1: s1 * scale, s2: s2.map(|s| s * scale) }
+        Self { pattern, variation, s1: s1 * scale, s2: s2.map(|s| s * scale) }
     }
 
     /// `S₂(β)` interpolated linearly.
@@ -564,14 +720,52 @@ const IRAWAN_LOBES: [LobeInfo; 2] = [LobeInfo::smooth("cosine"), LobeInfo::smoot
 /// The keys [`Irawan2012::set_parameter`] accepts.
 const IRAWAN_TEXTURABLE: [&str; 6] = ["u", "v", "alpha", "beta", "k_d_scale", "k_s_scale"];
 
+/// The spine choices of `spine=`.
+const SPINES: [&str; 2] = ["circle", "conic"];
+
 /// Parameter table of `irawan-2012`.
-pub const IRAWAN_PARAMS: [ParamSpec; 7] = [
+pub const IRAWAN_PARAMS: [ParamSpec; 12] = [
     ParamSpec {
         key: "preset",
         kind: ParamKind::Choice(&IRAWAN_PRESETS),
         unit: "",
         default: "cotton-denim",
         doc: "weave of the example set",
+    },
+    ParamSpec {
+        key: "pattern",
+        kind: ParamKind::Text,
+        unit: "path",
+        default: "",
+        doc: "weave-pattern file (README: pattern files) instead of a preset; relative to the scene file or the working directory",
+    },
+    ParamSpec {
+        key: "spine",
+        kind: ParamKind::Choice(&SPINES),
+        unit: "",
+        default: "circle",
+        doc: "yarn spine: circular arcs, or the conics of each yarn's curvature κ",
+    },
+    ParamSpec {
+        key: "fineness",
+        kind: ParamKind::Number(Range::closed(0.0, 1000.0)),
+        unit: "1/cell",
+        default: "0",
+        doc: "fibers per grid cell for the random per-fiber intensity variation (0: off)",
+    },
+    ParamSpec {
+        key: "umax_noise",
+        kind: ParamKind::Number(Range::closed(0.0, 30.0)),
+        unit: "degrees",
+        default: "0",
+        doc: "amplitude of the smooth noise added to every yarn's u_max (0: off)",
+    },
+    ParamSpec {
+        key: "umax_noise_period",
+        kind: ParamKind::Number(Range::closed(0.01, 1000.0)),
+        unit: "tiles",
+        default: "1",
+        doc: "lattice spacing of the u_max noise, in weave tiles",
     },
     ParamSpec {
         key: "alpha",
@@ -620,10 +814,31 @@ pub const IRAWAN_PARAMS: [ParamSpec; 7] = [
 impl Irawan2012 {
     /// A fabric from a validated pattern (computes the normalisation tables).
     pub fn new(pattern: WeavePattern) -> Result<Self, PatternError> {
+        Self::with_variation(pattern, Variation::default())
+    }
+
+    /// A fabric from a validated pattern with the options `variation` (a conic spine needs
+    /// every hyperbolic yarn's `|r̂| tan u_max < 1`).
+    pub fn with_variation(pattern: WeavePattern, variation: Variation) -> Result<Self, PatternError> {
         pattern.validate()?;
+        check("fineness", variation.fineness, (0.0..=1000.0).contains(&variation.fineness), "in [0, 1000]")?;
+        check("umax_noise", variation.umax_noise, variation.umax_noise >= 0.0 && variation.umax_noise <= 30f64.to_radians() * (1.0 + 1e-12), "in [0, 30] degrees")?;
+        let period = variation.umax_noise_period;
+        check("umax_noise_period", period, (0.01..=1000.0).contains(&period), "in [0.01, 1000] tiles")?;
+        if variation.spine == Spine::Conic {
+            for (k, y) in pattern.yarns.iter().enumerate() {
+                let r = spine_shape(y.kappa, y.u_max);
+                check(
+                    format!("yarn {}: kappa", k + 1),
+                    y.kappa,
+                    r >= 0.0 || -r * y.u_max.tan() < 1.0,
+                    "with spine=conic a hyperbolic spine (r̂ < 0) needs |r̂|·tan u_max < 1",
+                )?;
+            }
+        }
         let (alpha, beta) = (pattern.alpha, pattern.beta);
         Ok(Self {
-            fabric: Arc::new(Fabric::new(pattern)),
+            fabric: Arc::new(Fabric::new(pattern, variation)),
             alpha,
             beta,
             k_d_scale: Rgb::ONE,
@@ -659,7 +874,8 @@ impl Irawan2012 {
     /// The raw specular integrand `X` at the current point (before `k_s` and `s_n`).
     #[must_use]
     pub fn integrand(&self, wi: DVec3, wo: DVec3) -> f64 {
-        let (x1, cos_s) = integrand_parts(&self.fabric.pattern, self.position[0], self.position[1], wi, wo);
+        let f = &*self.fabric;
+        let (x1, cos_s) = integrand_parts(&f.pattern, &f.variation, self.position[0], self.position[1], wi, wo);
         x1 * (self.alpha + von_mises(self.beta, cos_s))
     }
 
@@ -672,14 +888,49 @@ impl Irawan2012 {
         if c > 0.0 { (LOBE_EXPONENT + 1.0) / TAU * c.powf(LOBE_EXPONENT) } else { 0.0 }
     }
 
-    /// Builds from registry parameters.
+    /// The options of registry parameters.
+    fn variation(p: &ParamSet) -> Result<Variation, ModelError> {
+        Ok(Variation {
+            spine: if p.choice("spine")? == "conic" { Spine::Conic } else { Spine::Circle },
+            fineness: p.number("fineness")?,
+            umax_noise: p.degrees("umax_noise")?,
+            umax_noise_period: p.number("umax_noise_period")?,
+        })
+    }
+
+    /// Builds from registry parameters; a `pattern=FILE` must be read by the caller and
+    /// given to [`Irawan2012::from_param_set_with`] (the model loader of `fiberlab-render`).
     pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
-        let name = p.choice("preset")?;
-        let mut m = Self::preset(name).ok_or_else(|| ModelError::BadValue {
-            key: "preset".into(),
-            value: name.into(),
-            expected: IRAWAN_PRESETS.join(", "),
-        })?;
+        if p.text("pattern").is_some() {
+            return Err(ModelError::Inconsistent(
+                "irawan-2012: a pattern file is read by the model loader (fiberlab_render::model_loader), not here"
+                    .into(),
+            ));
+        }
+        Self::from_param_set_with(p, None)
+    }
+
+    /// Builds from registry parameters and, when given, a pattern read from a file (which
+    /// replaces the preset: giving both is an error).
+    pub fn from_param_set_with(p: &ParamSet, pattern: Option<WeavePattern>) -> Result<Self, ModelError> {
+        let invalid = |e: PatternError| ModelError::Inconsistent(format!("irawan-2012: {e}"));
+        let pattern = match pattern {
+            Some(_) if p.is_given("preset") => {
+                return Err(ModelError::Inconsistent(
+                    "irawan-2012: give either preset= or pattern=, not both".into(),
+                ));
+            }
+            Some(pattern) => pattern,
+            None => {
+                let name = p.choice("preset")?;
+                WeavePattern::preset(name).ok_or_else(|| ModelError::BadValue {
+                    key: "preset".into(),
+                    value: name.into(),
+                    expected: IRAWAN_PRESETS.join(", "),
+                })?
+            }
+        };
+        let mut m = Self::with_variation(pattern, Self::variation(p)?).map_err(invalid)?;
         if let Some(a) = p.number_opt("alpha") {
             m.alpha = a;
         }
@@ -700,7 +951,7 @@ impl Registered for Irawan2012 {
         summary: "woven cloth: yarn-level specular highlights of a weave pattern (Irawan & Marschner 2012)",
         citation: "Irawan & Marschner 2012; presets of the Mitsuba 0.6 example set",
         params: &IRAWAN_PARAMS,
-        data: None,
+        data: Some(crate::ExternalData::WeavePattern { key: "pattern" }),
     };
 
     fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
@@ -717,7 +968,7 @@ impl SurfaceScattering for Irawan2012 {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
         }
-        let (yarn, _, _) = self.fabric.pattern.locate(self.position[0], self.position[1]);
+        let yarn = self.fabric.pattern.locate(self.position[0], self.position[1]).yarn;
         let (k_d, k_s) = (yarn.k_d * self.k_d_scale, yarn.k_s * self.k_s_scale);
         k_d * (1.0 / PI) + k_s * (self.integrand(wi, wo) * self.normalisation())
     }

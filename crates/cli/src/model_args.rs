@@ -63,7 +63,8 @@ impl ModelArgs {
     /// Builds a surface model (a fiber model's name is an error saying so) through the one
     /// model loader: a weave-pattern file (`pattern=FILE`) relative to the working directory.
     pub fn build_surface(&self) -> anyhow::Result<SurfaceModel> {
-        load_surface_model(&self.model, &self.pairs()?, Path::new("")).with_context(|| format!("model `{}`", self.model))
+        load_surface_model(&self.model, &self.pairs()?, Path::new(""))
+            .with_context(|| format!("model `{}`", self.model))
     }
 
     /// Builds the model from whichever registry holds its name.

@@ -846,7 +846,7 @@ impl Irawan2012 {
         check(
             "umax_noise",
             variation.umax_noise,
-            variation.umax_noise >= 0.0 && variation.umax_noise <= 30f64.to_radians() * (1.0 + 1e-12),
+            (0.0..=30f64.to_radians() * (1.0 + 1e-12)).contains(&variation.umax_noise),
             "in [0, 30] degrees",
         )?;
         let period = variation.umax_noise_period;

@@ -20,8 +20,8 @@ fn directions() -> String {
     let dir = |t: f64, p: f64| [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()];
     for k in 0..400 {
         let k = f64::from(k);
-        let wi = dir(1.4 * (0.618_034 * k).fract(), 6.283 * (0.754_877 * k).fract());
-        let wo = dir(1.4 * (0.569_840 * k).fract(), 6.283 * (0.414_213 * k).fract());
+        let wi = dir(1.4 * (0.618_034 * k).fract(), std::f64::consts::TAU * (0.754_877 * k).fract());
+        let wo = dir(1.4 * (0.569_840 * k).fract(), std::f64::consts::TAU * (0.414_213 * k).fract());
         let (u, v) = (2.0 * (0.324_718 * k).fract(), 2.0 * (0.267_949 * k).fract());
         text.push_str(&format!("{},{},{},{},{},{},{u},{v}\n", wi[0], wi[1], wi[2], wo[0], wo[1], wo[2]));
     }

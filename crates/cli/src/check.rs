@@ -9,6 +9,10 @@ pub struct Args {
     /// Check only the configurations of this model.
     #[arg(long)]
     model: Option<String>,
+    /// Check one configuration of a surface model (needs --model): KEY=VALUE, repeatable,
+    /// e.g. `--param pattern=scenes/weaves/satin.weave` for `irawan-2012`.
+    #[arg(long = "param", value_name = "KEY=VALUE")]
+    params: Vec<String>,
     /// Print the rows as one JSON array instead of a table.
     #[arg(long)]
     json: bool,
@@ -22,6 +26,9 @@ pub struct Args {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(name) = &args.model {
         fiberlab_scatter::lookup(name)?;
+    }
+    if !args.params.is_empty() {
+        return run_one(args);
     }
     let cases: Vec<CheckCase> =
         default_cases().into_iter().filter(|c| args.model.as_deref().is_none_or(|m| m == c.model)).collect();
@@ -38,16 +45,39 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // Keep the table in registry order, whatever order the threads finished in.
     let order = |r: &Row| cases.iter().position(|c| c.label() == r.model).unwrap_or(usize::MAX);
     rows.sort_by_key(order);
+    finish(&rows, args.json)
+}
+
+/// Prints the rows; an error when any failed.
+fn finish(rows: &[Row], json: bool) -> anyhow::Result<()> {
     let failed = rows.iter().filter(|r| !r.pass).count();
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+    if json {
+        println!("{}", serde_json::to_string_pretty(rows)?);
     } else {
-        print_table(&rows);
+        print_table(rows);
         let tests = rows.iter().filter(|r| !r.report).count();
         println!("\n{} passed, {} failed", tests - failed, failed);
     }
     anyhow::ensure!(failed == 0, "{failed} check(s) failed");
     Ok(())
+}
+
+/// `--model NAME --param …`: the one configuration, built through the model loader.
+fn run_one(args: &Args) -> anyhow::Result<()> {
+    let Some(model) = &args.model else { anyhow::bail!("--param needs --model (a surface model)") };
+    let model_args =
+        crate::model_args::ModelArgs { model: model.clone(), params: args.params.clone(), params_file: None };
+    anyhow::ensure!(
+        model_args.kind()? == fiberlab_scatter::ModelKind::Surface,
+        "--param is for surface models; `{model}` is a fiber model (its configurations are fixed)"
+    );
+    let built = model_args.build_surface()?;
+    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new_spinner() };
+    bar.set_message(format!("checking {}", model_args.label()));
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
+    let rows = fiberlab_check::surface::check_surface_model(&model_args.label(), &built, &Effort::default());
+    bar.finish_and_clear();
+    finish(&rows, args.json)
 }
 
 fn fmt(x: f64) -> String {

@@ -4,10 +4,10 @@
 //! also reads the data a model is built from (`measured`'s `table=PATH`).
 
 use anyhow::Context;
-use fiberlab_render::model_loader::load_model;
+use fiberlab_render::model_loader::{load_model, load_surface_model};
 use fiberlab_render::toml_params::raw_pairs;
 use fiberlab_scatter::params::{RawValue, split_key_value};
-use fiberlab_scatter::{Model, ModelKind, SurfaceModel, build_surface_raw, lookup};
+use fiberlab_scatter::{Model, ModelKind, SurfaceModel, lookup};
 use std::path::Path;
 
 /// Selects a registered model and its parameters.
@@ -60,9 +60,11 @@ impl ModelArgs {
         Ok(lookup(&self.model)?.kind())
     }
 
-    /// Builds a surface model (a fiber model's name is an error saying so).
+    /// Builds a surface model (a fiber model's name is an error saying so) through the one
+    /// model loader: a weave-pattern file (`pattern=FILE`) relative to the working directory.
     pub fn build_surface(&self) -> anyhow::Result<SurfaceModel> {
-        build_surface_raw(&self.model, &self.pairs()?).with_context(|| format!("model `{}`", self.model))
+        load_surface_model(&self.model, &self.pairs()?, Path::new(""))
+            .with_context(|| format!("model `{}`", self.model))
     }
 
     /// Builds the model from whichever registry holds its name.

@@ -11,8 +11,10 @@
 //! `compare-model --table` still reads such a table as measured data.
 
 use crate::measured_table::{TableError, load_measured};
+use fiberlab_io::weave_pattern::{WeavePatternError, read_weave_pattern};
+use fiberlab_scatter::irawan_2012::Irawan2012;
 use fiberlab_scatter::params::{ParamSet, RawValue};
-use fiberlab_scatter::{ExternalData, Model, ModelError, ModelSpec};
+use fiberlab_scatter::{ExternalData, Model, ModelError, ModelSpec, SurfaceModel};
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -26,6 +28,9 @@ pub enum LoadError {
     /// The model's data file could not be read or used.
     #[error(transparent)]
     Table(#[from] TableError),
+    /// The weave-pattern file could not be read (the error names file, line and field).
+    #[error(transparent)]
+    Pattern(#[from] WeavePatternError),
     /// A measured table with a single incidence: nothing to interpolate between.
     #[error(
         "{}: the table holds one incidence (θ_i = {theta_deg}°); the `measured` model interpolates between \
@@ -58,6 +63,27 @@ pub fn load_model<K: AsRef<str>>(name: &str, pairs: &[(K, RawValue)], base: &Pat
             }
             Ok(table.into())
         }
+        Some(ExternalData::WeavePattern { .. }) => Ok((spec.build)(&params)?),
+    }
+}
+
+/// Builds surface model `name` from `pairs`, like [`load_model`] for fiber models: a model
+/// with a weave-pattern parameter (`irawan-2012`'s `pattern=FILE`) reads the file, a
+/// relative path resolved against `base`.
+pub fn load_surface_model<K: AsRef<str>>(
+    name: &str,
+    pairs: &[(K, RawValue)],
+    base: &Path,
+) -> Result<SurfaceModel, LoadError> {
+    let spec = fiberlab_scatter::find_surface(name)?;
+    let params = ParamSet::from_raw(spec.name, spec.params, pairs)?;
+    match spec.data {
+        Some(ExternalData::WeavePattern { key }) if params.text(key).is_some() => {
+            let path = base.join(params.text(key).unwrap_or_default());
+            let pattern = read_weave_pattern(&path)?;
+            Ok(Irawan2012::from_param_set_with(&params, Some(pattern))?.into())
+        }
+        _ => Ok((spec.build)(&params)?),
     }
 }
 

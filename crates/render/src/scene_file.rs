@@ -28,7 +28,7 @@ use crate::curves::{CubicBasis, CurveSet};
 use crate::generator::HairParams;
 use crate::integrator::RenderSettings;
 use crate::light::{EnvironmentMap, Light};
-use crate::model_loader::{LoadError, load_model};
+use crate::model_loader::{LoadError, load_model, load_surface_model};
 use crate::scene::{FiberMaterialId, Scene, SceneBuilder, SurfaceMaterial, SurfaceMaterialId};
 use crate::shapes::TriangleMesh;
 use crate::strand_diameters;
@@ -613,7 +613,8 @@ impl SceneFile {
         }
         let pairs = raw_pairs(&plain).map_err(|e| fail(e.to_string()))?;
         let spec = fiberlab_scatter::find_surface(model.get_ref()).map_err(|e| fail(e.to_string()))?;
-        let built = fiberlab_scatter::build_surface_raw(model.get_ref(), &pairs).map_err(|e| fail(e.to_string()))?;
+        // Through the one model loader: a weave-pattern file relative to the scene file.
+        let built = load_surface_model(model.get_ref(), &pairs, &self.base).map_err(|e| fail(e.to_string()))?;
         let mut material =
             ModelMaterial::new(spec.name, spec.params, built, &textures).map_err(|e| fail(e.to_string()))?;
         if let Some(scale) = uv_scale {

@@ -35,11 +35,30 @@
 //!   highlight in over the last tenth of the inclination range;
 //! * `× (A_warp + A_weft)/A_own` (the kind's share of the visible area).
 //!
-//! The spine is a circular arc of half-chord `l/2` turning through ±u_max, radius
-//! `R = (l/2)/sin u_max`. κ is read, validated and kept, but the non-circular spines
-//! (ellipse, parabola, hyperbola) of the paper are not implemented: every spine is the circle.
-//! The random intensity variation (`fineness`) and the Perlin noise of u_max are not
-//! implemented.
+//! # Spines, fiber variation, u_max noise (all off by default; the presets use none)
+//! * **Spine** (`spine=`): `circle` (default) — every spine a circular arc of half-chord
+//!   `l/2` turning through ±u_max, `R = (l/2)/sin u_max`, κ ignored; `conic` — the paper's
+//!   spine-curvature model (its spine section: circle, ellipse, parabola, hyperbola): the
+//!   yarn's κ selects `r̂ = 1 + κ(1 + 1/tan u_max)`, a circle for `r̂ = 1` (κ = 0), an ellipse
+//!   for `r̂ > 0`, a parabola for `r̂ = 0`, a hyperbola for `r̂ < 0`, and `R(u)` at the
+//!   highlight's inclination is the conic's radius of curvature ([`conic_radius`], derived
+//!   there; our chord convention keeps `r̂ = 1` equal to the default circle). κ > 0 flattens
+//!   the crest, κ < 0 sharpens it.
+//! * **Fineness** (`fineness=F`, fibers per grid cell): the random per-fiber intensity
+//!   variation of the paper — the specular integrand is multiplied by `min(−ln ξ, 10)`, ξ
+//!   uniform and hashed (deterministic) from the segment copy, the yarn id and the fiber
+//!   strip `⌊F·(x cos ψ − y sin ψ)⌋` (fibers run at the twist ψ to the yarn axis).
+//! * **u_max noise** (`umax_noise=A` degrees, `umax_noise_period=P` tiles): every `u_max`
+//!   plus `A·n(u/P, v/P)`, `n` a smooth value noise in [−1, 1] (hashed lattice values with a
+//!   quintic fade; the paper and Mitsuba use Perlin gradient noise — same role, a different
+//!   noise), one field for warps and one for wefts, held in [0.5°, 89.5°].
+//!
+//! The paper's equation numbers are not quoted here: the repository holds no copy of the
+//! paper, and the formulas above are written from its description (circle/ellipse/parabola/
+//! hyperbola spines, `min(−ln ξ, 10)` intensity cells, u_max noise) and re-derived.
+//! These options are fixed at construction and included in the normalisation tables (below),
+//! so the diffuse-light average stays 1 with them (tested); with `umax_noise` the tables
+//! average over enough tiles to hold 8×8 cells of the noise lattice.
 //!
 //! # Normalisation (stays correct under textured α, β)
 //! `f_r = k_d/π + k_s·X·s_n`, X the integrand above. Mitsuba computes one `s_n` per fabric,
@@ -75,7 +94,7 @@ use crate::params::{ParamKind, ParamSet, ParamSpec, Range};
 use crate::sampling::cosine_hemisphere;
 use crate::{LobeInfo, ModelError, ModelInfo, Registered, Sample, SurfaceProperties, SurfaceScattering};
 use fiberlab_math::special::i0e;
-use fiberlab_math::split_mix::SplitMix64;
+use fiberlab_math::split_mix::{SplitMix64, mix64};
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::Arc;
@@ -399,24 +418,182 @@ impl WeavePattern {
 
     /// The segment under UV position `(u, v)` (tiled) and the point's coordinates across
     /// (`x`) and along (`y`) it, in cells, plus the segment's frame change (weft: rotated).
-    fn locate(&self, u: f64, v: f64) -> (&YarnSegment, f64, f64) {
+    fn locate(&self, u: f64, v: f64) -> Located<'_> {
         let (w, h) = (self.width as f64, self.height as f64);
         let (cx, cy) = (u.rem_euclid(1.0) * w, v.rem_euclid(1.0) * h);
         let cell = (cy as usize).min(self.height - 1) * self.width + (cx as usize).min(self.width - 1);
-        let yarn = &self.yarns[self.cells[cell] - 1];
+        let id = self.cells[cell];
+        let yarn = &self.yarns[id - 1];
         let wrap = |d: f64, period: f64| d - period * (d / period).round();
         let (du, dv) = (wrap(cx - yarn.center[0], w), wrap(cy - yarn.center[1], h));
-        match yarn.kind {
-            YarnKind::Warp => (yarn, du, dv),
-            YarnKind::Weft => (yarn, -dv, du),
+        // Which copy of the tile holds the segment's centre (a segment may wrap over an edge).
+        let copy = |t: f64, c: f64, d: f64, center: f64, period: f64| {
+            t.floor() as i64 + ((c - d - center) / period).round() as i64
+        };
+        let instance = [copy(u, cx, du, yarn.center[0], w), copy(v, cy, dv, yarn.center[1], h)];
+        let (x, y) = match yarn.kind {
+            YarnKind::Warp => (du, dv),
+            YarnKind::Weft => (-dv, du),
+        };
+        Located { yarn, id, x, y, instance }
+    }
+}
+
+/// A point of the tile in its segment: the segment, its 1-based id, the point's coordinates
+/// across (`x`) and along (`y`) it in cells, and which copy of the tile the segment is in.
+struct Located<'a> {
+    yarn: &'a YarnSegment,
+    id: usize,
+    x: f64,
+    y: f64,
+    instance: [i64; 2],
+}
+
+/// The shape of a yarn's spine (the curve of its centre line in the plane of the yarn axis
+/// and the normal).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Spine {
+    /// Every spine a circular arc, `R = (l/2)/sin u_max` (κ ignored; the default, with which
+    /// the presets are tuned).
+    Circle,
+    /// The paper's conic spines selected by κ (see the module docs).
+    Conic,
+}
+
+/// Options of a fabric beyond its pattern, fixed at construction (all off by default; the
+/// normalisation tables include them).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Variation {
+    /// Spine shape.
+    pub spine: Spine,
+    /// Fiber strips per grid cell across the fibers for the random intensity variation (0: off).
+    pub fineness: f64,
+    /// Amplitude of the smooth noise added to every `u_max`, radians (0: off).
+    pub umax_noise: f64,
+    /// Period (lattice spacing) of that noise, in tiles of UV.
+    pub umax_noise_period: f64,
+}
+
+impl Default for Variation {
+    fn default() -> Self {
+        Self { spine: Spine::Circle, fineness: 0.0, umax_noise: 0.0, umax_noise_period: 1.0 }
+    }
+}
+
+/// Largest `u_max` after noise (radians, just under 90°) and smallest.
+const UMAX_LIMITS: (f64, f64) = (0.5 * PI / 180.0, 89.5 * PI / 180.0);
+/// Seeds of the hashed noises (fixed forever: a fabric looks the same in every version).
+const FIBER_SEED: u64 = 0x2012_f1be;
+const UMAX_SEED: u64 = 0x2012_0a45;
+
+/// `r̂ = 1 + κ(1 + 1/tan u_max)`, the conic parameter of a spine.
+#[must_use]
+pub fn spine_shape(kappa: f64, u_max: f64) -> f64 {
+    1.0 + kappa * (1.0 + 1.0 / u_max.tan())
+}
+
+/// Radius of curvature of a conic spine with parameter `r_hat` (ratio of the semi-axis along
+/// the yarn to the one along the normal), half-chord `half`, end inclination `u_max`, at the
+/// point of inclination `u` (|u| ≤ u_max). Ellipse `(A sin t, B cos t)` for `r̂ > 0` (circle
+/// for `r̂ = 1`), parabola `z = −x²/(2p)` for `r̂ = 0`, hyperbola `(A sinh t, −B cosh t)` for
+/// `r̂ < 0`; the parameter at inclination `u` solves `tan t = r̂ tan u` (`tanh t = |r̂| tan u`),
+/// the chord fixes `A` (`A sin t_max = l/2`, `A sinh t_max = l/2`, `p tan u_max = l/2`) and
+/// `B = A/|r̂|`; `R = (A² cos²t + B² sin²t)^{3/2}/(AB)` (cosh, sinh for the hyperbola),
+/// `R = p(1 + tan²u)^{3/2}` for the parabola. A hyperbola needs `|r̂| tan u_max < 1` (its
+/// asymptotes steeper than `u_max`), which κ > −1 guarantees: with `k = −κ ∈ (0, 1)`,
+/// `|r̂| tan u_max = k − (1 − k) tan u_max < 1` (tested); the argument is still held below 1.
+#[must_use]
+pub fn conic_radius(r_hat: f64, half: f64, u_max: f64, u: f64) -> f64 {
+    let u = u.abs().min(u_max);
+    if r_hat > 0.0 {
+        let t_max = (r_hat * u_max.tan()).atan();
+        let a = half / t_max.sin();
+        let b = a / r_hat;
+        let (st, ct) = (r_hat * u.tan()).atan().sin_cos();
+        (a * a * ct * ct + b * b * st * st).powf(1.5) / (a * b)
+    } else if r_hat < 0.0 {
+        let q = -r_hat;
+        let limit = 1.0 - 1e-9;
+        let t_max = (q * u_max.tan()).min(limit).atanh();
+        let a = half / t_max.sinh();
+        let b = a / q;
+        let t = (q * u.tan()).min(limit).atanh();
+        let (sh, ch) = (t.sinh(), t.cosh());
+        (a * a * ch * ch + b * b * sh * sh).powf(1.5) / (a * b)
+    } else {
+        let p = half / u_max.tan();
+        p * (1.0 + u.tan().powi(2)).powf(1.5)
+    }
+}
+
+/// Uniform in (0, 1) from a hash of the integers `keys`.
+fn hashed_unit(seed: u64, keys: &[i64]) -> f64 {
+    let h = keys.iter().fold(mix64(seed), |h, &k| mix64(h ^ (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)));
+    ((h >> 11) as f64 + 0.5) * (1.0 / (1u64 << 53) as f64)
+}
+
+/// Smooth value noise in [−1, 1]: hashed values on the integer lattice, blended with the
+/// quintic fade `6t⁵ − 15t⁴ + 10t³` (continuous with its first two derivatives).
+fn value_noise(seed: u64, x: f64, y: f64) -> f64 {
+    let (x0, y0) = (x.floor(), y.floor());
+    let fade = |t: f64| t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
+    let (fx, fy) = (fade(x - x0), fade(y - y0));
+    let (i, j) = (x0 as i64, y0 as i64);
+    let at = |di: i64, dj: i64| 2.0 * hashed_unit(seed, &[i + di, j + dj]) - 1.0;
+    let bottom = at(0, 0) + (at(1, 0) - at(0, 0)) * fx;
+    let top = at(0, 1) + (at(1, 1) - at(0, 1)) * fx;
+    bottom + (top - bottom) * fy
+}
+
+impl Variation {
+    /// The segment's `u_max` at UV `(u, v)`: plus the noise (one field for warps, one for
+    /// wefts), held in `UMAX_LIMITS`.
+    fn u_max(&self, yarn: &YarnSegment, u: f64, v: f64) -> f64 {
+        if self.umax_noise == 0.0 {
+            return yarn.u_max;
         }
+        let seed = UMAX_SEED ^ u64::from(yarn.kind == YarnKind::Weft);
+        let n = value_noise(seed, u / self.umax_noise_period, v / self.umax_noise_period);
+        (yarn.u_max + self.umax_noise * n).clamp(UMAX_LIMITS.0, UMAX_LIMITS.1)
+    }
+
+    /// The intensity factor of the fiber under the point: the fibers of a segment run at the
+    /// twist ψ to its axis, so the coordinate across them is `x cos ψ − y sin ψ`; strips of
+    /// width `1/fineness` cells of it are fibers, and each fiber of each segment copy gets
+    /// `min(−ln ξ, 10)` (ξ uniform, hashed from the copy, the yarn id and the strip): mean
+    /// `1 − e⁻¹⁰`, so the fabric's average brightness is kept.
+    fn fiber_factor(&self, at: &Located<'_>) -> f64 {
+        if self.fineness == 0.0 {
+            return 1.0;
+        }
+        let (s, c) = at.yarn.psi.sin_cos();
+        let strip = ((at.x * c - at.y * s) * self.fineness).floor() as i64;
+        let xi = hashed_unit(FIBER_SEED, &[at.instance[0], at.instance[1], at.id as i64, strip]);
+        (-xi.ln()).min(10.0)
+    }
+
+    /// The spine's radius of curvature at inclination `u` for a segment with `u_max`.
+    fn radius(&self, yarn: &YarnSegment, u_max: f64, u: f64) -> f64 {
+        let half = 0.5 * yarn.length;
+        match self.spine {
+            Spine::Circle => half / u_max.sin(),
+            Spine::Conic => conic_radius(spine_shape(yarn.kappa, u_max), half, u_max, u),
+        }
+    }
+
+    /// The side of the square of UV that the normalisation averages over: one tile, or, with
+    /// the `u_max` noise on, enough tiles to hold 8×8 cells of its lattice.
+    fn extent(&self) -> f64 {
+        if self.umax_noise == 0.0 { 1.0 } else { (8.0 * self.umax_noise_period).ceil().max(1.0) }
     }
 }
 
 /// The specular integrand at one point split as `α·X₁ + X₁·vM(β)`: returns `(X₁, cos s)` with
 /// `cos s = −ω_i·ω_o`, from which `X = X₁·(α + vM(β; cos s))`.
-fn integrand_parts(pattern: &WeavePattern, u: f64, v: f64, wi: DVec3, wo: DVec3) -> (f64, f64) {
-    let (yarn, x, y) = pattern.locate(u, v);
+fn integrand_parts(pattern: &WeavePattern, var: &Variation, u: f64, v: f64, wi: DVec3, wo: DVec3) -> (f64, f64) {
+    let at = pattern.locate(u, v);
+    let (yarn, x, y) = (at.yarn, at.x, at.y);
+    let u_max = var.u_max(yarn, u, v);
     // Directions in the segment frame: y along the yarn, x across, z the normal.
     let to_local = |d: DVec3| match yarn.kind {
         YarnKind::Warp => DVec3::new(d.x, d.y, d.z),
@@ -430,7 +607,6 @@ fn integrand_parts(pattern: &WeavePattern, u: f64, v: f64, wi: DVec3, wo: DVec3)
     }
     let hv = sum / len;
     let a = 0.5 * yarn.width;
-    let radius = 0.5 * yarn.length / yarn.u_max.sin();
     let area_share = (pattern.warp_area + pattern.weft_area)
         / match yarn.kind {
             YarnKind::Warp => pattern.warp_area,
@@ -444,10 +620,10 @@ fn integrand_parts(pattern: &WeavePattern, u: f64, v: f64, wi: DVec3, wo: DVec3)
     let value = if yarn.psi == 0.0 {
         // Filament: the highlight's inclination along the yarn.
         let u_star = hv.y.atan2(hv.z);
-        if u_star.abs() >= yarn.u_max {
+        if u_star.abs() >= u_max {
             return (0.0, cos_s);
         }
-        let y_star = u_star / yarn.u_max * (0.5 * yarn.length);
+        let y_star = u_star / u_max * (0.5 * yarn.length);
         let delta_y = yarn.length * pattern.h_width;
         if (y_star - y).abs() >= 0.5 * delta_y {
             return (0.0, cos_s);
@@ -459,12 +635,12 @@ fn integrand_parts(pattern: &WeavePattern, u: f64, v: f64, wi: DVec3, wo: DVec3)
         if txh < 1e-12 {
             return (0.0, cos_s);
         }
-        let g = a * (radius + a * vv.cos()) / (len * txh);
-        let smooth = (1.0 - pattern.ss) + pattern.ss * ((yarn.u_max - u_star.abs()) / (0.1 * yarn.u_max)).min(1.0);
+        let g = a * (var.radius(yarn, u_max, u_star) + a * vv.cos()) / (len * txh);
+        let smooth = (1.0 - pattern.ss) + pattern.ss * ((u_max - u_star.abs()) / (0.1 * u_max)).min(1.0);
         g * seeliger(n) * smooth * PI * yarn.length / delta_y
     } else {
         // Staple: the highlight's angle across the yarn at this inclination.
-        let uu = (y / (0.5 * yarn.length) * yarn.u_max).clamp(-yarn.u_max, yarn.u_max);
+        let uu = (y / (0.5 * yarn.length) * u_max).clamp(-u_max, u_max);
         let (su, cu) = uu.sin_cos();
         let denom = (hv.x * hv.x + (hv.y * su + hv.z * cu).powi(2)).sqrt() * yarn.psi.tan();
         if denom.abs() < 1e-300 {
@@ -489,10 +665,10 @@ fn integrand_parts(pattern: &WeavePattern, u: f64, v: f64, wi: DVec3, wo: DVec3)
         if nh <= 0.0 {
             return (0.0, cos_s);
         }
-        let g = a * (radius + a * v_star.cos()) / (len * nh * yarn.psi.sin().abs());
-        g * seeliger(n) * 2.0 * yarn.width * yarn.u_max / delta_x
+        let g = a * (var.radius(yarn, u_max, uu) + a * v_star.cos()) / (len * nh * yarn.psi.sin().abs());
+        g * seeliger(n) * 2.0 * yarn.width * u_max / delta_x
     };
-    (value * area_share, cos_s)
+    (value * area_share * var.fiber_factor(&at), cos_s)
 }
 
 /// Von Mises density in the scattering angle, `exp(β cos s)/(2π I₀(β))`, computed stably.
@@ -504,6 +680,7 @@ fn von_mises(beta: f64, cos_s: f64) -> f64 {
 #[derive(Debug)]
 struct Fabric {
     pattern: WeavePattern,
+    variation: Variation,
     /// `S₁ = π·E[X₁]`.
     s1: f64,
     /// `S₂(β_k) = π·E[X₁·vM(β_k)]` on `BETA_STEPS` equal steps of [0, BETA_MAX].
@@ -516,14 +693,15 @@ fn cosine_direction(u0: f64, u1: f64) -> DVec3 {
 }
 
 impl Fabric {
-    fn new(pattern: WeavePattern) -> Self {
+    fn new(pattern: WeavePattern, variation: Variation) -> Self {
         let mut rng = SplitMix64::new(0x1a7a_2012);
         let (mut s1, mut s2) = (0.0, [0.0; BETA_STEPS]);
+        let extent = variation.extent();
         for _ in 0..NORMALISATION_PAIRS {
             let wi = cosine_direction(rng.next_f64(), rng.next_f64());
             let wo = cosine_direction(rng.next_f64(), rng.next_f64());
-            let (u, v) = (rng.next_f64(), rng.next_f64());
-            let (x1, cos_s) = integrand_parts(&pattern, u, v, wi, wo);
+            let (u, v) = (rng.next_f64() * extent, rng.next_f64() * extent);
+            let (x1, cos_s) = integrand_parts(&pattern, &variation, u, v, wi, wo);
             if x1 == 0.0 {
                 continue;
             }
@@ -533,7 +711,7 @@ impl Fabric {
             }
         }
         let scale = PI / NORMALISATION_PAIRS as f64;
-        Self { pattern, s1: s1 * scale, s2: s2.map(|s| s * scale) }
+        Self { pattern, variation, s1: s1 * scale, s2: s2.map(|s| s * scale) }
     }
 
     /// `S₂(β)` interpolated linearly.
@@ -564,14 +742,52 @@ const IRAWAN_LOBES: [LobeInfo; 2] = [LobeInfo::smooth("cosine"), LobeInfo::smoot
 /// The keys [`Irawan2012::set_parameter`] accepts.
 const IRAWAN_TEXTURABLE: [&str; 6] = ["u", "v", "alpha", "beta", "k_d_scale", "k_s_scale"];
 
+/// The spine choices of `spine=`.
+const SPINES: [&str; 2] = ["circle", "conic"];
+
 /// Parameter table of `irawan-2012`.
-pub const IRAWAN_PARAMS: [ParamSpec; 7] = [
+pub const IRAWAN_PARAMS: [ParamSpec; 12] = [
     ParamSpec {
         key: "preset",
         kind: ParamKind::Choice(&IRAWAN_PRESETS),
         unit: "",
         default: "cotton-denim",
         doc: "weave of the example set",
+    },
+    ParamSpec {
+        key: "pattern",
+        kind: ParamKind::Text,
+        unit: "path",
+        default: "",
+        doc: "weave-pattern file (README: pattern files) instead of a preset; relative to the scene file or the working directory",
+    },
+    ParamSpec {
+        key: "spine",
+        kind: ParamKind::Choice(&SPINES),
+        unit: "",
+        default: "circle",
+        doc: "yarn spine: circular arcs, or the conics of each yarn's curvature κ",
+    },
+    ParamSpec {
+        key: "fineness",
+        kind: ParamKind::Number(Range::closed(0.0, 1000.0)),
+        unit: "1/cell",
+        default: "0",
+        doc: "fibers per grid cell for the random per-fiber intensity variation (0: off)",
+    },
+    ParamSpec {
+        key: "umax_noise",
+        kind: ParamKind::Number(Range::closed(0.0, 30.0)),
+        unit: "degrees",
+        default: "0",
+        doc: "amplitude of the smooth noise added to every yarn's u_max (0: off)",
+    },
+    ParamSpec {
+        key: "umax_noise_period",
+        kind: ParamKind::Number(Range::closed(0.01, 1000.0)),
+        unit: "tiles",
+        default: "1",
+        doc: "lattice spacing of the u_max noise, in weave tiles",
     },
     ParamSpec {
         key: "alpha",
@@ -620,10 +836,24 @@ pub const IRAWAN_PARAMS: [ParamSpec; 7] = [
 impl Irawan2012 {
     /// A fabric from a validated pattern (computes the normalisation tables).
     pub fn new(pattern: WeavePattern) -> Result<Self, PatternError> {
+        Self::with_variation(pattern, Variation::default())
+    }
+
+    /// A fabric from a validated pattern with the options `variation`.
+    pub fn with_variation(pattern: WeavePattern, variation: Variation) -> Result<Self, PatternError> {
         pattern.validate()?;
+        check("fineness", variation.fineness, (0.0..=1000.0).contains(&variation.fineness), "in [0, 1000]")?;
+        check(
+            "umax_noise",
+            variation.umax_noise,
+            (0.0..=30f64.to_radians() * (1.0 + 1e-12)).contains(&variation.umax_noise),
+            "in [0, 30] degrees",
+        )?;
+        let period = variation.umax_noise_period;
+        check("umax_noise_period", period, (0.01..=1000.0).contains(&period), "in [0.01, 1000] tiles")?;
         let (alpha, beta) = (pattern.alpha, pattern.beta);
         Ok(Self {
-            fabric: Arc::new(Fabric::new(pattern)),
+            fabric: Arc::new(Fabric::new(pattern, variation)),
             alpha,
             beta,
             k_d_scale: Rgb::ONE,
@@ -659,7 +889,8 @@ impl Irawan2012 {
     /// The raw specular integrand `X` at the current point (before `k_s` and `s_n`).
     #[must_use]
     pub fn integrand(&self, wi: DVec3, wo: DVec3) -> f64 {
-        let (x1, cos_s) = integrand_parts(&self.fabric.pattern, self.position[0], self.position[1], wi, wo);
+        let f = &*self.fabric;
+        let (x1, cos_s) = integrand_parts(&f.pattern, &f.variation, self.position[0], self.position[1], wi, wo);
         x1 * (self.alpha + von_mises(self.beta, cos_s))
     }
 
@@ -672,14 +903,47 @@ impl Irawan2012 {
         if c > 0.0 { (LOBE_EXPONENT + 1.0) / TAU * c.powf(LOBE_EXPONENT) } else { 0.0 }
     }
 
-    /// Builds from registry parameters.
+    /// The options of registry parameters.
+    fn variation(p: &ParamSet) -> Result<Variation, ModelError> {
+        Ok(Variation {
+            spine: if p.choice("spine")? == "conic" { Spine::Conic } else { Spine::Circle },
+            fineness: p.number("fineness")?,
+            umax_noise: p.degrees("umax_noise")?,
+            umax_noise_period: p.number("umax_noise_period")?,
+        })
+    }
+
+    /// Builds from registry parameters; a `pattern=FILE` must be read by the caller and
+    /// given to [`Irawan2012::from_param_set_with`] (the model loader of `fiberlab-render`).
     pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
-        let name = p.choice("preset")?;
-        let mut m = Self::preset(name).ok_or_else(|| ModelError::BadValue {
-            key: "preset".into(),
-            value: name.into(),
-            expected: IRAWAN_PRESETS.join(", "),
-        })?;
+        if p.text("pattern").is_some() {
+            return Err(ModelError::Inconsistent(
+                "irawan-2012: a pattern file is read by the model loader (fiberlab_render::model_loader), not here"
+                    .into(),
+            ));
+        }
+        Self::from_param_set_with(p, None)
+    }
+
+    /// Builds from registry parameters and, when given, a pattern read from a file (which
+    /// replaces the preset: giving both is an error).
+    pub fn from_param_set_with(p: &ParamSet, pattern: Option<WeavePattern>) -> Result<Self, ModelError> {
+        let invalid = |e: PatternError| ModelError::Inconsistent(format!("irawan-2012: {e}"));
+        let pattern = match pattern {
+            Some(_) if p.is_given("preset") => {
+                return Err(ModelError::Inconsistent("irawan-2012: give either preset= or pattern=, not both".into()));
+            }
+            Some(pattern) => pattern,
+            None => {
+                let name = p.choice("preset")?;
+                WeavePattern::preset(name).ok_or_else(|| ModelError::BadValue {
+                    key: "preset".into(),
+                    value: name.into(),
+                    expected: IRAWAN_PRESETS.join(", "),
+                })?
+            }
+        };
+        let mut m = Self::with_variation(pattern, Self::variation(p)?).map_err(invalid)?;
         if let Some(a) = p.number_opt("alpha") {
             m.alpha = a;
         }
@@ -700,7 +964,7 @@ impl Registered for Irawan2012 {
         summary: "woven cloth: yarn-level specular highlights of a weave pattern (Irawan & Marschner 2012)",
         citation: "Irawan & Marschner 2012; presets of the Mitsuba 0.6 example set",
         params: &IRAWAN_PARAMS,
-        data: None,
+        data: Some(crate::ExternalData::WeavePattern { key: "pattern" }),
     };
 
     fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
@@ -717,7 +981,7 @@ impl SurfaceScattering for Irawan2012 {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
         }
-        let (yarn, _, _) = self.fabric.pattern.locate(self.position[0], self.position[1]);
+        let yarn = self.fabric.pattern.locate(self.position[0], self.position[1]).yarn;
         let (k_d, k_s) = (yarn.k_d * self.k_d_scale, yarn.k_s * self.k_s_scale);
         k_d * (1.0 / PI) + k_s * (self.integrand(wi, wo) * self.normalisation())
     }
@@ -890,5 +1154,177 @@ mod tests {
             eprintln!("{name}: largest albedo {worst:.4}");
             assert!(worst <= 1.0 && worst > 0.0, "{name}: {worst}");
         }
+    }
+
+    /// Radius of curvature of the explicit curve `p(t)` at `t`, by central differences.
+    fn curvature_radius(p: impl Fn(f64) -> [f64; 2], t: f64) -> f64 {
+        let h = 1e-4;
+        let (a, b, c) = (p(t - h), p(t), p(t + h));
+        let d1 = [(c[0] - a[0]) / (2.0 * h), (c[1] - a[1]) / (2.0 * h)];
+        let d2 = [(c[0] - 2.0 * b[0] + a[0]) / (h * h), (c[1] - 2.0 * b[1] + a[1]) / (h * h)];
+        (d1[0] * d1[0] + d1[1] * d1[1]).powf(1.5) / (d1[0] * d2[1] - d1[1] * d2[0]).abs()
+    }
+
+    /// Finds `t` in `[0, t_hi]` where the curve's inclination `atan(|dz/dx|)` is `u` (bisection).
+    fn where_inclined(p: &impl Fn(f64) -> [f64; 2], u: f64, t_hi: f64) -> f64 {
+        let incl = |t: f64| {
+            let h = 1e-6;
+            let (a, c) = (p(t - h), p(t + h));
+            ((c[1] - a[1]) / (c[0] - a[0])).abs().atan()
+        };
+        let (mut lo, mut hi) = (0.0, t_hi);
+        for _ in 0..80 {
+            let mid = 0.5 * (lo + hi);
+            if incl(mid) < u { lo = mid } else { hi = mid }
+        }
+        0.5 * (lo + hi)
+    }
+
+    /// The conic spines against explicit curves: an ellipse, a parabola and a hyperbola through
+    /// the chord's ends with end inclination `u_max`, their radius of curvature measured by
+    /// finite differences at the point of inclination `u`; r̂ = 1 is the circle of the default
+    /// spine, and the radius is continuous through the parabola (r̂ → 0 from both sides).
+    #[test]
+    fn conic_spines_match_explicit_curves() {
+        let (half, u_max) = (2.0, 0.6_f64);
+        for r_hat in [0.4, 1.0, 2.5] {
+            // Ellipse x = A sin t, z = B cos t with B = A/r̂: its end slope fixes t_max.
+            let t_max = (r_hat * u_max.tan()).atan();
+            let a = half / t_max.sin();
+            let curve = |t: f64| [a * t.sin(), a / r_hat * t.cos()];
+            assert!((curve(t_max)[0] - half).abs() < 1e-12);
+            for u in [0.0, 0.2, 0.45] {
+                let t = where_inclined(&curve, u, t_max);
+                let (expected, got) = (curvature_radius(curve, t), conic_radius(r_hat, half, u_max, u));
+                assert!((got / expected - 1.0).abs() < 1e-5, "ellipse r̂ {r_hat} u {u}: {got} vs {expected}");
+            }
+        }
+        assert!((conic_radius(1.0, half, u_max, 0.3) - half / u_max.sin()).abs() < 1e-12, "r̂ = 1 is the circle");
+        // Parabola z = −x²/(2p), end slope tan u_max at x = half.
+        let p = half / u_max.tan();
+        let parabola = |t: f64| [t, -t * t / (2.0 * p)];
+        let t = where_inclined(&parabola, 0.3, half);
+        assert!((conic_radius(0.0, half, u_max, 0.3) / curvature_radius(parabola, t) - 1.0).abs() < 1e-5);
+        // Hyperbola x = A sinh t, z = −B cosh t, B = A/|r̂|.
+        let q = 1.2;
+        let t_max = (q * u_max.tan()).atanh();
+        let a = half / t_max.sinh();
+        let hyperbola = |t: f64| [a * t.sinh(), -a / q * t.cosh()];
+        let t = where_inclined(&hyperbola, 0.4, t_max);
+        assert!((conic_radius(-q, half, u_max, 0.4) / curvature_radius(hyperbola, t) - 1.0).abs() < 1e-5);
+        let near = |r: f64| conic_radius(r, half, u_max, 0.3);
+        assert!((near(1e-7) / near(0.0) - 1.0).abs() < 1e-5 && (near(-1e-7) / near(0.0) - 1.0).abs() < 1e-5);
+    }
+
+    /// With `spine=conic`, a yarn of κ = 0 (r̂ = 1) gives the circle's values; the silk
+    /// charmeuse warp (κ = 2, a flatter crest) changes them; every κ > −1 gives a valid
+    /// hyperbola.
+    #[test]
+    fn the_conic_spine_changes_only_curved_yarns() {
+        let conic = Variation { spine: Spine::Conic, ..Variation::default() };
+        let denim = WeavePattern::preset("cotton-denim").unwrap();
+        let (mut a, mut b) =
+            (Irawan2012::new(denim.clone()).unwrap(), Irawan2012::with_variation(denim, conic).unwrap());
+        let wi = hemisphere(0.6, 0.3);
+        let wo = hemisphere(0.5, 2.9);
+        let mut lit = 0;
+        for k in 0..400 {
+            let (u, v) = ((k % 20) as f64 / 20.0 + 0.01, (k / 20) as f64 / 20.0 + 0.01);
+            a.set_position(u, v);
+            b.set_position(u, v);
+            let (x, y) = (a.integrand(wi, wo), b.integrand(wi, wo));
+            lit += usize::from(x > 0.0);
+            assert!((x - y).abs() <= 1e-9 * x.abs(), "κ = 0 at ({u}, {v}): {x} vs {y}");
+        }
+        assert!(lit > 0, "some highlight on the grid");
+        let silk = WeavePattern::preset("silk-charmeuse").unwrap();
+        let (a, b) = (Irawan2012::new(silk.clone()).unwrap(), Irawan2012::with_variation(silk.clone(), conic).unwrap());
+        assert!((a.normalisation() / b.normalisation() - 1.0).abs() > 1e-3, "κ = 2 changes the fabric");
+        // Every valid κ (> −1) gives a hyperbola whose asymptotes are steeper than u_max.
+        for k in 1..200 {
+            let kappa = -1.0 + f64::from(k) * 0.005;
+            for d in 1..90 {
+                let u_max = f64::from(d).to_radians();
+                let r = spine_shape(kappa, u_max);
+                assert!(r >= 0.0 || -r * u_max.tan() < 1.0, "κ {kappa} u_max {d}°");
+            }
+        }
+    }
+
+    /// Fineness: the factor is the same along a fiber (the direction at the twist ψ to the yarn
+    /// axis) and changes across fibers; its mean is `1 − e⁻¹⁰` (exponential); the
+    /// normalisation still makes the diffuse-light average 1.
+    #[test]
+    fn fineness_varies_per_fiber_and_keeps_the_average() {
+        let pattern = WeavePattern::preset("wool-gabardine").unwrap(); // staple, ψ = 30°
+        let var = Variation { fineness: 40.0, ..Variation::default() };
+        let yarn = pattern.yarns[0];
+        let (s, c) = yarn.psi.sin_cos();
+        let at = |x: f64, y: f64| Located { yarn: &yarn, id: 1, x, y, instance: [0, 0] };
+        let (mut same, mut changes) = (0, 0);
+        for k in 0..200 {
+            let x0 = (k as f64 + 0.5) / 40.0 / c - 0.5; // strip centres across the fibers
+            let here = var.fiber_factor(&at(x0, 0.0));
+            // Along the fiber: direction (sin ψ, cos ψ) keeps x cos ψ − y sin ψ.
+            let along = var.fiber_factor(&at(x0 + 0.5 * s, 0.5 * c));
+            same += usize::from(here == along);
+            changes += usize::from(here != var.fiber_factor(&at(x0 + 1.0 / 40.0 / c, 0.0)));
+        }
+        assert_eq!(same, 200);
+        assert!(changes > 190, "{changes}");
+        let n = 100_000;
+        let (mut sum, mut sum2) = (0.0, 0.0);
+        for k in 0..n {
+            let f =
+                var.fiber_factor(&Located { yarn: &yarn, id: 1 + k % 3, x: 0.0, y: 0.0, instance: [k as i64 / 3, 7] });
+            sum += f;
+            sum2 += f * f;
+        }
+        let mean = sum / n as f64;
+        let sigma = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+        assert!((mean - 1.0).abs() < 4.0 * sigma, "{mean} ± {sigma}");
+        assert_diffuse_average_is_one(&Irawan2012::with_variation(pattern, var).unwrap(), 1.0);
+    }
+
+    /// u_max noise: bounded by its amplitude, smooth (a small step in UV changes it little),
+    /// not constant, different for warp and weft, and the normalisation includes it.
+    #[test]
+    fn umax_noise_is_smooth_bounded_and_normalised() {
+        let amp = 8f64.to_radians();
+        let var = Variation { umax_noise: amp, umax_noise_period: 0.5, ..Variation::default() };
+        let pattern = WeavePattern::preset("polyester-lining").unwrap();
+        let (warp, weft) = (pattern.yarns[0], pattern.yarns[1]);
+        let (mut lo, mut hi, mut differ) = (f64::INFINITY, f64::NEG_INFINITY, 0);
+        for k in 0..2000 {
+            let (u, v) = (k as f64 * 0.0137, k as f64 * 0.0071);
+            let d = var.u_max(&warp, u, v) - warp.u_max;
+            assert!(d.abs() <= amp, "{d}");
+            let step = var.u_max(&warp, u + 1e-4, v) - warp.u_max;
+            assert!((step - d).abs() < 20.0 * amp * 1e-4 / 0.5, "smooth: {d} → {step}");
+            (lo, hi) = (lo.min(d), hi.max(d));
+            differ += usize::from((var.u_max(&weft, u, v) - weft.u_max - d).abs() > 1e-9);
+        }
+        assert!(hi - lo > amp, "the noise spans its range: [{lo}, {hi}]");
+        assert!(differ > 1900);
+        assert_diffuse_average_is_one(&Irawan2012::with_variation(pattern, var).unwrap(), var.extent());
+    }
+
+    /// `π·E[X·s_n]` under diffuse light over UV in `[0, extent)²` is 1 (independent samples).
+    fn assert_diffuse_average_is_one(m: &Irawan2012, extent: f64) {
+        let mut m = m.clone();
+        let mut rng = SplitMix64::new(4242);
+        let n = 200_000;
+        let (mut sum, mut sum2) = (0.0, 0.0);
+        for _ in 0..n {
+            let wi = cosine_direction(rng.next_f64(), rng.next_f64());
+            let wo = cosine_direction(rng.next_f64(), rng.next_f64());
+            m.set_position(rng.next_f64() * extent, rng.next_f64() * extent);
+            let x = PI * m.integrand(wi, wo) * m.normalisation();
+            sum += x;
+            sum2 += x * x;
+        }
+        let mean = sum / n as f64;
+        let sigma = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+        assert!((mean - 1.0).abs() < 8.0 * sigma + 0.01, "{mean} ± {sigma}");
     }
 }

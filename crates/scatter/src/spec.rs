@@ -32,6 +32,12 @@ pub enum ExternalData {
         /// The parameter holding the path.
         key: &'static str,
     },
+    /// An optional weave-pattern file (`fiberlab_io::weave_pattern` text) named by the text
+    /// parameter `key`; without it the model builds from its parameters alone (a preset).
+    WeavePattern {
+        /// The parameter holding the path.
+        key: &'static str,
+    },
 }
 
 /// A model of the registry: its description and its construction from validated

@@ -53,6 +53,11 @@ pub struct Args {
     /// about 1e-4 for a Gaussian of standard deviation ≥ 0.7 sub-sample spacings).
     #[arg(long, default_value_t = 3, value_parser = crate::arg_values::positive_count)]
     subsamples: usize,
+    /// Surface tables: the table's θ_i, φ_i is the viewer's direction and its bins the
+    /// light's (a table traced from the camera, e.g. the woven patch's); by default θ_i is the
+    /// light's. Matters for a non-reciprocal model (`sadeghi-2013`).
+    #[arg(long)]
+    viewer_first: bool,
 }
 
 /// The measured lobes compared and the model's `lobes=` value for each (`None`: the whole model).
@@ -643,7 +648,6 @@ type Slice = Vec<(f64, f64, f64, f64)>;
 
 /// Residual of a non-wood surface model on a surface table's `all` class, per incidence.
 fn run_surface_residual(args: &Args, table: &std::collections::BTreeMap<String, LobeSlices>) -> anyhow::Result<()> {
-    use fiberlab_scatter::SurfaceScattering;
     let Some(all) = table.get("all") else {
         anyhow::bail!("{}: a surface table needs its `all` lobe (every path)", args.table.display())
     };
@@ -657,11 +661,8 @@ fn run_surface_residual(args: &Args, table: &std::collections::BTreeMap<String, 
     let rows: Vec<Residual> = (0..all.theta_in.len())
         .map(|s| {
             let (theta_i, phi_i) = (all.theta_in[s], all.phi_in[s]);
-            let bins = fiberlab_fit::surface_bins(theta_i, phi_i, nt, np, args.subsamples);
-            let modelled: Vec<f64> = bins
-                .par_iter()
-                .map(|b| b.nodes.iter().map(|&(wo, w)| model.eval(b.wi, wo).luminance() * w).sum())
-                .collect();
+            let bins = fiberlab_fit::surface_bins(theta_i, phi_i, nt, np, args.subsamples, args.viewer_first);
+            let modelled: Vec<f64> = bins.par_iter().map(|b| b.average(&model).luminance()).collect();
             let measured: Vec<f64> = all.f[s].iter().map(|v| v.luminance()).collect();
             let std: Vec<f64> = all.std[s].iter().map(|v| v.luminance()).collect();
             let (mut num, mut den, mut mc, mut area) = (0.0, 0.0, 0.0, 0.0);

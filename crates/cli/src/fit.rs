@@ -13,8 +13,8 @@
 //! over each bin (midpoint rule, `--subsamples`² nodes, in the table's cosθ_o dω_o measure)
 //! rather than evaluated at the bin centres, since the tables are coarse (5°–10° bins) and
 //! cloth highlights are only a few degrees wide, so a centre value can be far from the bin's
-//! average. The table's standard errors are the weights (floored at 1 % of the peak, for
-//! bins no path reached). A fiber model given a surface table, and a surface model given a
+//! average. The table's standard errors are the weights (floored at the median positive one,
+//! about one path's contribution, for bins no path reached). A fiber model given a surface table, and a surface model given a
 //! fiber table or no table, are refused with the reason.
 
 use crate::files::write_atomically;
@@ -78,6 +78,11 @@ pub struct Args {
     /// bin average.
     #[arg(long, default_value_t = 3, value_parser = crate::arg_values::positive_count)]
     subsamples: usize,
+    /// Surface tables: the table's θ_i, φ_i is the viewer's direction and its bins the
+    /// light's (a table traced from the camera, e.g. the woven patch's); by default θ_i is the
+    /// light's. Matters for a non-reciprocal model (`sadeghi-2013`).
+    #[arg(long)]
+    viewer_first: bool,
     /// Output prefix (PREFIX.toml, PREFIX_residuals.png).
     #[arg(long, value_name = "PREFIX", default_value = "fit", value_parser = crate::arg_values::out_prefix)]
     out: crate::arg_values::OutPrefix,
@@ -126,12 +131,13 @@ fn from_table(path: &Path, lobe: &str, per_channel: bool) -> anyhow::Result<Obse
 
 /// A surface table's lobe as fit data: the bins of every incidence (see
 /// [`fiberlab_fit::surface_bins`]) with their values per channel (or luminance) and
-/// standard errors floored as in [`from_table`]; and the `(θ, φ)` bin grid.
+/// standard errors (floored at the median positive one); and the `(θ, φ)` bin grid.
 fn from_surface_table(
     path: &Path,
     lobe: &str,
     per_channel: bool,
     sub: usize,
+    viewer_first: bool,
 ) -> anyhow::Result<(SurfaceData, (usize, usize))> {
     let lobes = fiberlab_io::table::read(path)?;
     let t = lobes.get(lobe).with_context(|| {
@@ -146,16 +152,23 @@ fn from_surface_table(
     if peak <= 0.0 {
         bail!("{}: lobe `{lobe}` is zero in every bin; nothing to fit", path.display());
     }
+    // Bins no path reached have no spread: their σ is the median of the positive ones
+    // (about one path's contribution to a bin). A floor relative to the peak (as for fiber
+    // tables) would drown a cloth's diffuse bins under a sharp highlight, and the smallest
+    // σ (one weak path) would give an empty bin all the weight.
+    let mut spread: Vec<f64> = t.std.iter().flatten().flat_map(|v| [v[0], v[1], v[2]]).filter(|&v| v > 0.0).collect();
+    spread.sort_by(f64::total_cmp);
+    let floor = spread.get(spread.len() / 2).copied().unwrap_or(0.01 * peak);
     let mut data = SurfaceData::default();
     for s in 0..t.theta_in.len() {
         let first = data.bins.len();
-        data.bins.extend(fiberlab_fit::surface_bins(t.theta_in[s], t.phi_in[s], nt, np, sub));
+        data.bins.extend(fiberlab_fit::surface_bins(t.theta_in[s], t.phi_in[s], nt, np, sub, viewer_first));
         for b in 0..nt * np {
             for channel in channels(per_channel) {
                 data.observations.push(BinObservation {
                     bin: first + b,
                     value: channel.of(t.f[s][b]),
-                    sigma: channel.of(t.std[s][b]).max(0.01 * peak),
+                    sigma: channel.of(t.std[s][b]).max(floor),
                     channel,
                 });
             }
@@ -316,7 +329,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let per_channel = colour_free && !args.luminance;
     let data = match (&args.table, &args.data, &args.target, table_kind) {
         (Some(t), None, None, Some(TableKind::Surface)) => {
-            let (d, grid) = from_surface_table(t, &args.lobe, per_channel, args.subsamples)?;
+            let (d, grid) = from_surface_table(t, &args.lobe, per_channel, args.subsamples, args.viewer_first)?;
             Data::Surface(d, grid)
         }
         (Some(t), None, None, _) => {

@@ -402,15 +402,31 @@ fn fit_under(
     solve(&problem, start, data.len(), options)
 }
 
-/// One bin of a surface table: the light direction and quadrature nodes over the bin's
-/// viewing directions (surface frame, `z` the normal), with weights summing to 1, so that
-/// `Σ w·f_r(ω_i, ω_k)` is the model's average over the bin in the measure the table uses.
+/// One bin of a surface table: the table's fixed direction (its `theta_i, phi_i`) and
+/// quadrature nodes over the bin's directions (surface frame, `z` the normal), with weights
+/// summing to 1, so that `Σ w·f_r` over the nodes is the model's average over the bin in the
+/// measure the table uses. The fixed direction is the light's (`f_r(ω_fixed, ω_k)`, a table
+/// traced from the light) unless `fixed_is_viewer` (`f_r(ω_k, ω_fixed)`, a table traced from
+/// the viewer, as the renderer's camera paths are): it matters for a non-reciprocal model.
 #[derive(Clone, Debug)]
 pub struct SurfaceBin {
-    /// Direction toward the light.
-    pub wi: DVec3,
-    /// `(ω_o, weight)` nodes.
+    /// The table's fixed direction.
+    pub fixed: DVec3,
+    /// Whether `fixed` is toward the viewer (else toward the light).
+    pub fixed_is_viewer: bool,
+    /// `(direction, weight)` nodes.
     pub nodes: Vec<(DVec3, f64)>,
+}
+
+impl SurfaceBin {
+    /// The model's average of `f_r` over the bin.
+    #[must_use]
+    pub fn average(&self, model: &SurfaceModel) -> Rgb {
+        self.nodes.iter().fold(Rgb::ZERO, |acc, &(d, w)| {
+            let f = if self.fixed_is_viewer { model.eval(d, self.fixed) } else { model.eval(self.fixed, d) };
+            acc + f * w
+        })
+    }
 }
 
 /// One measured number of a surface bin.
@@ -441,7 +457,14 @@ pub struct SurfaceData {
 /// `cosθ_o dω_o = sinθ_o cosθ_o dθ_o dφ_o` measure of a BRDF table (a bin's value is the power
 /// it receives per cos-weighted solid angle).
 #[must_use]
-pub fn surface_bins(theta_i: f64, phi_i: f64, nt: usize, np: usize, sub: usize) -> Vec<SurfaceBin> {
+pub fn surface_bins(
+    theta_i: f64,
+    phi_i: f64,
+    nt: usize,
+    np: usize,
+    sub: usize,
+    fixed_is_viewer: bool,
+) -> Vec<SurfaceBin> {
     let dir = |th: f64, ph: f64| DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
     let wi = dir(theta_i, phi_i);
     let (dt, dp) = (std::f64::consts::FRAC_PI_2 / nt as f64, std::f64::consts::TAU / np as f64);
@@ -459,7 +482,7 @@ pub fn surface_bins(theta_i: f64, phi_i: f64, nt: usize, np: usize, sub: usize) 
             }
             let total: f64 = nodes.iter().map(|n| n.1).sum();
             nodes.iter_mut().for_each(|n| n.1 /= total);
-            SurfaceBin { wi, nodes }
+            SurfaceBin { fixed: wi, fixed_is_viewer, nodes }
         })
         .collect()
 }
@@ -467,7 +490,7 @@ pub fn surface_bins(theta_i: f64, phi_i: f64, nt: usize, np: usize, sub: usize) 
 /// A surface model's bin averages of `f_r` on `bins`.
 #[must_use]
 pub fn bin_averages(model: &SurfaceModel, bins: &[SurfaceBin]) -> Vec<Rgb> {
-    bins.iter().map(|b| b.nodes.iter().fold(Rgb::ZERO, |acc, &(wo, w)| acc + model.eval(b.wi, wo) * w)).collect()
+    bins.iter().map(|b| b.average(model)).collect()
 }
 
 /// Fits the `free` parameters of the surface model whose other parameters are `base`
@@ -1063,10 +1086,10 @@ mod surface_tests {
         let (nt, np) = (12, 24);
         let mut data = SurfaceData::default();
         for (ti, pi) in [(0.5, 0.3), (1.0, 2.0)] {
-            let fine = surface_bins(ti, pi, nt, np, 6);
+            let fine = surface_bins(ti, pi, nt, np, 6, false);
             let f = bin_averages(&truth, &fine);
             let first = data.bins.len();
-            data.bins.extend(surface_bins(ti, pi, nt, np, 3));
+            data.bins.extend(surface_bins(ti, pi, nt, np, 3, false));
             for (b, v) in f.iter().enumerate() {
                 for c in 0..3 {
                     let sigma = 0.02 * v[c] + 1e-4;
@@ -1100,7 +1123,7 @@ mod surface_tests {
     fn bin_averages_of_a_constant_brdf_are_that_constant() {
         let m = build_surface("lambertian", &[("k_d", "0.6")]).unwrap();
         for sub in [1, 4] {
-            for f in bin_averages(&m, &surface_bins(0.7, -1.0, 5, 8, sub)) {
+            for f in bin_averages(&m, &surface_bins(0.7, -1.0, 5, 8, sub, sub == 4)) {
                 assert!((f.luminance() - 0.6 / std::f64::consts::PI).abs() < 1e-12, "{f:?}");
             }
         }

@@ -657,7 +657,7 @@ fn run_surface_residual(args: &Args, table: &std::collections::BTreeMap<String, 
     let (nt, np) = (all.bins_theta, all.bins_phi);
     let (dt, dp) = (FRAC_PI_2 / nt as f64, TAU / np as f64);
     let omega = |i: usize| 0.5 * (((i + 1) as f64 * dt).sin().powi(2) - (i as f64 * dt).sin().powi(2)) * dp;
-    let peak = all.f.iter().flatten().map(|v| v.luminance()).fold(0.0, f64::max);
+    let floor = crate::fit::std_floor(all);
     let rows: Vec<Residual> = (0..all.theta_in.len())
         .map(|s| {
             let (theta_i, phi_i) = (all.theta_in[s], all.phi_in[s]);
@@ -674,7 +674,7 @@ fn run_surface_residual(args: &Args, table: &std::collections::BTreeMap<String, 
                 area += w;
             }
             let centre = |b: usize| (((b / np) as f64 + 0.5) * dt, -PI + ((b % np) as f64 + 0.5) * dp);
-            let pull = |b: usize| (modelled[b] - measured[b]) / std[b].max(0.01 * peak).max(1e-300);
+            let pull = |b: usize| (modelled[b] - measured[b]) / std[b].max(floor).max(1e-300);
             let mut order: Vec<usize> = (0..nt * np).collect();
             order.sort_by(|&a, &b| pull(b).abs().total_cmp(&pull(a).abs()));
             let worst = order

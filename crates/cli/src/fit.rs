@@ -152,13 +152,7 @@ fn from_surface_table(
     if peak <= 0.0 {
         bail!("{}: lobe `{lobe}` is zero in every bin; nothing to fit", path.display());
     }
-    // Bins no path reached have no spread: their σ is the median of the positive ones
-    // (about one path's contribution to a bin). A floor relative to the peak (as for fiber
-    // tables) would drown a cloth's diffuse bins under a sharp highlight, and the smallest
-    // σ (one weak path) would give an empty bin all the weight.
-    let mut spread: Vec<f64> = t.std.iter().flatten().flat_map(|v| [v[0], v[1], v[2]]).filter(|&v| v > 0.0).collect();
-    spread.sort_by(f64::total_cmp);
-    let floor = spread.get(spread.len() / 2).copied().unwrap_or(0.01 * peak);
+    let floor = std_floor(t);
     let mut data = SurfaceData::default();
     for s in 0..t.theta_in.len() {
         let first = data.bins.len();
@@ -175,6 +169,18 @@ fn from_surface_table(
         }
     }
     Ok((data, (nt, np)))
+}
+
+/// The σ of a surface-table bin no path reached (which has no spread): the median of the
+/// positive standard errors of the lobe (about one path's contribution to a bin), or 1 % of
+/// the peak if none is positive. A floor relative to the peak (as for fiber tables) would
+/// drown a cloth's diffuse bins under a sharp highlight, and the smallest σ (one weak path)
+/// would give an empty bin all the weight.
+pub fn std_floor(t: &fiberlab_io::table::LobeSlices) -> f64 {
+    let mut spread: Vec<f64> = t.std.iter().flatten().flat_map(|v| [v[0], v[1], v[2]]).filter(|&v| v > 0.0).collect();
+    spread.sort_by(f64::total_cmp);
+    let peak = t.f.iter().flatten().map(|v| v.luminance()).fold(0.0, f64::max);
+    spread.get(spread.len() / 2).copied().unwrap_or(0.01 * peak)
 }
 
 /// Refuses a table of the wrong kind for the model: a surface table for a fiber model, a

@@ -11,6 +11,11 @@
 //! advance. From luminance-only data the channels cannot be told apart, and a colour is fitted
 //! as one grey value (all channels equal).
 //!
+//! A surface model is fitted to the bins of a surface table ([`fit_surface`]): each bin's
+//! value is compared with the model's average over the bin ([`surface_bins`], midpoint nodes
+//! in the table's `cosθ dω` measure), the table's fixed direction taken as the light's or
+//! the viewer's ([`SurfaceBin::fixed_is_viewer`]).
+//!
 //! An uncertainty that the covariance cannot give is an [`Uncertainty::Undefined`] with the
 //! reason, and a parameter that ends on (within [`BOUND_TOLERANCE`] of) an end of its valid
 //! range is reported with that end ([`AtBound`]). Pure.

@@ -1134,6 +1134,20 @@ mod surface_tests {
         }
     }
 
+    /// The fixed direction of a bin is the light's unless `fixed_is_viewer`: for the
+    /// non-reciprocal `sadeghi-2013` the two readings differ, and each is the model's
+    /// `f_r(ω_light, ω_viewer)` with the directions in their places.
+    #[test]
+    fn the_fixed_direction_is_the_light_or_the_viewer() {
+        let m = build_surface("sadeghi-2013", &[("preset", "silk-shot")]).unwrap();
+        let (fixed, d) = (DVec3::new(0.5, 0.1, 0.86).normalize(), DVec3::new(-0.3, 0.6, 0.74).normalize());
+        let bin = |fixed_is_viewer| SurfaceBin { fixed, fixed_is_viewer, nodes: vec![(d, 1.0)] };
+        let (light, viewer) = (bin(false).average(&m), bin(true).average(&m));
+        assert_eq!(light, m.eval(fixed, d));
+        assert_eq!(viewer, m.eval(d, fixed));
+        assert!((light.luminance() - viewer.luminance()).abs() > 1e-3 * light.luminance(), "{light:?} {viewer:?}");
+    }
+
     /// A fiber model's name is refused by the surface fit, naming the surface models.
     #[test]
     fn a_fiber_model_is_refused_by_the_surface_fit() {

@@ -8,6 +8,13 @@
 //! the highlight's locus (per φ_o column, the θ_o of the peak), its width (energy-weighted RMS
 //! of ψ_h = ψ_i′ + ψ_o′ over the bins) and its strength (albedo of the class), each against a
 //! stated tolerance (see [`SURFACE_TOLERANCES`]); `--out PREFIX` draws PREFIX_highlight.png.
+//!
+//! Any other surface model (`sadeghi-2013`, `irawan-2012`, `lambertian`) is compared with the
+//! table's `all` class (every path: a cloth's BRDF as a whole) by its residual: the model
+//! averaged over each bin as `fiberlab fit` does, the per-bin RMS of model − measured (sr⁻¹,
+//! weighted by the bins' cosθ dω), the relative L2 error (and the table's own Monte Carlo
+//! relative L2, what a perfect model would get), and the worst bins by |model − measured|/σ;
+//! `--out PREFIX` draws PREFIX_slices.png (the plane of incidence and the plane across it).
 
 use crate::model_args::ModelArgs;
 use crate::plot::{Grids, Scale, write_figure};
@@ -46,6 +53,11 @@ pub struct Args {
     /// about 1e-4 for a Gaussian of standard deviation ≥ 0.7 sub-sample spacings).
     #[arg(long, default_value_t = 3, value_parser = crate::arg_values::positive_count)]
     subsamples: usize,
+    /// Surface tables: the table's θ_i, φ_i is the viewer's direction and its bins the
+    /// light's (a table traced from the camera, e.g. the woven patch's); by default θ_i is the
+    /// light's. Matters for a non-reciprocal model (`sadeghi-2013`).
+    #[arg(long)]
+    viewer_first: bool,
 }
 
 /// The measured lobes compared and the model's `lobes=` value for each (`None`: the whole model).
@@ -420,6 +432,9 @@ fn compare_surface_slice(
 /// `compare-model` on a surface table.
 fn run_surface(args: &Args) -> anyhow::Result<()> {
     let table = read(&args.table)?;
+    if args.model.model != "wood" {
+        return run_surface_residual(args, &table);
+    }
     let Some(fiber) = table.get("fiber") else {
         anyhow::bail!("{}: a surface table needs its `fiber` lobe (single-fiber paths)", args.table.display())
     };
@@ -430,11 +445,7 @@ fn run_surface(args: &Args) -> anyhow::Result<()> {
     let model = fiberlab_scatter::build_surface_raw(&args.model.model, &pairs)
         .map_err(|e| anyhow::anyhow!("model `{}`: {e}", args.model.model))?;
     let fiberlab_scatter::SurfaceModel::Wood(wood) = &model else {
-        anyhow::bail!(
-            "{} is a surface table: compare it with a surface model with a fiber axis (`wood`), not `{}`",
-            args.table.display(),
-            args.model.model
-        )
+        return run_surface_residual(args, &table);
     };
     let k_f = wood.params().k_f.luminance();
     let rows: Vec<SurfaceComparison> =
@@ -602,6 +613,195 @@ fn draw_highlight(path: &std::path::Path, rows: &[SurfaceComparison], title: &st
                 .map_err(err)?
                 .label("measured ± 1σ")
                 .legend(|(x, y)| Cross::new((x, y), 4, RGBColor(31, 119, 180)));
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 13))
+                .draw()
+                .map_err(err)?;
+        }
+        root.present().map_err(err)?;
+    }
+    crate::plot::write_png(path, &buf, size)
+}
+
+/// Most bins listed as the worst of an incidence.
+const WORST_BINS: usize = 5;
+
+/// One incidence of a residual comparison of a surface model with the `all` class.
+struct Residual {
+    theta_i: f64,
+    phi_i: f64,
+    /// Per-bin RMS of model − measured (sr⁻¹), relative L2, Monte Carlo relative L2.
+    rms: f64,
+    rel_l2: f64,
+    mc_rel_l2: f64,
+    /// Worst bins: (θ_o°, φ_o°, measured, model, (model − measured)/σ).
+    worst: Vec<(f64, f64, f64, f64, f64)>,
+    /// Slices through the plane of incidence and across it: (label, θ_o° signed, measured, std, model).
+    slices: Vec<(String, Slice)>,
+}
+
+/// Points of a slice: (signed θ_o°, measured, std, model).
+type Slice = Vec<(f64, f64, f64, f64)>;
+
+/// Residual of a non-wood surface model on a surface table's `all` class, per incidence.
+fn run_surface_residual(args: &Args, table: &std::collections::BTreeMap<String, LobeSlices>) -> anyhow::Result<()> {
+    let Some(all) = table.get("all") else {
+        anyhow::bail!("{}: a surface table needs its `all` lobe (every path)", args.table.display())
+    };
+    let pairs = args.model.pairs()?;
+    let model = fiberlab_scatter::build_surface_raw(&args.model.model, &pairs)
+        .map_err(|e| anyhow::anyhow!("model `{}`: {e}", args.model.model))?;
+    let (nt, np) = (all.bins_theta, all.bins_phi);
+    let (dt, dp) = (FRAC_PI_2 / nt as f64, TAU / np as f64);
+    let omega = |i: usize| 0.5 * (((i + 1) as f64 * dt).sin().powi(2) - (i as f64 * dt).sin().powi(2)) * dp;
+    let floor = crate::fit::std_floor(all);
+    let rows: Vec<Residual> = (0..all.theta_in.len())
+        .map(|s| {
+            let (theta_i, phi_i) = (all.theta_in[s], all.phi_in[s]);
+            let bins = fiberlab_fit::surface_bins(theta_i, phi_i, nt, np, args.subsamples, args.viewer_first);
+            let modelled: Vec<f64> = bins.par_iter().map(|b| b.average(&model).luminance()).collect();
+            let measured: Vec<f64> = all.f[s].iter().map(|v| v.luminance()).collect();
+            let std: Vec<f64> = all.std[s].iter().map(|v| v.luminance()).collect();
+            let (mut num, mut den, mut mc, mut area) = (0.0, 0.0, 0.0, 0.0);
+            for b in 0..nt * np {
+                let w = omega(b / np);
+                num += w * (modelled[b] - measured[b]).powi(2);
+                den += w * measured[b].powi(2);
+                mc += w * std[b].powi(2);
+                area += w;
+            }
+            let centre = |b: usize| (((b / np) as f64 + 0.5) * dt, -PI + ((b % np) as f64 + 0.5) * dp);
+            let pull = |b: usize| (modelled[b] - measured[b]) / std[b].max(floor).max(1e-300);
+            let mut order: Vec<usize> = (0..nt * np).collect();
+            order.sort_by(|&a, &b| pull(b).abs().total_cmp(&pull(a).abs()));
+            let worst = order
+                .iter()
+                .take(WORST_BINS)
+                .map(|&b| {
+                    let (t, p) = centre(b);
+                    (t.to_degrees(), p.to_degrees(), measured[b], modelled[b], pull(b))
+                })
+                .collect();
+            // A plane through the normal at azimuth `a`: θ_o > 0 toward `a`, < 0 toward `a + π`.
+            let column = |a: f64| ((fiberlab_math::frame::wrap_pi(a) + PI) / dp).floor() as usize % np;
+            let plane = |a: f64| -> Slice {
+                let (front, back) = (column(a), column(a + PI));
+                let mut v: Slice = (0..nt)
+                    .rev()
+                    .map(|i| {
+                        let b = i * np + back;
+                        (-centre(b).0.to_degrees(), measured[b], std[b], modelled[b])
+                    })
+                    .collect();
+                v.extend((0..nt).map(|i| {
+                    let b = i * np + front;
+                    (centre(b).0.to_degrees(), measured[b], std[b], modelled[b])
+                }));
+                v
+            };
+            let slices = vec![
+                (format!("plane of incidence (θ_o > 0 at φ_o = {:.0}°)", (phi_i + PI).to_degrees()), plane(phi_i + PI)),
+                (
+                    format!("plane across it (θ_o > 0 at φ_o = {:.0}°)", (phi_i + FRAC_PI_2).to_degrees()),
+                    plane(phi_i + FRAC_PI_2),
+                ),
+            ];
+            let rel = |x: f64| if den > 0.0 { (x / den).sqrt() } else { f64::NAN };
+            Residual { theta_i, phi_i, rms: (num / area).sqrt(), rel_l2: rel(num), mc_rel_l2: rel(mc), worst, slices }
+        })
+        .collect();
+    let mut json = Vec::new();
+    for r in &rows {
+        if !args.json {
+            println!(
+                "surface table {}: θ_i = {:.2}°, φ_i = {:.2}°, `all` class vs {}",
+                args.table.display(),
+                r.theta_i.to_degrees(),
+                r.phi_i.to_degrees(),
+                args.model.label()
+            );
+            println!(
+                "  per-bin RMS of model − measured {:.4e} 1/sr; relative L2 {:.4} (Monte Carlo noise alone {:.4})",
+                r.rms, r.rel_l2, r.mc_rel_l2
+            );
+            println!("  worst bins (θ_o°, φ_o°): measured, model, (model − measured)/σ");
+            for (t, p, m, f, z) in &r.worst {
+                println!("    ({t:5.1}, {p:6.1}): {m:.4e} {f:.4e} {z:+.1}");
+            }
+        }
+        json.push(serde_json::json!({
+            "theta_i": number(r.theta_i.to_degrees()),
+            "phi_i": number(r.phi_i.to_degrees()),
+            "rms": number(r.rms),
+            "rel_l2": number(r.rel_l2),
+            "mc_rel_l2": number(r.mc_rel_l2),
+            "worst": r.worst.iter().map(|&(t, p, m, f, z)| serde_json::json!({
+                "theta_o": number(t), "phi_o": number(p), "measured": number(m), "model": number(f), "pull": number(z)
+            })).collect::<Vec<_>>(),
+        }));
+    }
+    if args.json {
+        println!("{}", serde_json::json!({ "all": json }));
+    }
+    if let Some(prefix) = &args.out {
+        let path = prefix.with("_slices.png");
+        let title = format!("{} vs {} (all paths)", args.table.display(), args.model.label());
+        draw_slices(&path, &rows, &title)?;
+        if !args.json {
+            println!("wrote {}", path.display());
+        }
+    }
+    Ok(())
+}
+
+/// Measured (± 1σ) vs model `f_r` along the two planes of each incidence.
+fn draw_slices(path: &std::path::Path, rows: &[Residual], title: &str) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    crate::plot::register_font();
+    let size = (1400u32, 40 + 420 * rows.len().max(1) as u32);
+    let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        let err = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("drawing: {e:?}");
+        root.fill(&WHITE).map_err(err)?;
+        let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
+        let areas = root.split_evenly((rows.len().max(1), 2));
+        for (k, area) in areas.iter().enumerate() {
+            let Some(r) = rows.get(k / 2) else { continue };
+            let (label, v) = &r.slices[k % 2];
+            let top = v.iter().map(|x| (x.1 + x.2).max(x.3)).fold(0.0, f64::max).max(1e-12) * 1.1;
+            let mut chart = ChartBuilder::on(area)
+                .margin(15)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .caption(format!("θ_i = {:.0}°: {label}", r.theta_i.to_degrees()), ("sans-serif", 15))
+                .build_cartesian_2d(-90.0..90.0, 0.0..top)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc("signed θ_o (degrees)")
+                .y_desc("f_r (1/sr)")
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(err)?;
+            let red = RGBColor(214, 39, 40);
+            let blue = RGBColor(31, 119, 180);
+            chart
+                .draw_series(LineSeries::new(v.iter().map(|x| (x.0, x.3)), red))
+                .map_err(err)?
+                .label("model")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red));
+            chart
+                .draw_series(v.iter().map(|x| PathElement::new(vec![(x.0, x.1 - x.2), (x.0, x.1 + x.2)], blue)))
+                .map_err(err)?;
+            chart
+                .draw_series(v.iter().map(|x| Cross::new((x.0, x.1), 4, blue)))
+                .map_err(err)?
+                .label("measured ± 1σ")
+                .legend(move |(x, y)| Cross::new((x, y), 4, blue));
             chart
                 .configure_series_labels()
                 .background_style(WHITE.mix(0.8))

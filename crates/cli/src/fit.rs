@@ -7,12 +7,26 @@
 //!
 //! A colour parameter is fitted per channel when the data has channels (a table, a CSV with
 //! `f_r,f_g,f_b`, a `--target`): see `fiberlab_fit`.
+//!
+//! A **surface** model (e.g. `sadeghi-2013`, `wood`) is fitted to a surface table (`fiberlab
+//! measure --surface`, lobe `all` unless `--lobe` names a path class): the model is averaged
+//! over each bin (midpoint rule, `--subsamples`² nodes, in the table's cosθ_o dω_o measure)
+//! rather than evaluated at the bin centres, since the tables are coarse (5°–10° bins) and
+//! cloth highlights are only a few degrees wide, so a centre value can be far from the bin's
+//! average. The table's standard errors are the weights (floored at the median positive one,
+//! about one path's contribution, for bins no path reached). A fiber model given a surface table, and a surface model given a
+//! fiber table or no table, are refused with the reason.
 
 use crate::files::write_atomically;
 use crate::plot::{Grids, Scale, write_figure};
 use anyhow::{Context, bail};
-use fiberlab_fit::{Channel, FitOptions, FitResult, FreeParam, Observation, Uncertainty, fit_with};
+use fiberlab_fit::{
+    BinObservation, Channel, FitOptions, FitResult, FreeParam, Observation, SurfaceData, Uncertainty, fit_surface,
+    fit_with,
+};
+use fiberlab_io::table::{TableKind, read_kind};
 use fiberlab_math::frame::direction;
+use fiberlab_scatter::ModelKind;
 use fiberlab_scatter::params::{ParamSet, split_key_value};
 use std::path::{Path, PathBuf};
 
@@ -60,6 +74,15 @@ pub struct Args {
     /// Largest number of Nelder–Mead iterations (then at most 20 Levenberg–Marquardt steps).
     #[arg(long, default_value_t = 400)]
     iterations: u64,
+    /// Surface tables: midpoint nodes per bin along θ_o and along φ_o (≥ 1) of the model's
+    /// bin average.
+    #[arg(long, default_value_t = 3, value_parser = crate::arg_values::positive_count)]
+    subsamples: usize,
+    /// Surface tables: the table's θ_i, φ_i is the viewer's direction and its bins the
+    /// light's (a table traced from the camera, e.g. the woven patch's); by default θ_i is the
+    /// light's. Matters for a non-reciprocal model (`sadeghi-2013`).
+    #[arg(long)]
+    viewer_first: bool,
     /// Output prefix (PREFIX.toml, PREFIX_residuals.png).
     #[arg(long, value_name = "PREFIX", default_value = "fit", value_parser = crate::arg_values::out_prefix)]
     out: crate::arg_values::OutPrefix,
@@ -67,6 +90,12 @@ pub struct Args {
 
 /// Observations and, for tables, the `(θ, φ)` bin grid of each incidence.
 type Observations = (Vec<Observation>, Option<(usize, usize)>);
+
+/// What is fitted: point observations of a fiber model, or a surface table's bins.
+enum Data {
+    Fiber(Vec<Observation>, Option<(usize, usize)>),
+    Surface(SurfaceData, (usize, usize)),
+}
 
 /// The channels an observation of colour data is split into: the luminance alone, or r, g, b.
 fn channels(per_channel: bool) -> Vec<Channel> {
@@ -98,6 +127,92 @@ fn from_table(path: &Path, lobe: &str, per_channel: bool) -> anyhow::Result<Obse
         }
     }
     Ok((obs, Some((nt, np))))
+}
+
+/// A surface table's lobe as fit data: the bins of every incidence (see
+/// [`fiberlab_fit::surface_bins`]) with their values per channel (or luminance) and
+/// standard errors (floored at the median positive one); and the `(θ, φ)` bin grid.
+fn from_surface_table(
+    path: &Path,
+    lobe: &str,
+    per_channel: bool,
+    sub: usize,
+    viewer_first: bool,
+) -> anyhow::Result<(SurfaceData, (usize, usize))> {
+    let lobes = fiberlab_io::table::read(path)?;
+    let t = lobes.get(lobe).with_context(|| {
+        format!(
+            "{}: no rows with lobe `{lobe}` (this surface table has: {})",
+            path.display(),
+            lobes.keys().cloned().collect::<Vec<_>>().join(", ")
+        )
+    })?;
+    let (nt, np) = (t.bins_theta, t.bins_phi);
+    let peak = t.f.iter().flatten().map(|v| v.luminance()).fold(0.0, f64::max);
+    if peak <= 0.0 {
+        bail!("{}: lobe `{lobe}` is zero in every bin; nothing to fit", path.display());
+    }
+    let floor = std_floor(t);
+    let mut data = SurfaceData::default();
+    for s in 0..t.theta_in.len() {
+        let first = data.bins.len();
+        data.bins.extend(fiberlab_fit::surface_bins(t.theta_in[s], t.phi_in[s], nt, np, sub, viewer_first));
+        for b in 0..nt * np {
+            for channel in channels(per_channel) {
+                data.observations.push(BinObservation {
+                    bin: first + b,
+                    value: channel.of(t.f[s][b]),
+                    sigma: channel.of(t.std[s][b]).max(floor),
+                    channel,
+                });
+            }
+        }
+    }
+    Ok((data, (nt, np)))
+}
+
+/// The σ of a surface-table bin no path reached (which has no spread): the median of the
+/// positive standard errors of the lobe (about one path's contribution to a bin), or 1 % of
+/// the peak if none is positive. A floor relative to the peak (as for fiber tables) would
+/// drown a cloth's diffuse bins under a sharp highlight, and the smallest σ (one weak path)
+/// would give an empty bin all the weight.
+pub fn std_floor(t: &fiberlab_io::table::LobeSlices) -> f64 {
+    let mut spread: Vec<f64> = t.std.iter().flatten().flat_map(|v| [v[0], v[1], v[2]]).filter(|&v| v > 0.0).collect();
+    spread.sort_by(f64::total_cmp);
+    let peak = t.f.iter().flatten().map(|v| v.luminance()).fold(0.0, f64::max);
+    spread.get(spread.len() / 2).copied().unwrap_or(0.01 * peak)
+}
+
+/// Refuses a table of the wrong kind for the model: a surface table for a fiber model, a
+/// fiber table (or data that is not a surface table) for a surface model.
+fn check_kinds(args: &Args, kind: ModelKind) -> anyhow::Result<Option<TableKind>> {
+    let table = args.table.as_ref().map(|t| read_kind(t).map(|k| (t, k))).transpose()?;
+    match (kind, table) {
+        (ModelKind::Fiber, Some((t, TableKind::Surface))) => bail!(
+            "{} is a surface table (BRDF over the hemisphere, from `fiberlab measure --surface`); `{}` is a fiber \
+             model — fit a surface model to it ({})",
+            t.display(),
+            args.model,
+            surface_names()
+        ),
+        (ModelKind::Surface, Some((t, TableKind::Fiber))) => bail!(
+            "{} is a fiber table (f_s about a fiber's axis, from `fiberlab measure`); `{}` is a surface model — fit \
+             a fiber model to it, or give a surface table (`fiberlab measure --surface`)",
+            t.display(),
+            args.model
+        ),
+        (ModelKind::Surface, None) => bail!(
+            "`{}` is a surface model: it is fitted to a surface table (--table from `fiberlab measure --surface`); \
+             --data and --target are for fiber models",
+            args.model
+        ),
+        (_, t) => Ok(t.map(|(_, k)| k)),
+    }
+}
+
+/// The surface models' names.
+fn surface_names() -> String {
+    fiberlab_scatter::SURFACE_MODELS.iter().map(|m| m.name).collect::<Vec<_>>().join(", ")
 }
 
 /// Observations of a target model on a 10° (θ_i, θ_r) × 15° φ grid, weighted by
@@ -210,28 +325,42 @@ fn free_param(text: &str) -> anyhow::Result<FreeParam> {
 /// Runs the fit.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let free: Vec<FreeParam> = args.init.iter().map(|p| free_param(p)).collect::<anyhow::Result<_>>()?;
-    let spec = fiberlab_scatter::find(&args.model)?;
+    let entry = fiberlab_scatter::lookup(&args.model)?;
+    let info = *entry.info();
+    let table_kind = check_kinds(args, entry.kind())?;
     // Channels are fitted when a colour parameter is free and the data has channels.
     let colour_free = free.iter().any(|f| {
-        spec.params.iter().any(|s| s.key == f.key && matches!(s.kind, fiberlab_scatter::params::ParamKind::Color(_)))
+        info.params.iter().any(|s| s.key == f.key && matches!(s.kind, fiberlab_scatter::params::ParamKind::Color(_)))
     });
     let per_channel = colour_free && !args.luminance;
-    let (data, grid) = match (&args.table, &args.data, &args.target) {
-        (Some(t), None, None) => from_table(t, &args.lobe, per_channel)?,
-        (None, Some(d), None) => (from_csv(d, per_channel)?, None),
-        (None, None, Some(name)) => {
+    let data = match (&args.table, &args.data, &args.target, table_kind) {
+        (Some(t), None, None, Some(TableKind::Surface)) => {
+            let (d, grid) = from_surface_table(t, &args.lobe, per_channel, args.subsamples, args.viewer_first)?;
+            Data::Surface(d, grid)
+        }
+        (Some(t), None, None, _) => {
+            let (d, grid) = from_table(t, &args.lobe, per_channel)?;
+            Data::Fiber(d, grid)
+        }
+        (None, Some(d), None, _) => Data::Fiber(from_csv(d, per_channel)?, None),
+        (None, None, Some(name), _) => {
             let target = crate::model_args::ModelArgs {
                 model: name.clone(),
                 params: args.target_params.clone(),
                 params_file: None,
             };
-            (from_model_in(&target.build()?, per_channel), None)
+            Data::Fiber(from_model_in(&target.build()?, per_channel), None)
         }
         _ => bail!("give exactly one of --table, --data and --target"),
     };
+    let observations = match &data {
+        Data::Fiber(d, _) => d.len(),
+        Data::Surface(d, _) => d.observations.len(),
+    };
+    let per_bin = if per_channel { 3 } else { 1 };
     let fixed: Vec<(String, String)> =
         args.fix.iter().map(|p| split_key_value(p).map_err(anyhow::Error::from)).collect::<anyhow::Result<_>>()?;
-    let base = ParamSet::parse(spec.name, spec.params, &fixed).with_context(|| format!("--fix for `{}`", spec.name))?;
+    let base = ParamSet::parse(info.name, info.params, &fixed).with_context(|| format!("--fix for `{}`", info.name))?;
     // On stderr, drawn only on a terminal: simplex iterations, then the polishing steps.
     let steps = args.iterations + fiberlab_fit::POLISH_ITERATIONS;
     let bar = if args.quiet { indicatif::ProgressBar::hidden() } else { indicatif::ProgressBar::new(steps) };
@@ -241,17 +370,20 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         )
         .expect("valid template"),
     );
-    bar.set_message(format!("{} parameter(s) to {} observations", free.len(), data.len()));
+    bar.set_message(format!("{} parameter(s) to {observations} observations", free.len()));
     bar.enable_steady_tick(std::time::Duration::from_millis(250));
     let progress = bar.clone();
     let options = FitOptions {
         max_iters: args.iterations,
         progress: Some(std::sync::Arc::new(move |i| progress.set_position(i))),
     };
-    let r = fit_with(&base, &free, &data, &options);
+    let (r, grid) = match &data {
+        Data::Fiber(d, grid) => (fit_with(&base, &free, d, &options), *grid),
+        Data::Surface(d, grid) => (fit_surface(&base, &free, d, &options), Some(*grid)),
+    };
     bar.finish_and_clear();
     let r = r?;
-    print_result(&args.model, data.len(), &r);
+    print_result(&args.model, observations, &r);
     let mut toml =
         format!("# fitted by fiberlab fit; use with --params-file\nmodel = \"{}\"\n\n[params]\n", args.model);
     for (k, v) in &fixed {
@@ -270,7 +402,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     println!("wrote {}", toml_path.display());
     if let Some((nt, np)) = grid {
         // Residual map of the first incidence: per bin, the RMS over its observations (channels).
-        let k = data.iter().take_while(|o| o.wi == data[0].wi && o.wo == data[0].wo).count().max(1);
+        let k = per_bin;
         let bin = |b: usize| (r.residuals[b * k..(b + 1) * k].iter().map(|x| x * x).sum::<f64>() / k as f64).sqrt();
         let image: Vec<Vec<f64>> = (0..nt).map(|i| (0..np).map(|j| bin(i * np + j)).collect()).collect();
         let azimuthal = (0..np).map(|j| (0..nt).map(|i| image[i][j]).sum()).collect();

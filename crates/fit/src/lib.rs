@@ -11,6 +11,11 @@
 //! advance. From luminance-only data the channels cannot be told apart, and a colour is fitted
 //! as one grey value (all channels equal).
 //!
+//! A surface model is fitted to the bins of a surface table ([`fit_surface`]): each bin's
+//! value is compared with the model's average over the bin ([`surface_bins`], midpoint nodes
+//! in the table's `cosθ dω` measure), the table's fixed direction taken as the light's or
+//! the viewer's ([`SurfaceBin::fixed_is_viewer`]).
+//!
 //! An uncertainty that the covariance cannot give is an [`Uncertainty::Undefined`] with the
 //! reason, and a parameter that ends on (within [`BOUND_TOLERANCE`] of) an end of its valid
 //! range is reported with that end ([`AtBound`]). Pure.
@@ -22,7 +27,9 @@ use argmin::solver::neldermead::NelderMead;
 use fiberlab_math::frame::direction;
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::params::{ParamKind, ParamSet, Range, RawValue};
-use fiberlab_scatter::{Field, Model, ModelError, ModelSpec, ScatteringFunction, find};
+use fiberlab_scatter::{
+    Field, Model, ModelError, ModelInfo, ScatteringFunction, SurfaceModel, SurfaceScattering, find, find_surface,
+};
 use std::fmt;
 use std::sync::Arc;
 use thiserror::Error;
@@ -245,17 +252,25 @@ impl Coordinate {
 }
 
 /// The least-squares problem: the model's validated fixed parameters and the free
-/// coordinates, whose trial values are set as numbers (never formatted to text and parsed back).
-struct Problem<'a> {
-    spec: &'static ModelSpec,
+/// coordinates, whose trial values are set as numbers (never formatted to text and parsed
+/// back). Generic over the model kind `M` (a fiber [`Model`] or a [`SurfaceModel`]): `build`
+/// makes one from parameters, `residuals` gives its normalized residuals on the data.
+struct Problem<'a, M> {
+    build: &'a dyn Fn(&ParamSet) -> Result<M, ModelError>,
     base: &'a ParamSet,
     coordinates: &'a [Coordinate],
-    data: &'a [Observation],
-    constraint: Option<Constraint<'a>>,
+    residuals: &'a dyn Fn(&M) -> Vec<f64>,
+    constraint: Option<&'a (dyn Fn(&M) -> bool + Sync)>,
 }
 
-impl Problem<'_> {
-    fn model_at(&self, p: &[f64]) -> Result<Model, ModelError> {
+impl<M> Clone for Problem<'_, M> {
+    fn clone(&self) -> Self {
+        Self { ..*self }
+    }
+}
+
+impl<M> Problem<'_, M> {
+    fn model_at(&self, p: &[f64]) -> Result<M, ModelError> {
         let mut params = self.base.clone();
         let mut k = 0;
         while k < self.coordinates.len() {
@@ -269,35 +284,39 @@ impl Problem<'_> {
                 k += 1;
             }
         }
-        (self.spec.build)(&params)
+        (self.build)(&params)
     }
 
     /// Whether the constraint (if any) admits `m`.
-    fn admits(&self, m: &Model) -> bool {
+    fn admits(&self, m: &M) -> bool {
         self.constraint.is_none_or(|admissible| admissible(m))
     }
 
-    fn residuals(&self, m: &Model) -> Vec<f64> {
-        // The channels of one direction pair follow each other: evaluate the model once for them.
-        let mut last: Option<(DVec3, DVec3, Rgb)> = None;
-        self.data
-            .iter()
-            .map(|o| {
-                let f = match last {
-                    Some((wi, wo, f)) if wi == o.wi && wo == o.wo => f,
-                    _ => {
-                        let f = width_averaged(m, o.wi, o.wo);
-                        last = Some((o.wi, o.wo, f));
-                        f
-                    }
-                };
-                (o.channel.of(f) - o.value) / o.sigma
-            })
-            .collect()
+    fn residuals(&self, m: &M) -> Vec<f64> {
+        (self.residuals)(m)
     }
 }
 
-impl CostFunction for Problem<'_> {
+/// Normalized residuals of a fiber model on point observations.
+fn fiber_residuals(data: &[Observation], m: &Model) -> Vec<f64> {
+    // The channels of one direction pair follow each other: evaluate the model once for them.
+    let mut last: Option<(DVec3, DVec3, Rgb)> = None;
+    data.iter()
+        .map(|o| {
+            let f = match last {
+                Some((wi, wo, f)) if wi == o.wi && wo == o.wo => f,
+                _ => {
+                    let f = width_averaged(m, o.wi, o.wo);
+                    last = Some((o.wi, o.wo, f));
+                    f
+                }
+            };
+            (o.channel.of(f) - o.value) / o.sigma
+        })
+        .collect()
+}
+
+impl<M> CostFunction for Problem<'_, M> {
     type Param = Vec<f64>;
     type Output = f64;
 
@@ -378,10 +397,147 @@ fn fit_under(
     if spec.data.is_some() {
         return Err(FitError::Setup(format!("model `{}` is a table; it has no parameters to fit", spec.name)));
     }
+    let per_channel = data.iter().any(|o| o.channel != Channel::Luminance);
+    let (coordinates, start) = coordinates_of(&spec.info, base, free, per_channel)?;
+    check_data(data.len(), coordinates.len(), data.iter().map(|o| (o.value, o.sigma)))?;
+    let build = |p: &ParamSet| (spec.build)(p);
+    let residuals = |m: &Model| fiber_residuals(data, m);
+    let constraint = constraint.map(|c| c as &(dyn Fn(&Model) -> bool + Sync));
+    let problem = Problem { build: &build, base, coordinates: &coordinates, residuals: &residuals, constraint };
+    solve(&problem, start, data.len(), options)
+}
+
+/// One bin of a surface table: the table's fixed direction (its `theta_i, phi_i`) and
+/// quadrature nodes over the bin's directions (surface frame, `z` the normal), with weights
+/// summing to 1, so that `Σ w·f_r` over the nodes is the model's average over the bin in the
+/// measure the table uses. The fixed direction is the light's (`f_r(ω_fixed, ω_k)`, a table
+/// traced from the light) unless `fixed_is_viewer` (`f_r(ω_k, ω_fixed)`, a table traced from
+/// the viewer, as the renderer's camera paths are): it matters for a non-reciprocal model.
+#[derive(Clone, Debug)]
+pub struct SurfaceBin {
+    /// The table's fixed direction.
+    pub fixed: DVec3,
+    /// Whether `fixed` is toward the viewer (else toward the light).
+    pub fixed_is_viewer: bool,
+    /// `(direction, weight)` nodes.
+    pub nodes: Vec<(DVec3, f64)>,
+}
+
+impl SurfaceBin {
+    /// The model's average of `f_r` over the bin.
+    #[must_use]
+    pub fn average(&self, model: &SurfaceModel) -> Rgb {
+        self.nodes.iter().fold(Rgb::ZERO, |acc, &(d, w)| {
+            let f = if self.fixed_is_viewer { model.eval(d, self.fixed) } else { model.eval(self.fixed, d) };
+            acc + f * w
+        })
+    }
+}
+
+/// One measured number of a surface bin.
+#[derive(Clone, Copy, Debug)]
+pub struct BinObservation {
+    /// Index of its bin in [`SurfaceData::bins`].
+    pub bin: usize,
+    /// Measured bin-averaged `f_r` (sr⁻¹) in `channel`.
+    pub value: f64,
+    /// Its standard error (> 0).
+    pub sigma: f64,
+    /// What of `f_r` was measured.
+    pub channel: Channel,
+}
+
+/// A surface table as fit data: its bins and the numbers measured on them.
+#[derive(Clone, Debug, Default)]
+pub struct SurfaceData {
+    /// The bins.
+    pub bins: Vec<SurfaceBin>,
+    /// The measured numbers (any order; the channels of one bin share its evaluation).
+    pub observations: Vec<BinObservation>,
+}
+
+/// The bins of one incidence of a surface table, `[θ_o][φ_o]` row-major: θ_o in [0, π/2]
+/// in `nt` bins from the normal, φ_o (absolute azimuth from `x` toward `y`) in [−π, π) in
+/// `np` bins; each bin integrated by the midpoint rule on `sub × sub` nodes weighted by the
+/// `cosθ_o dω_o = sinθ_o cosθ_o dθ_o dφ_o` measure of a BRDF table (a bin's value is the power
+/// it receives per cos-weighted solid angle).
+#[must_use]
+pub fn surface_bins(
+    theta_i: f64,
+    phi_i: f64,
+    nt: usize,
+    np: usize,
+    sub: usize,
+    fixed_is_viewer: bool,
+) -> Vec<SurfaceBin> {
+    let dir = |th: f64, ph: f64| DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+    let wi = dir(theta_i, phi_i);
+    let (dt, dp) = (std::f64::consts::FRAC_PI_2 / nt as f64, std::f64::consts::TAU / np as f64);
+    let sub = sub.max(1);
+    (0..nt * np)
+        .map(|b| {
+            let (i, j) = (b / np, b % np);
+            let mut nodes = Vec::with_capacity(sub * sub);
+            for a in 0..sub {
+                let th = (i as f64 + (a as f64 + 0.5) / sub as f64) * dt;
+                for c in 0..sub {
+                    let ph = -std::f64::consts::PI + (j as f64 + (c as f64 + 0.5) / sub as f64) * dp;
+                    nodes.push((dir(th, ph), th.sin() * th.cos()));
+                }
+            }
+            let total: f64 = nodes.iter().map(|n| n.1).sum();
+            nodes.iter_mut().for_each(|n| n.1 /= total);
+            SurfaceBin { fixed: wi, fixed_is_viewer, nodes }
+        })
+        .collect()
+}
+
+/// A surface model's bin averages of `f_r` on `bins`.
+#[must_use]
+pub fn bin_averages(model: &SurfaceModel, bins: &[SurfaceBin]) -> Vec<Rgb> {
+    bins.iter().map(|b| b.average(model)).collect()
+}
+
+/// Fits the `free` parameters of the surface model whose other parameters are `base`
+/// (validated; a surface model's name) to the bins of a surface table: the objective is
+/// `χ² = Σ ((⟨f_r⟩_bin − value)/σ)²` with the model averaged over each bin ([`surface_bins`]),
+/// as the table's values are. A colour parameter is fitted per channel when any observation
+/// is of a channel.
+pub fn fit_surface(
+    base: &ParamSet,
+    free: &[FreeParam],
+    data: &SurfaceData,
+    options: &FitOptions,
+) -> Result<FitResult, FitError> {
+    let spec = find_surface(base.model())?;
+    let obs = &data.observations;
+    if let Some(o) = obs.iter().find(|o| o.bin >= data.bins.len()) {
+        return Err(FitError::Setup(format!("observation of bin {} beyond the {} bins", o.bin, data.bins.len())));
+    }
+    let per_channel = obs.iter().any(|o| o.channel != Channel::Luminance);
+    let (coordinates, start) = coordinates_of(&spec.info, base, free, per_channel)?;
+    check_data(obs.len(), coordinates.len(), obs.iter().map(|o| (o.value, o.sigma)))?;
+    let build = |p: &ParamSet| (spec.build)(p);
+    let residuals = |m: &SurfaceModel| {
+        let f = bin_averages(m, &data.bins);
+        obs.iter().map(|o| (o.channel.of(f[o.bin]) - o.value) / o.sigma).collect()
+    };
+    let problem = Problem { build: &build, base, coordinates: &coordinates, residuals: &residuals, constraint: None };
+    solve(&problem, start, obs.len(), options)
+}
+
+/// The free coordinates of `free` in the parameter table of `info` and their starting
+/// values: a colour parameter is three coordinates when `per_channel`.
+fn coordinates_of(
+    info: &ModelInfo,
+    base: &ParamSet,
+    free: &[FreeParam],
+    per_channel: bool,
+) -> Result<(Vec<Coordinate>, Vec<f64>), FitError> {
+    let spec = info;
     if free.is_empty() {
         return Err(FitError::Setup("no free parameters (give --init key=value)".into()));
     }
-    let per_channel = data.iter().any(|o| o.channel != Channel::Luminance);
     let mut coordinates = Vec::new();
     let mut start = Vec::new();
     for (i, f) in free.iter().enumerate() {
@@ -433,17 +589,30 @@ fn fit_under(
             }
         }
     }
-    if data.len() <= coordinates.len() {
+    Ok((coordinates, start))
+}
+
+/// Enough observations for the free numbers, each with a finite value and σ > 0.
+fn check_data(observations: usize, free: usize, mut values: impl Iterator<Item = (f64, f64)>) -> Result<(), FitError> {
+    if observations <= free {
         return Err(FitError::Setup(format!(
-            "{} observations for {} free numbers: too few to fit and estimate uncertainties",
-            data.len(),
-            coordinates.len()
+            "{observations} observations for {free} free numbers: too few to fit and estimate uncertainties"
         )));
     }
-    if data.iter().any(|o| o.sigma.is_nan() || o.sigma <= 0.0 || !o.value.is_finite()) {
+    if values.any(|(v, s)| s.is_nan() || s <= 0.0 || !v.is_finite()) {
         return Err(FitError::Setup("every observation needs a finite value and σ > 0".into()));
     }
-    let problem = Problem { spec, base, coordinates: &coordinates, data, constraint };
+    Ok(())
+}
+
+/// Nelder–Mead from `start`, polished, with the uncertainties at the optimum.
+fn solve<M>(
+    problem: &Problem<M>,
+    start: Vec<f64>,
+    observations: usize,
+    options: &FitOptions,
+) -> Result<FitResult, FitError> {
+    let coordinates = problem.coordinates;
     let start_model = problem.model_at(&start)?;
     if !problem.admits(&start_model) {
         return Err(FitError::Setup("the starting point does not satisfy the fit's constraint".into()));
@@ -455,14 +624,13 @@ fn fit_under(
         simplex.push(p);
     }
     let solver = NelderMead::new(simplex).with_sd_tolerance(1e-9).map_err(|e| FitError::Optimizer(e.to_string()))?;
-    let mut executor = Executor::new(Problem { spec, base, coordinates: &coordinates, data, constraint }, solver)
-        .configure(|s| s.max_iters(options.max_iters));
+    let mut executor = Executor::new(problem.clone(), solver).configure(|s| s.max_iters(options.max_iters));
     if let Some(progress) = &options.progress {
         executor = executor.add_observer(IterationObserver(progress.clone()), ObserverMode::Always);
     }
     let res = executor.run().map_err(|e| FitError::Optimizer(e.to_string()))?;
     let iterations = res.state().get_iter();
-    let best = polish(&problem, res.state().get_best_param().cloned().unwrap_or(start), |step| {
+    let best = polish(problem, res.state().get_best_param().cloned().unwrap_or(start), |step| {
         if let Some(progress) = &options.progress {
             progress(options.max_iters + step);
         }
@@ -470,9 +638,9 @@ fn fit_under(
     let m = problem.model_at(&best)?;
     let residuals = problem.residuals(&m);
     let chi2: f64 = residuals.iter().map(|r| r * r).sum();
-    let dof = data.len() - coordinates.len();
+    let dof = observations - coordinates.len();
     let at_bound: Vec<Option<AtBound>> = coordinates.iter().zip(&best).map(|(c, &v)| on_bound(v, c.range)).collect();
-    let uncertainties = uncertainties(&problem, &best, &residuals, &at_bound, chi2 / dof as f64);
+    let uncertainties = uncertainties(problem, &best, &residuals, &at_bound, chi2 / dof as f64);
     let mut values: Vec<(String, Vec<f64>)> = Vec::new();
     for (c, &v) in coordinates.iter().zip(&best) {
         match values.last_mut() {
@@ -494,7 +662,7 @@ fn fit_under(
 
 /// Columns of the residuals' Jacobian by central differences (one-sided at the edge of a
 /// parameter's valid range); `None` for a coordinate the model cannot be built on either side of.
-fn jacobian(problem: &Problem, p: &[f64], r0: &[f64]) -> Vec<Option<Vec<f64>>> {
+fn jacobian<M>(problem: &Problem<M>, p: &[f64], r0: &[f64]) -> Vec<Option<Vec<f64>>> {
     (0..p.len())
         .map(|k| {
             let step = 1e-4 * p[k].abs().max(1.0);
@@ -519,7 +687,7 @@ pub const POLISH_ITERATIONS: u64 = 20;
 /// Levenberg–Marquardt steps from the simplex's best point (Nelder–Mead crawls in many
 /// dimensions, e.g. three channels of two colours): each solves
 /// `(JᵀJ + λ·diag JᵀJ) δ = −Jᵀr` and is kept only when it lowers χ² inside the valid ranges.
-fn polish(problem: &Problem, mut p: Vec<f64>, progress: impl Fn(u64)) -> Vec<f64> {
+fn polish<M>(problem: &Problem<M>, mut p: Vec<f64>, progress: impl Fn(u64)) -> Vec<f64> {
     let chi2 = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
     let Ok(m) = problem.model_at(&p) else { return p };
     let mut r = problem.residuals(&m);
@@ -580,8 +748,8 @@ fn on_bound(v: f64, range: Range) -> Option<AtBound> {
 /// of the residuals. Coordinates on which the data do not depend, or on a bound, are held
 /// fixed (their uncertainty undefined, the others' conditional on them); the rest share one
 /// verdict when their scaled `JᵀJ` is ill-conditioned.
-fn uncertainties(
-    problem: &Problem,
+fn uncertainties<M>(
+    problem: &Problem<M>,
     p: &[f64],
     r0: &[f64],
     at_bound: &[Option<AtBound>],
@@ -898,5 +1066,101 @@ mod tests {
         let three = [FreeParam { key: "sigma_a".into(), start: vec![0.5, 0.5, 0.5] }];
         let e = fit_with(&chiang(&fixed), &three, &luminance, &options).unwrap_err().to_string();
         assert!(e.contains("cannot tell the channels"), "{e}");
+    }
+}
+
+#[cfg(test)]
+mod surface_tests {
+    use super::*;
+    use fiberlab_scatter::build_surface;
+
+    fn sadeghi(pairs: &[(&str, &str)]) -> ParamSet {
+        let spec = find_surface("sadeghi-2013").unwrap();
+        ParamSet::parse(spec.name, spec.params, pairs).unwrap()
+    }
+
+    /// A surface table synthesised from `sadeghi-2013` with known thread parameters — bin
+    /// averages on a finer quadrature (6 × 6 nodes) than the fit's (3 × 3), plus 2 % noise
+    /// per channel — is fitted from other starting values: the parameters come back within
+    /// a few standard errors, the colour per channel.
+    #[test]
+    fn sadeghi_parameters_are_recovered_from_a_noisy_synthetic_table() {
+        let truth_pairs = [("gamma_s_1", "9"), ("k_d_1", "0.4"), ("albedo_1", "0.2,0.45,0.7")];
+        let truth = build_surface("sadeghi-2013", &truth_pairs).unwrap();
+        let mut uniform = fiberlab_check::rng::TestRng::new(2013).into_uniforms();
+        let (nt, np) = (12, 24);
+        let mut data = SurfaceData::default();
+        for (ti, pi) in [(0.5, 0.3), (1.0, 2.0)] {
+            let fine = surface_bins(ti, pi, nt, np, 6, false);
+            let f = bin_averages(&truth, &fine);
+            let first = data.bins.len();
+            data.bins.extend(surface_bins(ti, pi, nt, np, 3, false));
+            for (b, v) in f.iter().enumerate() {
+                for c in 0..3 {
+                    let sigma = 0.02 * v[c] + 1e-4;
+                    let z = ((0..4).map(|_| uniform()).sum::<f64>() - 2.0) * 3f64.sqrt();
+                    data.observations.push(BinObservation {
+                        bin: first + b,
+                        value: v[c] + sigma * z,
+                        sigma,
+                        channel: Channel::Rgb(c),
+                    });
+                }
+            }
+        }
+        let free = [
+            FreeParam { key: "gamma_s_1".into(), start: vec![15.0] },
+            FreeParam { key: "k_d_1".into(), start: vec![0.2] },
+            FreeParam { key: "albedo_1".into(), start: vec![0.5] },
+        ];
+        let r = fit_surface(&sadeghi(&[]), &free, &data, &FitOptions { max_iters: 600, progress: None }).unwrap();
+        let expect = [9.0, 0.4, 0.2, 0.45, 0.7];
+        for (k, ((key, v), u)) in r.params.iter().zip(&r.uncertainties).enumerate() {
+            let u = u.sigma().unwrap_or_else(|| panic!("{key}: {u:?}"));
+            assert!((v - expect[k]).abs() < 5.0 * u + 0.01 * expect[k], "{key} = {v} ± {u}, truth {}", expect[k]);
+        }
+        assert!(r.chi2 / (r.dof as f64) < 2.0, "reduced χ² {}", r.chi2 / r.dof as f64);
+    }
+
+    /// The midpoint bins integrate the BRDF measure exactly for a constant: a Lambertian
+    /// surface's bin averages equal k_d/π in every bin, whatever the node count.
+    #[test]
+    fn bin_averages_of_a_constant_brdf_are_that_constant() {
+        let m = build_surface("lambertian", &[("k_d", "0.6")]).unwrap();
+        for sub in [1, 4] {
+            for f in bin_averages(&m, &surface_bins(0.7, -1.0, 5, 8, sub, sub == 4)) {
+                assert!((f.luminance() - 0.6 / std::f64::consts::PI).abs() < 1e-12, "{f:?}");
+            }
+        }
+    }
+
+    /// The fixed direction of a bin is the light's unless `fixed_is_viewer`: for the
+    /// non-reciprocal `sadeghi-2013` the two readings differ, and each is the model's
+    /// `f_r(ω_light, ω_viewer)` with the directions in their places.
+    #[test]
+    fn the_fixed_direction_is_the_light_or_the_viewer() {
+        let m = build_surface("sadeghi-2013", &[("preset", "silk-shot")]).unwrap();
+        let (fixed, d) = (DVec3::new(0.5, 0.1, 0.86).normalize(), DVec3::new(-0.3, 0.6, 0.74).normalize());
+        let bin = |fixed_is_viewer| SurfaceBin { fixed, fixed_is_viewer, nodes: vec![(d, 1.0)] };
+        let (light, viewer) = (bin(false).average(&m), bin(true).average(&m));
+        assert_eq!(light, m.eval(fixed, d));
+        assert_eq!(viewer, m.eval(d, fixed));
+        assert!((light.luminance() - viewer.luminance()).abs() > 1e-3 * light.luminance(), "{light:?} {viewer:?}");
+    }
+
+    /// A fiber model's name is refused by the surface fit, naming the surface models.
+    #[test]
+    fn a_fiber_model_is_refused_by_the_surface_fit() {
+        let spec = find("chiang").unwrap();
+        let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
+        let e = fit_surface(
+            &base,
+            &[FreeParam { key: "beta_m".into(), start: vec![0.3] }],
+            &SurfaceData::default(),
+            &FitOptions { max_iters: 1, progress: None },
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("fiber model") && e.contains("sadeghi-2013"), "{e}");
     }
 }

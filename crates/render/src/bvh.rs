@@ -395,11 +395,11 @@ impl Builder {
             self.build(right, first + mid, rb, rc);
             return;
         }
-        // Large subtrees are built in parallel into their own node lists, then appended with
-        // their interior-node offsets shifted (the result does not depend on the thread count).
-        let (mut left_builder, mut right_builder) = (Builder { nodes: Vec::new() }, Builder { nodes: Vec::new() });
-        rayon::join(|| left_builder.build(left, first, lb, lc), || right_builder.build(right, first + mid, rb, rc));
-        self.append(left_builder.nodes);
+        // Large subtrees are built in parallel: the left one in place (it follows its parent),
+        // the right one into its own node list, then appended with its interior-node offsets
+        // shifted (the result does not depend on the thread count).
+        let mut right_builder = Builder { nodes: Vec::new() };
+        rayon::join(|| self.build(left, first, lb, lc), || right_builder.build(right, first + mid, rb, rc));
         self.nodes[node].offset = self.nodes.len() as u32;
         self.append(right_builder.nodes);
     }
@@ -761,20 +761,36 @@ fn collapse(binary: &[Node], root: usize, end: usize, out: &mut Vec<Node4>) -> u
         }
     } else {
         use rayon::prelude::*;
-        let subtrees: Vec<Vec<Node4>> = slots[..len]
-            .par_iter()
-            .map(|&(c, e)| {
-                let mut v = Vec::new();
-                if binary[c].count == 0 {
-                    collapse(binary, c, e, &mut v);
+        // The first interior child's subtree follows its parent, as in the sequential order:
+        // it is collapsed in place, the others into their own lists at the same time.
+        let first = slots[..len].iter().position(|&(c, _)| binary[c].count == 0).unwrap_or(len);
+        let mut first_ref = 0;
+        let ((), subtrees) = rayon::join(
+            || {
+                if let Some(&(c, e)) = slots.get(first).filter(|_| first < len) {
+                    first_ref = collapse(binary, c, e, out);
                 }
-                v
-            })
-            .collect();
-        for ((r, &(c, _)), sub) in refs.iter_mut().zip(&slots[..len]).zip(subtrees) {
+            },
+            || {
+                slots[..len]
+                    .par_iter()
+                    .enumerate()
+                    .map(|(k, &(c, e))| {
+                        let mut v = Vec::new();
+                        if k > first && binary[c].count == 0 {
+                            collapse(binary, c, e, &mut v);
+                        }
+                        v
+                    })
+                    .collect::<Vec<Vec<Node4>>>()
+            },
+        );
+        for (k, ((r, &(c, _)), sub)) in refs.iter_mut().zip(&slots[..len]).zip(subtrees).enumerate() {
             let b = &binary[c];
             let child = if b.count > 0 {
                 ChildRef::pack(b.count, b.offset)
+            } else if k == first {
+                ChildRef::pack(0, first_ref)
             } else {
                 // The subtree's wide nodes were numbered from 0: shift its interior references.
                 let base = out.len() as u32;

@@ -215,16 +215,24 @@ fn round_up(x: f64) -> f32 {
     if f64::from(f) < x { f.next_up() } else { f }
 }
 
-/// A primitive during the build: its outward-rounded `f32` box and its index. The records
+/// A primitive during the build: its outward-rounded `f32` box and the index that traversal
+/// reports for it (several boxes may share one index: pieces of one shape). The records
 /// themselves are partitioned (sequential memory traffic, no indirection).
 #[derive(Clone, Copy, Debug)]
-struct BuildPrim {
+pub struct BuildPrim {
     min: Vec3,
     index: u32,
     max: Vec3,
 }
 
 impl BuildPrim {
+    /// The record of box `b`, rounded outward to `f32`, reported as `index`.
+    #[must_use]
+    pub fn new(b: &Aabb, index: u32) -> Self {
+        let round = |v: DVec3, f: fn(f64) -> f32| Vec3::new(f(v.x), f(v.y), f(v.z));
+        Self { min: round(b.min, round_down), index, max: round(b.max, round_up) }
+    }
+
     fn centroid(&self) -> Vec3 {
         0.5 * (self.min + self.max)
     }
@@ -387,11 +395,11 @@ impl Builder {
             self.build(right, first + mid, rb, rc);
             return;
         }
-        // Large subtrees are built in parallel into their own node lists, then appended with
-        // their interior-node offsets shifted (the result does not depend on the thread count).
-        let (mut left_builder, mut right_builder) = (Builder { nodes: Vec::new() }, Builder { nodes: Vec::new() });
-        rayon::join(|| left_builder.build(left, first, lb, lc), || right_builder.build(right, first + mid, rb, rc));
-        self.append(left_builder.nodes);
+        // Large subtrees are built in parallel: the left one in place (it follows its parent),
+        // the right one into its own node list, then appended with its interior-node offsets
+        // shifted (the result does not depend on the thread count).
+        let mut right_builder = Builder { nodes: Vec::new() };
+        rayon::join(|| self.build(left, first, lb, lc), || right_builder.build(right, first + mid, rb, rc));
         self.nodes[node].offset = self.nodes.len() as u32;
         self.append(right_builder.nodes);
     }
@@ -413,26 +421,29 @@ impl Bvh {
     #[must_use]
     pub fn build(bounds: &[Aabb]) -> Self {
         assert!(bounds.len() < u32::MAX as usize, "too many primitives for u32 indices");
-        if bounds.is_empty() {
+        Self::build_records(bounds.iter().enumerate().map(|(i, b)| BuildPrim::new(b, i as u32)).collect())
+    }
+
+    /// Builds the hierarchy over prepared records (consumed: their memory is freed before the
+    /// wide nodes are made); traversal reports each record's index.
+    #[must_use]
+    pub fn build_records(mut records: Vec<BuildPrim>) -> Self {
+        assert!(records.len() < u32::MAX as usize, "too many primitives for u32 indices");
+        if records.is_empty() {
             return Self::default();
         }
-        let round = |v: DVec3, f: fn(f64) -> f32| Vec3::new(f(v.x), f(v.y), f(v.z));
-        let mut records: Vec<BuildPrim> = bounds
-            .iter()
-            .enumerate()
-            .map(|(i, b)| BuildPrim { min: round(b.min, round_down), index: i as u32, max: round(b.max, round_up) })
-            .collect();
-        let mut b = Builder { nodes: Vec::with_capacity(2 * bounds.len() / 3 + 1) };
+        let mut b = Builder { nodes: Vec::with_capacity(2 * records.len() / 3 + 1) };
         let (root, cb) = FBox::of(&records);
         b.build(&mut records, 0, root, cb);
         let prims = records.iter().map(|r| r.index).collect();
+        drop(records);
         let binary = b.nodes;
         let mut nodes = Vec::with_capacity(binary.len() / 3 + 1);
         if binary[0].count > 0 {
             // A single leaf: one wide node holding it.
             nodes.push(Node4::new(&[(&binary[0], ChildRef::pack(binary[0].count, binary[0].offset))]));
         } else {
-            collapse(&binary, 0, &mut nodes);
+            collapse(&binary, 0, binary.len(), &mut nodes);
         }
         Self { nodes, prims }
     }
@@ -454,7 +465,7 @@ impl Bvh {
     /// Heap bytes used by nodes and primitive indices.
     #[must_use]
     pub fn bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<Node>() + self.prims.len() * 4
+        self.nodes.len() * std::mem::size_of::<Node4>() + self.prims.len() * 4
     }
 
     /// Walks the leaves the ray reaches, nearest-first by box entry, calling
@@ -709,20 +720,28 @@ fn clamp_finite(x: f32) -> f32 {
     if x.is_nan() { 0.0 } else { x.clamp(-1e30, 1e30) }
 }
 
-/// Collapses the binary subtree at interior node `root` into wide nodes appended to `out`;
-/// returns the index of its wide node.
-fn collapse(binary: &[Node], root: usize, out: &mut Vec<Node4>) -> u32 {
-    let children = |i: usize| [i + 1, binary[i].offset as usize];
-    let mut slots = [0usize; 4];
-    slots[..2].copy_from_slice(&children(root));
+/// Binary subtrees of at least this many nodes are collapsed in parallel.
+const PARALLEL_COLLAPSE_MIN: usize = 16_384;
+
+/// Collapses the binary subtree at interior node `root`, which spans binary nodes
+/// `root..end` (a subtree's nodes are contiguous: the left child follows its parent, the right
+/// one starts at `offset`), into wide nodes appended to `out`; returns the index of its wide
+/// node. Wide nodes come out in depth-first order; large subtrees are collapsed in parallel
+/// into their own lists, then appended in that same order, so the result does not depend on
+/// the thread count.
+fn collapse(binary: &[Node], root: usize, end: usize, out: &mut Vec<Node4>) -> u32 {
+    // A binary node and the end of its subtree.
+    let children = |i: usize, end: usize| [(i + 1, binary[i].offset as usize), (binary[i].offset as usize, end)];
+    let mut slots = [(0usize, 0usize); 4];
+    slots[..2].copy_from_slice(&children(root, end));
     let mut len = 2;
     while len < 4 {
         // Open the interior child with the largest box.
         let best = (0..len)
-            .filter(|&i| binary[slots[i]].count == 0)
-            .max_by(|&a, &b| binary[slots[a]].bounds.half_area().total_cmp(&binary[slots[b]].bounds.half_area()));
+            .filter(|&i| binary[slots[i].0].count == 0)
+            .max_by(|&a, &b| binary[slots[a].0].bounds.half_area().total_cmp(&binary[slots[b].0].bounds.half_area()));
         let Some(i) = best else { break };
-        let [a, b] = children(slots[i]);
+        let [a, b] = children(slots[i].0, slots[i].1);
         slots[i] = a;
         slots[len] = b;
         len += 1;
@@ -730,11 +749,63 @@ fn collapse(binary: &[Node], root: usize, out: &mut Vec<Node4>) -> u32 {
     let index = out.len();
     out.push(Node4::new(&[]));
     let mut refs = [(&binary[0], 0u32); 4];
-    for (r, &c) in refs.iter_mut().zip(&slots[..len]) {
-        let b = &binary[c];
-        let child =
-            if b.count > 0 { ChildRef::pack(b.count, b.offset) } else { ChildRef::pack(0, collapse(binary, c, out)) };
-        *r = (b, child);
+    if end - root < PARALLEL_COLLAPSE_MIN {
+        for (r, &(c, e)) in refs.iter_mut().zip(&slots[..len]) {
+            let b = &binary[c];
+            let child = if b.count > 0 {
+                ChildRef::pack(b.count, b.offset)
+            } else {
+                ChildRef::pack(0, collapse(binary, c, e, out))
+            };
+            *r = (b, child);
+        }
+    } else {
+        use rayon::prelude::*;
+        // The first interior child's subtree follows its parent, as in the sequential order:
+        // it is collapsed in place, the others into their own lists at the same time.
+        let first = slots[..len].iter().position(|&(c, _)| binary[c].count == 0).unwrap_or(len);
+        let mut first_ref = 0;
+        let ((), subtrees) = rayon::join(
+            || {
+                if let Some(&(c, e)) = slots.get(first).filter(|_| first < len) {
+                    first_ref = collapse(binary, c, e, out);
+                }
+            },
+            || {
+                slots[..len]
+                    .par_iter()
+                    .enumerate()
+                    .map(|(k, &(c, e))| {
+                        let mut v = Vec::new();
+                        if k > first && binary[c].count == 0 {
+                            collapse(binary, c, e, &mut v);
+                        }
+                        v
+                    })
+                    .collect::<Vec<Vec<Node4>>>()
+            },
+        );
+        for (k, ((r, &(c, _)), sub)) in refs.iter_mut().zip(&slots[..len]).zip(subtrees).enumerate() {
+            let b = &binary[c];
+            let child = if b.count > 0 {
+                ChildRef::pack(b.count, b.offset)
+            } else if k == first {
+                ChildRef::pack(0, first_ref)
+            } else {
+                // The subtree's wide nodes were numbered from 0: shift its interior references.
+                let base = out.len() as u32;
+                out.extend(sub.into_iter().map(|mut n| {
+                    for c in &mut n.child {
+                        if ChildRef::count(*c) == 0 {
+                            *c = ChildRef::pack(0, ChildRef::index(*c) + base);
+                        }
+                    }
+                    n
+                }));
+                ChildRef::pack(0, base)
+            };
+            *r = (b, child);
+        }
     }
     out[index] = Node4::new(&refs[..len]);
     index as u32

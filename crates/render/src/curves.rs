@@ -36,7 +36,7 @@
 //! which is Φ(0, h) of `docs/theory/conventions.md` ("Exit azimuth") in pbrt's `φ_i − φ_o` convention (tested below by
 //! reflecting the ray off the actual cylinder normal).
 
-use crate::bvh::{Aabb, Bvh, Ray};
+use crate::bvh::{Aabb, BuildPrim, Bvh, Ray};
 use fiberlab_io::HairFile;
 use fiberlab_math::{DVec3, FiberFrame};
 use glam::{Vec3, Vec4};
@@ -137,7 +137,17 @@ impl CurveSet {
     /// Strands with fewer than 2 points, zero radius or non-finite data are skipped.
     #[must_use]
     pub fn from_polylines<'a>(strands: impl IntoIterator<Item = (&'a [DVec3], &'a [f64])>) -> Self {
-        let mut segments = Vec::new();
+        let (segments, count) = Self::segments_of(strands, 0);
+        Self::from_segments(segments, count)
+    }
+
+    /// The segments of polylines (as [`Self::from_polylines`]) and the number of strands kept;
+    /// `capacity`: the expected number of segments.
+    fn segments_of<'a>(
+        strands: impl IntoIterator<Item = (&'a [DVec3], &'a [f64])>,
+        capacity: usize,
+    ) -> (Vec<Segment>, usize) {
+        let mut segments = Vec::with_capacity(capacity);
         let mut count = 0u32;
         for (points, radii) in strands {
             let n = points.len();
@@ -174,7 +184,7 @@ impl CurveSet {
             }
             count += 1;
         }
-        Self::from_segments(segments, count as usize)
+        (segments, count as usize)
     }
 
     /// Tubes from a `.hair` file (radius = thickness/2).
@@ -184,7 +194,12 @@ impl CurveSet {
         let points: Vec<DVec3> =
             hair.points.iter().map(|p| DVec3::new(p[0].into(), p[1].into(), p[2].into())).collect();
         let radii: Vec<f64> = (0..points.len()).map(|i| 0.5 * f64::from(hair.thickness_at(i))).collect();
-        Self::from_polylines(ranges.into_iter().map(|r| (&points[r.clone()], &radii[r])))
+        let capacity = points.len().saturating_sub(ranges.len());
+        let (segments, count) =
+            Self::segments_of(ranges.into_iter().map(|r| (&points[r.clone()], &radii[r])), capacity);
+        // The `f64` copies of the points are not needed by the build.
+        drop((points, radii));
+        Self::from_segments(segments, count)
     }
 
     /// Tubes from cubic curves: per strand, control points and a radius per control point;
@@ -223,8 +238,17 @@ impl CurveSet {
     }
 
     fn from_segments(segments: Vec<Segment>, strands: usize) -> Self {
-        let mut bounds = Vec::with_capacity(segments.len());
-        let mut piece_segment = Vec::with_capacity(segments.len());
+        // The pieces' records are made straight in the build's `f32` form, each reporting its
+        // segment (no `f64` box array, no piece → segment table).
+        let pieces_of = |s: &Segment| {
+            let mut e = (s.p1().as_dvec3() - s.p0.as_dvec3()).abs().to_array();
+            e.sort_by(f64::total_cmp);
+            // The axis's extent along its middle coordinate direction: the larger of the two box
+            // sides that a whole-segment box inflates.
+            ((e[1] / (SPLIT_SPREAD_IN_RADII * f64::from(s.radius))).ceil() as usize).clamp(1, MAX_PIECES)
+        };
+        let total: usize = segments.iter().map(pieces_of).sum();
+        let mut records = Vec::with_capacity(total);
         for (i, s) in segments.iter().enumerate() {
             let (p0, p1) = (s.p0.as_dvec3(), s.p1().as_dvec3());
             let r = f64::from(s.radius);
@@ -232,21 +256,15 @@ impl CurveSet {
             // A miter ellipse reaches r/cos from the vertex; bound both ends by that sphere.
             let cos = s.n0.as_dvec3().dot(d).min(s.n1.as_dvec3().dot(d)).max(MIN_MITER_COS);
             let reach = r / cos * (1.0 + 1e-6);
-            // The axis's extent along its middle coordinate direction: the larger of the two box
-            // sides that a whole-segment box inflates.
-            let mut e = (p1 - p0).abs().to_array();
-            e.sort_by(f64::total_cmp);
-            let pieces = ((e[1] / (SPLIT_SPREAD_IN_RADII * r)).ceil() as usize).clamp(1, MAX_PIECES);
+            let pieces = pieces_of(s);
             for k in 0..pieces {
                 let a = p0 + (p1 - p0) * (k as f64 / pieces as f64);
                 let b = p0 + (p1 - p0) * ((k + 1) as f64 / pieces as f64);
-                bounds.push(Aabb::sphere(a, reach).union(Aabb::sphere(b, reach)));
-                piece_segment.push(i as u32);
+                records.push(BuildPrim::new(&Aabb::sphere(a, reach).union(Aabb::sphere(b, reach)), i as u32));
             }
         }
-        let mut bvh = Bvh::build(&bounds);
-        bvh.map_prims(|piece| piece_segment[piece as usize]);
-        Self { segments, pieces: piece_segment.len(), bvh, strands }
+        let bvh = Bvh::build_records(records);
+        Self { segments, pieces: total, bvh, strands }
     }
 
     /// Peak bytes per segment of building a `CurveSet` from a `.hair` file's strands, the BVH
@@ -261,7 +279,9 @@ impl CurveSet {
     /// constant is the largest of these, rounded up; the hair data is estimated apart
     /// ([`fiberlab_io::HairHeader::read_bytes`], [`crate::generator::HairParams::estimated_bytes`])
     /// and added, so the estimate stays above what was measured: the default render (512×512,
-    /// 1 spp) peaks at 597 MB against 608 MB estimated in all.
+    /// 1 spp) peaks at 597 MB against 608 MB estimated in all. These figures predate building the
+    /// pieces straight into `f32` records (no `f64` boxes): the 5M-segment head now peaks at
+    /// about 420 bytes per segment, so the constant errs on the safe side.
     pub const BUILD_BYTES_PER_SEGMENT: u64 = 1200;
 
     /// At most this many segments in one set: the BVH indexes its pieces (up to

@@ -158,11 +158,12 @@ pub fn fit_terms(
             if a[col][col].abs() <= 1e-12 * scale || scale == 0.0 {
                 return Err(BlockErrorError::Singular(c));
             }
-            for row in 0..m {
-                if row != col {
-                    let f = a[row][col] / a[col][col];
-                    for k in col..=m {
-                        a[row][k] -= f * a[col][k];
+            let pivot = a[col].clone();
+            for (r, row) in a.iter_mut().enumerate() {
+                if r != col {
+                    let f = row[col] / pivot[col];
+                    for (x, p) in row.iter_mut().zip(&pivot).skip(col) {
+                        *x -= f * p;
                     }
                 }
             }

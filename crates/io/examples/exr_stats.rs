@@ -1,59 +1,70 @@
-//! Image statistics for the benchmarks (`bench/dual_scattering/`): prints, as one JSON object,
-//! the mean of each channel of an EXR and, given a reference EXR, the relative difference of
-//! the means and the RMS over 16×16 blocks of the per-block relative error of the block means
-//! (blocks whose reference mean is below 1 % of the image mean are skipped).
+//! Image statistics for the benchmarks (`bench/dual_scattering/`), printed as one JSON object
+//! ([`fiberlab_io::block_error`] defines the measures).
 //!
-//! `cargo run --release -p fiberlab-io --example exr_stats -- IMAGE.exr [REFERENCE.exr]`
+//! * `exr_stats IMAGE.exr [REFERENCE.exr] [--mask COVERAGE.exr]`: the mean of each channel;
+//!   with a reference, the relative error of the image mean (`mean_rel_diff`), the RMS of the
+//!   16×16 block means' relative errors (`block_rel_rmse`, over `blocks` blocks) and, with a
+//!   coverage mask, the coverage-weighted mean's error (`covered_mean_rel_diff`) and blocks
+//!   counted only where the mask covers more than half of the block.
+//! * `exr_stats --fit OUT.exr REFERENCE.exr BASE.exr TERM.exr…`: fits per channel
+//!   `REFERENCE ≈ BASE + Σ c_k TERM_k` by least squares over all pixels, writes the fitted
+//!   image and prints the coefficients (`coefficients[k][channel]`).
+//!
+//! * `exr_stats --sub OUT.exr A.exr B.exr`: writes A − B.
+//!
+//! `cargo run --release -p fiberlab-io --example exr_stats -- …`
 
 use fiberlab_io::LinearImage;
+use fiberlab_io::block_error::{block_error, channel_means, fit_terms};
 use std::path::Path;
 
-fn mean(img: &LinearImage, x0: usize, y0: usize, x1: usize, y1: usize) -> [f64; 3] {
-    let mut s = [0.0; 3];
-    for y in y0..y1 {
-        for x in x0..x1 {
-            let p = img.get(x, y);
-            for c in 0..3 {
-                s[c] += f64::from(p[c]);
-            }
-        }
-    }
-    let n = ((x1 - x0) * (y1 - y0)) as f64;
-    s.map(|v| v / n)
+fn read(p: &str) -> LinearImage {
+    LinearImage::read_exr(Path::new(p)).unwrap_or_else(|e| panic!("{p}: {e}"))
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let read = |p: &str| LinearImage::read_exr(Path::new(p)).unwrap_or_else(|e| panic!("{p}: {e}"));
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("--fit") {
+        assert!(args.len() >= 5, "usage: exr_stats --fit OUT.exr REFERENCE.exr BASE.exr TERM.exr…");
+        let terms: Vec<LinearImage> = args[4..].iter().map(|p| read(p)).collect();
+        let (coef, fitted) = fit_terms(&read(&args[2]), &read(&args[3]), &terms).unwrap_or_else(|e| panic!("{e}"));
+        fitted.write_exr(Path::new(&args[1])).unwrap_or_else(|e| panic!("{}: {e}", args[1]));
+        let rows: Vec<String> = coef.iter().map(|c| format!("[{:.6e}, {:.6e}, {:.6e}]", c[0], c[1], c[2])).collect();
+        println!("{{\"coefficients\": [{}]}}", rows.join(", "));
+        return;
+    }
+    if args.first().map(String::as_str) == Some("--sub") {
+        assert!(args.len() == 4, "usage: exr_stats --sub OUT.exr A.exr B.exr");
+        let (mut x, y) = (read(&args[2]), read(&args[3]));
+        assert_eq!((x.width(), x.height()), (y.width(), y.height()), "sizes differ");
+        for (p, q) in x.pixels_mut().iter_mut().zip(y.pixels()) {
+            for c in 0..3 {
+                p[c] -= q[c];
+            }
+        }
+        x.clear_uint_channels();
+        x.write_exr(Path::new(&args[1])).unwrap_or_else(|e| panic!("{}: {e}", args[1]));
+        return;
+    }
+    let mask = args.iter().position(|a| a == "--mask").map(|i| {
+        let path = args.get(i + 1).cloned().expect("--mask COVERAGE.exr");
+        args.drain(i..i + 2);
+        read(&path)
+    });
     let img = read(&args[0]);
-    let (w, h) = (img.width(), img.height());
-    let m = mean(&img, 0, 0, w, h);
+    let m = channel_means(&img);
     let mut out = format!("{{\"mean\": [{:.6e}, {:.6e}, {:.6e}]", m[0], m[1], m[2]);
     if let Some(r) = args.get(1) {
         let reference = read(r);
-        assert_eq!((reference.width(), reference.height()), (w, h), "sizes differ");
-        let rm = mean(&reference, 0, 0, w, h);
-        let lum = |v: [f64; 3]| 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
-        let (mut sum2, mut blocks) = (0.0, 0usize);
-        for by in (0..h).step_by(16) {
-            for bx in (0..w).step_by(16) {
-                let (x1, y1) = ((bx + 16).min(w), (by + 16).min(h));
-                let (a, b) = (lum(mean(&img, bx, by, x1, y1)), lum(mean(&reference, bx, by, x1, y1)));
-                if b > 0.01 * lum(rm) {
-                    sum2 += ((a - b) / b).powi(2);
-                    blocks += 1;
-                }
-            }
-        }
-        let block_rmse = if blocks > 0 { (sum2 / blocks as f64).sqrt() } else { f64::NAN };
+        let e = block_error(&img, &reference, mask.as_ref()).unwrap_or_else(|e| panic!("{e}"));
+        let rm = channel_means(&reference);
         out += &format!(
-            ", \"reference_mean\": [{:.6e}, {:.6e}, {:.6e}], \"mean_rel_diff\": {:.6}, \"block_rel_rmse\": {:.6}, \"blocks\": {blocks}",
-            rm[0],
-            rm[1],
-            rm[2],
-            lum(m) / lum(rm) - 1.0,
-            block_rmse
+            ", \"reference_mean\": [{:.6e}, {:.6e}, {:.6e}], \"mean_rel_diff\": {:.6}, \"block_rel_rmse\": {:.6}, \"blocks\": {}",
+            rm[0], rm[1], rm[2], e.mean_rel, e.block_rmse, e.blocks
         );
+        if mask.is_some() {
+            out += &format!(", \"covered_mean_rel_diff\": {:.6}", e.covered_mean_rel);
+        }
     }
     println!("{out}}}");
 }

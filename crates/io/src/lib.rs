@@ -14,6 +14,7 @@
 //! * [`image_metrics`]: RMSE, relative MSE, SSIM and FLIP between two images (`fiberlab compare`).
 #![forbid(unsafe_code)]
 
+pub mod block_error;
 pub mod hair;
 pub mod image_file;
 pub mod image_metrics;

@@ -24,6 +24,7 @@ pub mod curves;
 pub mod draped_cloth;
 pub mod dual_scattering;
 pub mod fiber_count;
+pub mod fiber_coverage;
 pub mod figured_maple;
 pub mod generator;
 pub mod integrator;

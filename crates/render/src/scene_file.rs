@@ -58,6 +58,9 @@ spp = 32
 max_depth = 64
 seed = 0
 exposure = 0.0
+# integrator = "path"      # or "dual-scattering": Zinke et al. 2008 at fiber hits (needs a far-field
+#                          # hair model such as "chiang" or "marschner"; surfaces stay path traced)
+# fiber_count = "exact"    # with dual scattering: "exact" (a walk through the BVH) or "grid" (a density grid)
 
 [materials.hair]
 model = "kajiya-kay"
@@ -1118,6 +1121,18 @@ mod tests {
         let f = SceneFile::parse(&scene.replace("h.hair", "missing.hair"), &dir.path().join("s.toml")).unwrap();
         let e = f.memory_estimate().unwrap_err().to_string();
         assert!(e.contains("missing.hair") && e.contains("s.toml:"), "{e}");
+    }
+
+    #[test]
+    fn the_default_scenes_commented_integrator_keys_parse_when_uncommented() {
+        // The template lists `integrator` and `fiber_count` as comments; with the comment marks
+        // removed (and the other values they name) the scene must still parse.
+        let open = DEFAULT_SCENE.replace("# integrator = \"path\"", "integrator = \"dual-scattering\"");
+        let open = open.replace("# fiber_count = \"exact\"", "fiber_count = \"grid\"");
+        assert_ne!(open, DEFAULT_SCENE);
+        let f = SceneFile::parse(&open, Path::new("<test>")).unwrap();
+        assert_eq!(f.render_settings().integrator, "dual-scattering");
+        assert_eq!(f.render_settings().fiber_count, "grid");
     }
 
     #[test]

@@ -131,8 +131,9 @@ def render_mitsuba(out, curve, scale_tilt):
 
 def read_exr(path):
     """Linear RGB (H×W×3) of an EXR."""
-    bitmap = mi.Bitmap(str(path)).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, srgb_gamma=False)
-    return np.array(bitmap, dtype=np.float64)
+    bitmap = mi.Bitmap(str(path))
+    names = [field.name for field in bitmap.struct_()]
+    return np.array(bitmap, dtype=np.float64)[..., [names.index(c) for c in "RGB"]]
 
 
 def highlight(image):

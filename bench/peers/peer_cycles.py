@@ -1,7 +1,7 @@
 """Render the peer scene with Blender Cycles on the CPU through PyPI `bpy` (run by peers.py in its
 own process).
 
-usage: peer_cycles.py SCENE.toml HAIR SPP OUT_PREFIX RESULT.json [CURVES [EXTRA_SPP]]
+usage: peer_cycles.py SCENE.toml HAIR SPP OUT_PREFIX [CURVES [EXTRA_SPP]] RESULT.json
 
 Writes OUT_PREFIX.exr (linear RGB) and RESULT.json with the load time (building the Blender data;
 Cycles syncs the scene and builds its BVH inside the first render) and both render times (the
@@ -244,9 +244,10 @@ def timed_render():
 
 def main():
     """Build, render twice (first, persistent), write the image and the timings."""
-    scene_toml, hair_path, spp, prefix, result_path = sys.argv[1:6]
-    curves_basis = sys.argv[6] if len(sys.argv) > 6 else "linear"
-    extra_spp = [int(n) for n in sys.argv[7].split(",") if n] if len(sys.argv) > 7 else []
+    scene_toml, hair_path, spp, prefix = sys.argv[1:5]
+    options, result_path = sys.argv[5:-1], sys.argv[-1]
+    curves_basis = options[0] if options else "linear"
+    extra_spp = [int(n) for n in options[1].split(",") if n] if len(options) > 1 else []
     start = time.perf_counter()
     build_scene(scene_toml, hair_path, int(spp), curves_basis)
     load = time.perf_counter() - start

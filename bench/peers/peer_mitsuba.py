@@ -1,6 +1,6 @@
 """Render the peer scene with Mitsuba 3 in one variant (run by peers.py in its own process).
 
-usage: peer_mitsuba.py VARIANT SCENE.toml HAIR SPP OUT_PREFIX RESULT.json [CURVE [EXTRA_SPP]]
+usage: peer_mitsuba.py VARIANT SCENE.toml HAIR SPP OUT_PREFIX [CURVE [EXTRA_SPP]] RESULT.json
 
 Writes OUT_PREFIX.exr (linear RGB) and RESULT.json with the load time and both render times (the
 first render of a process includes the LLVM variant's kernel compilation: "cold"; the second
@@ -90,9 +90,10 @@ def timed_render(scene, spp, seed):
 
 def main():
     """Load, render twice (cold, warm), write the image and the timings."""
-    variant, scene_toml, hair_path, spp, prefix, result_path = sys.argv[1:7]
-    curve = sys.argv[7] if len(sys.argv) > 7 else "linearcurve"
-    extra_spp = [int(n) for n in sys.argv[8].split(",") if n] if len(sys.argv) > 8 else []
+    variant, scene_toml, hair_path, spp, prefix = sys.argv[1:6]
+    options, result_path = sys.argv[6:-1], sys.argv[-1]
+    curve = options[0] if options else "linearcurve"
+    extra_spp = [int(n) for n in options[1].split(",") if n] if len(options) > 1 else []
     spp = int(spp)
     mi.set_variant(variant)
     dr.set_thread_count(os.cpu_count())

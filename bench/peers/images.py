@@ -14,8 +14,13 @@ GAP = 4  # pixels between panels of the side-by-side figure
 
 def read_exr(path):
     """Linear RGB float32 array (H×W×3) of an EXR (any channel layout Mitsuba reads)."""
-    bitmap = mi.Bitmap(str(path)).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32,
-                                          srgb_gamma=False)
+    # fiberlab's EXRs carry more channels after R, G, B (the sample count and sums a render
+    # resumes from): pick R, G, B by name.
+    bitmap = mi.Bitmap(str(path))
+    names = [field.name for field in bitmap.struct_()]
+    if all(c in names for c in "RGB"):
+        return np.array(bitmap, dtype=np.float32)[..., [names.index(c) for c in "RGB"]]
+    bitmap = bitmap.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, srgb_gamma=False)
     return np.array(bitmap)
 
 

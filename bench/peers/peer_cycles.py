@@ -1,11 +1,14 @@
 """Render the peer scene with Blender Cycles on the CPU through PyPI `bpy` (run by peers.py in its
 own process).
 
-usage: peer_cycles.py SCENE.toml HAIR SPP OUT_PREFIX RESULT.json
+usage: peer_cycles.py SCENE.toml HAIR SPP OUT_PREFIX [CURVES [EXTRA_SPP]] RESULT.json
 
 Writes OUT_PREFIX.exr (linear RGB) and RESULT.json with the load time (building the Blender data;
 Cycles syncs the scene and builds its BVH inside the first render) and both render times (the
-second render reuses the synced scene and BVH: persistent data).
+second render reuses the synced scene and BVH: persistent data). CURVES is `linear` (default:
+the points as polylines) or `bspline` (the points as uniform cubic B-spline control points; see
+`bspline_polylines`). EXTRA_SPP, a comma list, adds one render per sample count (persistent
+data), OUT_PREFIX_<n>spp.exr, for the RMSE-versus-time curve.
 """
 
 import json
@@ -110,9 +113,37 @@ def add_object(name, data):
     return obj
 
 
-def add_hair(hair_path, params):
+# Segments per B-spline span, as fiberlab's `segments_per_curve` in the B-spline variant.
+BSPLINE_SEGMENTS = 8
+
+
+def bspline_polylines(points, radii, counts, steps=BSPLINE_SEGMENTS):
+    """The uniform cubic B-splines of the strands' control points (and radii) evaluated at
+    `steps` uniform parameter steps per span, consecutive spans sharing their end point.
+
+    Cycles renders a Curves object's control points as Catmull-Rom ("3D Curves") or linear
+    tubes, whatever the curves' type, and has no B-spline primitive to give them to; so the
+    B-spline variant hands it the B-spline as polylines, the way fiberlab subdivides it."""
+    t = np.arange(steps + 1) / steps
+    s = 1 - t
+    weights = np.stack([s ** 3, 3 * t ** 3 - 6 * t ** 2 + 4, -3 * t ** 3 + 3 * t ** 2 + 3 * t + 1, t ** 3], 1) / 6
+    out_p, out_r, out_n, start = [], [], [], 0
+    for n in counts:
+        c, r = points[start:start + n], radii[start:start + n]
+        start += n
+        for i in range(n - 3):
+            w = weights if i == 0 else weights[1:]
+            out_p.append(w @ c[i:i + 4])
+            out_r.append(w @ r[i:i + 4])
+        out_n.append((n - 3) * steps + 1)
+    return np.concatenate(out_p), np.concatenate(out_r), np.array(out_n)
+
+
+def add_hair(hair_path, params, curves_basis="linear"):
     """The strands as a Curves object: polylines (root first) with per-point radius."""
     points, radii, counts = read_hair(hair_path)
+    if curves_basis == "bspline":
+        points, radii, counts = bspline_polylines(points, radii, counts)
     curves = bpy.data.hair_curves.new("hair")
     curves.add_curves(counts.tolist())
     curves.set_types(type="POLY")
@@ -190,11 +221,11 @@ def configure_cycles(cam, max_depth, spp):
     scene.cycles_curves.shape = "THICK_LINEAR"
 
 
-def build_scene(scene_toml, hair_path, spp):
+def build_scene(scene_toml, hair_path, spp, curves_basis="linear"):
     """Build the whole Blender scene from the TOML and the .hair file."""
     s = load_scene(scene_toml)
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    add_hair(hair_path, s["hair"])
+    add_hair(hair_path, s["hair"], curves_basis)
     head = uv_sphere_mesh("head", y_up_to_z_up(s["sphere_center"]), s["sphere_radius"],
                           SPHERE_SEGMENTS, SPHERE_RINGS)
     head.materials.append(diffuse_material(s["skin_albedo"]))
@@ -213,15 +244,24 @@ def timed_render():
 
 def main():
     """Build, render twice (first, persistent), write the image and the timings."""
-    scene_toml, hair_path, spp, prefix, result_path = sys.argv[1:6]
+    scene_toml, hair_path, spp, prefix = sys.argv[1:5]
+    options, result_path = sys.argv[5:-1], sys.argv[-1]
+    curves_basis = options[0] if options else "linear"
+    extra_spp = [int(n) for n in options[1].split(",") if n] if len(options) > 1 else []
     start = time.perf_counter()
-    build_scene(scene_toml, hair_path, int(spp))
+    build_scene(scene_toml, hair_path, int(spp), curves_basis)
     load = time.perf_counter() - start
     first = timed_render()
     persistent = timed_render()
     bpy.data.images["Render Result"].save_render(filepath=f"{prefix}.exr")
+    extra = []
+    for n in extra_spp:
+        bpy.context.scene.cycles.samples = n
+        seconds = timed_render()
+        bpy.data.images["Render Result"].save_render(filepath=f"{prefix}_{n}spp.exr")
+        extra.append({"spp": n, "render_s": seconds, "exr": f"{prefix}_{n}spp.exr"})
     renders = {"first": first, "persistent": persistent}
-    result = {"load_s": load, "renders_s": renders, "used": min(renders, key=renders.get),
+    result = {"load_s": load, "renders_s": renders, "used": min(renders, key=renders.get), "extra": extra,
               "exr": f"{prefix}.exr", "version": f"bpy {bpy.app.version_string} cycles",
               "threads": bpy.context.scene.render.threads}
     with open(result_path, "w") as f:

@@ -1,10 +1,13 @@
 """Render the peer scene with Mitsuba 3 in one variant (run by peers.py in its own process).
 
-usage: peer_mitsuba.py VARIANT SCENE.toml HAIR SPP OUT_PREFIX RESULT.json
+usage: peer_mitsuba.py VARIANT SCENE.toml HAIR SPP OUT_PREFIX [CURVE [EXTRA_SPP]] RESULT.json
 
 Writes OUT_PREFIX.exr (linear RGB) and RESULT.json with the load time and both render times (the
 first render of a process includes the LLVM variant's kernel compilation: "cold"; the second
-reuses the cached kernels: "warm").
+reuses the cached kernels: "warm"). CURVE is the shape type of the strands, `linearcurve`
+(default) or `bsplinecurve` (the same points as uniform cubic B-spline control points).
+EXTRA_SPP, a comma list, adds one (warm) render per sample count, OUT_PREFIX_<n>spp.exr, for
+the RMSE-versus-time curve.
 """
 
 import json
@@ -50,7 +53,7 @@ def hair_bsdf(params):
     }
 
 
-def scene_dict(s, curves_txt, spp):
+def scene_dict(s, curves_txt, spp, curve="linearcurve"):
     """The Mitsuba scene description with fiberlab's conventions mapped (see peers.py)."""
     cam = s["camera"]
     return {
@@ -66,8 +69,9 @@ def scene_dict(s, curves_txt, spp):
         },
         "head": {"type": "sphere", "center": s["sphere_center"], "radius": s["sphere_radius"],
                  "bsdf": {"type": "diffuse", "reflectance": rgb(s["skin_albedo"])}},
-        # linearcurve = Embree round linear curves: the same polyline of tubes as fiberlab's.
-        "hair": {"type": "linearcurve", "filename": curves_txt, "bsdf": hair_bsdf(s["hair"])},
+        # linearcurve = Embree round linear curves: the same polyline of tubes as fiberlab's;
+        # bsplinecurve = Embree round B-spline curves through the same control points.
+        "hair": {"type": curve, "filename": curves_txt, "bsdf": hair_bsdf(s["hair"])},
         "env": {"type": "constant", "radiance": rgb(s["env_radiance"])},
         # Mitsuba's `direction` is the direction light travels: minus fiberlab's (toward the light).
         "sun": {"type": "directional", "direction": [-c for c in s["sun_direction"]],
@@ -86,7 +90,10 @@ def timed_render(scene, spp, seed):
 
 def main():
     """Load, render twice (cold, warm), write the image and the timings."""
-    variant, scene_toml, hair_path, spp, prefix, result_path = sys.argv[1:7]
+    variant, scene_toml, hair_path, spp, prefix = sys.argv[1:6]
+    options, result_path = sys.argv[6:-1], sys.argv[-1]
+    curve = options[0] if options else "linearcurve"
+    extra_spp = [int(n) for n in options[1].split(",") if n] if len(options) > 1 else []
     spp = int(spp)
     mi.set_variant(variant)
     dr.set_thread_count(os.cpu_count())
@@ -94,14 +101,19 @@ def main():
     write_curves(hair_path, curves_txt)
     s = load_scene(scene_toml)
     start = time.perf_counter()
-    scene = mi.load_dict(scene_dict(s, curves_txt, spp))
+    scene = mi.load_dict(scene_dict(s, curves_txt, spp, curve))
     load = time.perf_counter() - start
     _, cold = timed_render(scene, spp, seed=0)
     image, warm = timed_render(scene, spp, seed=1)
     mi.Bitmap(image).write(f"{prefix}.exr")
+    extra = []
+    for n in extra_spp:
+        image, seconds = timed_render(scene, n, seed=2)
+        mi.Bitmap(image).write(f"{prefix}_{n}spp.exr")
+        extra.append({"spp": n, "render_s": seconds, "exr": f"{prefix}_{n}spp.exr"})
     os.remove(curves_txt)
     result = {"load_s": load, "renders_s": {"cold": cold, "warm": warm},
-              "used": "warm" if warm <= cold else "cold",
+              "used": "warm" if warm <= cold else "cold", "curve": curve, "extra": extra,
               "exr": f"{prefix}.exr", "version": f"mitsuba {mi.__version__} {variant}",
               "threads": dr.thread_count()}
     with open(result_path, "w") as f:

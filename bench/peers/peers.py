@@ -6,7 +6,13 @@ never part of `cargo test` or CI.
 Every renderer runs in its own process (peer_mitsuba.py per variant, peer_cycles.py,
 bsdf_bench.py); a peer that fails is reported as "not available: <reason>" with its log in
 OUT/logs/. Environment: SPP (16), REF_SPP (512), STRANDS (10000), PEERS_OUT (bench/peers/out),
-SKIP (comma list of mitsuba_llvm, mitsuba_scalar, cycles).
+SKIP (comma list of mitsuba_llvm, mitsuba_scalar, cycles), CURVES (linear | bspline: the strands'
+16 points as polylines or as uniform cubic B-spline control points).
+
+Equal error: every renderer also renders at SPP/4; with the SPP render that gives two points of
+its RMSE-versus-time curve, fitted by RMSE = k t^(-1/2) (least squares in log-log with the slope
+fixed at -1/2, as for an unbiased estimator). The time to reach a common RMSE e (fiberlab's at
+SPP) is then (k / e)^2, and `ratio equal-error` is fiberlab's time over each peer's.
 
 How fiberlab's scene conventions map onto the peers (the peer modules repeat each one where it is
 applied):
@@ -25,6 +31,11 @@ applied):
              absorption-coefficient parametrization with fiberlab's sigma_a. Cycles Coat = 0 (no
              extra R-lobe roughness), Random Color = Random Roughness = 0.
   ior        Mitsuba eta = int_ior / ext_ior with ext_ior defaulting to air (1.000277): ext_ior = 1.
+  curves     CURVES=bspline: fiberlab `[[hair]] basis = "bspline"`, segments_per_curve = 8 (the
+             B-spline subdivided into polylines); Mitsuba `bsplinecurve` (Embree's round B-spline
+             curves, intersected as cubics); Cycles renders curve control points as Catmull-Rom
+             or linear tubes whatever their type, so it gets the B-spline evaluated at the same 8
+             steps per span as linear curves (peer_cycles.bspline_polylines).
   geometry   fiberlab tubes are polylines of mitered cylinders; Mitsuba `linearcurve` (Embree round
              linear curves) and Cycles "Linear 3D Curves" (THICK_LINEAR) are the same polylines
              through the same 16 points, with the same per-point radius. Cycles' default "3D
@@ -48,6 +59,7 @@ applied):
 """
 
 import json
+import math
 import os
 import re
 import subprocess
@@ -66,6 +78,9 @@ PEERS = ("mitsuba_llvm", "mitsuba_scalar", "cycles")
 MITSUBA_VARIANTS = {"mitsuba_llvm": "llvm_ad_rgb", "mitsuba_scalar": "scalar_rgb"}
 REFERENCE_SEED = 1000
 PEER_TIMEOUT_S = 1800
+# CURVES: fiberlab's [[hair]] keys and Mitsuba's shape type per variant.
+CURVES = {"linear": ("", "linearcurve"),
+          "bspline": ('basis = "bspline"\nsegments_per_curve = 8\n', "bsplinecurve")}
 RENDER_LINE = re.compile(r"scene ([0-9.]+) s, render ([0-9.]+) s")
 
 
@@ -75,9 +90,14 @@ def config():
     unknown = skip - set(PEERS)
     if unknown:
         sys.exit(f"SKIP: unknown peers {sorted(unknown)} (known: {', '.join(PEERS)})")
+    curves = os.environ.get("CURVES", "linear")
+    if curves not in CURVES:
+        sys.exit(f"CURVES={curves}: must be one of {', '.join(CURVES)}")
     out = Path(os.environ.get("PEERS_OUT", HERE / "out")).resolve()
-    return {"spp": int(os.environ.get("SPP", 16)), "ref_spp": int(os.environ.get("REF_SPP", 512)),
-            "strands": int(os.environ.get("STRANDS", 10000)), "skip": skip, "out": out}
+    spp = int(os.environ.get("SPP", 16))
+    return {"spp": spp, "ref_spp": int(os.environ.get("REF_SPP", 512)),
+            "strands": int(os.environ.get("STRANDS", 10000)), "skip": skip, "out": out, "curves": curves,
+            "extra_spp": max(1, spp // 4)}
 
 
 def fiberlab(*args):
@@ -104,9 +124,24 @@ def generate_hair(cfg):
     return path
 
 
-def render_fiberlab(hair, spp, seed, prefix):
+def scene_for(cfg):
+    """scene.toml, or for CURVES=bspline a copy in OUT whose [[hair]] reads the points as
+    B-spline control points (the hair file itself comes with --hair)."""
+    keys = CURVES[cfg["curves"]][0]
+    if not keys:
+        return SCENE
+    text = SCENE.read_text()
+    entry = '[[hair]]\nmaterial = "hair"\nfile = "hair.hair"\n'
+    if entry not in text:
+        sys.exit(f"{SCENE}: expected the [[hair]] entry {entry!r}")
+    path = cfg["out"] / f"scene_{cfg['curves']}.toml"
+    path.write_text(text.replace(entry, entry + keys))
+    return path
+
+
+def render_fiberlab(hair, spp, seed, prefix, scene=SCENE):
     """Render with fiberlab; returns load (scene) and render seconds and the EXR path."""
-    proc = fiberlab("render", SCENE, "--hair", hair, "--spp", spp, "--seed", seed,
+    proc = fiberlab("render", scene, "--hair", hair, "--spp", spp, "--seed", seed,
                     "--out", prefix, "--quiet")
     match = RENDER_LINE.search(proc.stderr)
     if not match:
@@ -137,10 +172,12 @@ def run_python(script, args, name, out):
 def run_peer(name, hair, cfg):
     """Render the scene with one peer; adds `render_s`, the time the ratio uses."""
     prefix = cfg["out"] / name
+    extra = str(cfg["extra_spp"])
     if name == "cycles":
-        res = run_python("peer_cycles.py", [SCENE, hair, cfg["spp"], prefix], name, cfg["out"])
+        res = run_python("peer_cycles.py", [SCENE, hair, cfg["spp"], prefix, cfg["curves"], extra], name,
+                         cfg["out"])
     else:
-        args = [MITSUBA_VARIANTS[name], SCENE, hair, cfg["spp"], prefix]
+        args = [MITSUBA_VARIANTS[name], SCENE, hair, cfg["spp"], prefix, CURVES[cfg["curves"]][1], extra]
         res = run_python("peer_mitsuba.py", args, name, cfg["out"])
     if "error" not in res:
         res["render_s"] = res["renders_s"][res["used"]]
@@ -163,8 +200,26 @@ def equal_time_renders(hair, cfg, fl16, peers):
         spp_eq = max(1, round(cfg["spp"] * res["render_s"] / fl16["render_s"]))
         if spp_eq not in cache:
             print(f"  fiberlab at {spp_eq} spp (equal time)", flush=True)
-            cache[spp_eq] = render_fiberlab(hair, spp_eq, 0, cfg["out"] / f"fiberlab_{spp_eq}spp")["exr"]
+            cache[spp_eq] = render_fiberlab(hair, spp_eq, 0, cfg["out"] / f"fiberlab_{spp_eq}spp",
+                                            cfg["scene"])["exr"]
         res["equal_time"] = {"spp": spp_eq, **compare(cfg["out"] / "reference.exr", cache[spp_eq])}
+
+
+def error_curve(res, reference):
+    """The renderer's (spp, seconds, RMSE) points (its SPP render and the extra ones) and k of
+    the fit RMSE = k t^(-1/2) (log k = mean of log RMSE + log t / 2); adds them to `res`."""
+    points = [(res["spp"], res["render_s"], res["rmse"])]
+    for e in res.get("extra", []):
+        points.append((e["spp"], e["render_s"], compare(reference, e["exr"])["rmse"]))
+    points.sort()
+    k = math.exp(sum(math.log(rmse) + 0.5 * math.log(t) for _, t, rmse in points) / len(points))
+    res["error_curve"] = {"points": points, "k": k}
+
+
+def time_to_error(res, rmse):
+    """Seconds the fitted curve needs to reach `rmse`, or None."""
+    curve = res.get("error_curve")
+    return (curve["k"] / rmse) ** 2 if curve else None
 
 
 def fiberlab_bsdf_bench(params):
@@ -282,6 +337,28 @@ def print_bsdf_table(bench):
         print(f"fiberlab faster per call than mitsuba scalar_rgb (net): {verdict}")
 
 
+def print_error_curves(fl16, peers):
+    """Each renderer's RMSE-versus-time points, the fit and the time to fiberlab's RMSE."""
+    target = fl16["rmse"]
+    print(f"\nRMSE versus time (fit RMSE = k t^-1/2), time to reach RMSE {target:.5f} (fiberlab's at SPP):")
+    for name, res in {"fiberlab": fl16, **peers}.items():
+        curve = res.get("error_curve")
+        if not curve:
+            continue
+        pts = ", ".join(f"{n} spp {t:.2f} s {e:.5f}" for n, t, e in curve["points"])
+        print(f"  {name:<15} {pts}; k {curve['k']:.5f}; time to RMSE {time_to_error(res, target):.2f} s")
+
+
+def equal_error_line(fl16, peers):
+    """fiberlab's time to reach its own SPP RMSE over each peer's time to reach it."""
+    t_fl = time_to_error(fl16, fl16["rmse"])
+    parts = []
+    for name in PEERS:
+        t_peer = time_to_error(peers[name], fl16["rmse"])
+        parts.append(f"fiberlab/{name}={fmt(t_fl / t_peer if t_peer else None, '.2f')}")
+    return "ratio equal-error " + " ".join(parts) + f" (RMSE {fl16['rmse']:.5f})"
+
+
 def ratio_line(fl16, peers):
     """The last line of the output: fiberlab render time / peer render time per peer."""
     return "ratio render " + " ".join(
@@ -294,13 +371,17 @@ def main():
     (cfg["out"] / "logs").mkdir(parents=True, exist_ok=True)
     s = load_scene(SCENE)
     spp = cfg["spp"]
-    print(f"scene {SCENE} ({cfg['strands']} strands), {spp} spp, reference {cfg['ref_spp']} spp, "
-          f"{os.cpu_count()} cores, output {cfg['out']}; {load_average()}", flush=True)
+    cfg["scene"] = scene = scene_for(cfg)
+    print(f"scene {scene} ({cfg['strands']} strands, curves {cfg['curves']}), {spp} spp, reference "
+          f"{cfg['ref_spp']} spp, {os.cpu_count()} cores, output {cfg['out']}; {load_average()}", flush=True)
     hair = generate_hair(cfg)
     print(f"fiberlab at {spp} spp", flush=True)
-    fl16 = render_fiberlab(hair, spp, 0, cfg["out"] / "fiberlab")
+    fl16 = render_fiberlab(hair, spp, 0, cfg["out"] / "fiberlab", scene)
+    n = cfg["extra_spp"]
+    print(f"fiberlab at {n} spp (RMSE-versus-time curve)", flush=True)
+    fl16["extra"] = [{"spp": n, **render_fiberlab(hair, n, 2, cfg["out"] / f"fiberlab_{n}spp_curve", scene)}]
     print(f"fiberlab reference at {cfg['ref_spp']} spp", flush=True)
-    ref = render_fiberlab(hair, cfg["ref_spp"], REFERENCE_SEED, cfg["out"] / "reference")
+    ref = render_fiberlab(hair, cfg["ref_spp"], REFERENCE_SEED, cfg["out"] / "reference", scene)
     peers = {}
     for name in PEERS:
         print(f"{name}", flush=True)
@@ -310,6 +391,8 @@ def main():
     for res in (fl16, *peers.values()):
         if "exr" in res:
             res.update(compare(ref["exr"], res["exr"]))
+            res["spp"] = spp
+            error_curve(res, ref["exr"])
     print("BSDF microbenchmark", flush=True)
     bench = bsdf_benchmarks(cfg, s["hair"])
     figure_note = image_outputs(cfg, s, fl16, peers)
@@ -317,15 +400,20 @@ def main():
     print_bsdf_table(bench)
     print(f"\nimages: {figure_note}")
     print_summary(fl16, peers, cfg)
+    print_error_curves(fl16, peers)
     line = ratio_line(fl16, peers)
+    error_line = equal_error_line(fl16, peers)
     results = {"config": {**cfg, "out": str(cfg["out"]), "skip": sorted(cfg["skip"]), "cores": os.cpu_count(),
                           "fiberlab": str(FIBERLAB)},
-               "fiberlab": fl16, "reference": ref, "peers": peers, "bsdf_bench": bench, "ratio_line": line}
+               "fiberlab": fl16, "reference": ref, "peers": peers, "bsdf_bench": bench, "ratio_line": line,
+               "equal_error_line": error_line}
     (cfg["out"] / "results.json").write_text(json.dumps(results, indent=1, default=str))
     print(f"results: {cfg['out'] / 'results.json'}; at the end: {load_average()}")
     if "PEERS_T0" in os.environ:
         print(f"wall time of the whole run (setup included): {time.time() - float(os.environ['PEERS_T0']):.0f} s")
+    print(f"curves {cfg['curves']}; {load_average()}")
     print(line)
+    print(error_line)
 
 
 if __name__ == "__main__":

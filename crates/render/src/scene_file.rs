@@ -13,7 +13,9 @@
 //!                     # uv_scale = [su, sv]: pattern repeats of a model with a position u, v
 //! [[hair]]            # material; file = "x.hair" | "x.pbrt" | "x.pbrt.gz" | "x.usda"
 //!                     # or generator = { … HairParams … }; segments_per_curve (cubic
-//!                     # curves, default 8) (strand diameters: crate::strand_diameters)
+//!                     # curves, default 8) (strand diameters: crate::strand_diameters);
+//!                     # basis = "linear" | "bspline" | "catmull-rom" | "bezier": how the
+//!                     # points of a .hair file or the generator make curves (default linear)
 //! [[sphere]]          # center, radius, material, optional emission = [r, g, b] (a light)
 //! [[mesh]]            # file = "x.obj", material, scale, translate; or floor = y;
 //!                     # or cabochon = { radius, height, rings, sectors }, translate
@@ -34,6 +36,7 @@ use crate::shapes::TriangleMesh;
 use crate::strand_diameters;
 use crate::surface_material::{ModelMaterial, takes_uv_position, texture_source};
 use crate::toml_params::raw_pairs;
+use fiberlab_io::Basis;
 use fiberlab_io::{HairFile, LinearImage};
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::{Model, ModelError};
@@ -180,6 +183,9 @@ struct HairDesc {
     /// Polyline segments each span of a cubic curve file becomes (default
     /// [`DEFAULT_SEGMENTS_PER_CURVE`]); linear files and `.hair` are not subdivided.
     segments_per_curve: Option<Spanned<usize>>,
+    /// How the points of a `.hair` file or of the generator make curves (default linear: the
+    /// polylines through them); pbrt and USD files carry their own basis.
+    basis: Option<Spanned<String>>,
 }
 
 /// Segments per span of cubic curves (pbrt, USD) when `[[hair]]` does not say: the chord
@@ -461,12 +467,19 @@ impl SceneFile {
         for h in &self.desc.hair {
             let hd = h.get_ref();
             let per_curve = self.segments_per_curve(hd)?;
+            let basis = self.basis(hd)?;
             let from_file = |path: &Path, span| {
                 // `.hair`: its header; pbrt and USD text: a pass that counts the points.
-                let c = fiberlab_io::strand_files::count(path).map_err(|e| self.error(span, e.to_string()))?;
+                let mut c = fiberlab_io::strand_files::count(path).map_err(|e| self.error(span, e.to_string()))?;
+                if c.basis == Basis::Linear && basis != Basis::Linear {
+                    // `.hair` points read as the control points of `basis` (`build` checks the
+                    // strands fit it).
+                    c.spans = basis_spans(basis, c.strands, c.points);
+                    c.basis = basis;
+                }
                 let segments = c.segments(per_curve);
                 // A cubic file is also held as the polylines its diameters are checked on.
-                let polylines = if c.basis == fiberlab_io::Basis::Linear { 0 } else { segments.saturating_mul(2 * 16) };
+                let polylines = if c.basis == Basis::Linear { 0 } else { segments.saturating_mul(2 * 16) };
                 Ok::<_, SceneError>(HairEstimate {
                     source: path.display().to_string(),
                     strands: c.strands,
@@ -480,14 +493,24 @@ impl SceneFile {
                 (None, Some(f), None) => from_file(&self.resolve(f.get_ref()), f.span())?,
                 (None, None, Some(g)) => {
                     let g = g.get_ref();
+                    let strands = g.strands as u64;
                     // Overflow (`None`) shows as u64::MAX segments, whose BVH overflows too.
-                    let segments = g.segment_count().unwrap_or(u64::MAX);
+                    let segments = match (basis, g.segment_count()) {
+                        (_, None) => None,
+                        (Basis::Linear, Some(n)) => Some(n),
+                        (b, Some(n)) => {
+                            basis_spans(b, strands, n.saturating_add(strands)).checked_mul(per_curve as u64)
+                        }
+                    };
+                    // Cubic curves are also held as their polylines (`.hair`-like, 16 bytes a point).
+                    let polylines =
+                        if basis == Basis::Linear { Some(0) } else { segments.and_then(|n| n.checked_mul(2 * 16)) };
                     HairEstimate {
                         source: "generated".into(),
-                        strands: g.strands as u64,
-                        segments,
-                        hair_bytes: g.estimated_bytes(),
-                        bvh_bytes: g.segment_count().and_then(CurveSet::estimated_bytes),
+                        strands,
+                        segments: segments.unwrap_or(u64::MAX),
+                        hair_bytes: g.estimated_bytes().zip(polylines).and_then(|(a, b)| a.checked_add(b)),
+                        bvh_bytes: segments.and_then(CurveSet::estimated_bytes),
                     }
                 }
                 // Neither or both: `build` reports it.
@@ -680,19 +703,23 @@ impl SceneFile {
             let hd = h.get_ref();
             let material = self.fiber_material(names, &hd.material)?;
             let per_curve = self.segments_per_curve(hd)?;
+            let basis = (self.basis(hd)?, hd.basis.as_ref().map_or(h.span(), Spanned::span));
             // The hair, where its errors are reported, and what it is called in them; cubic
             // curves come with their control points, the hair then holds their polylines.
             let (loaded, span, source) = if let Some(p) = &self.hair_override {
-                (self.hair_file(p, h.span(), per_curve)?, h.span(), format!("--hair {}", p.display()))
+                let source = format!("--hair {}", p.display());
+                (self.hair_file(p, h.span(), per_curve, basis, &source)?, h.span(), source)
             } else {
                 match (&hd.file, &hd.generator) {
                     (Some(f), None) => {
                         let path = self.resolve(f.get_ref());
-                        (self.hair_file(&path, f.span(), per_curve)?, f.span(), format!("hair file {}", path.display()))
+                        let source = format!("hair file {}", path.display());
+                        (self.hair_file(&path, f.span(), per_curve, basis, &source)?, f.span(), source)
                     }
                     (None, Some(g)) => {
                         let hair = g.get_ref().generate().map_err(|e| self.error(g.span(), e.to_string()))?;
-                        ((hair, None), g.span(), "hair generator".to_string())
+                        let source = "hair generator".to_string();
+                        (self.with_basis(hair, per_curve, basis, &source)?, g.span(), source)
                     }
                     _ => return Err(self.error(h.span(), "hair: give exactly one of file, generator".into())),
                 }
@@ -731,21 +758,70 @@ impl SceneFile {
         }
     }
 
+    /// `basis` of a `[[hair]]` entry, checked (default linear).
+    fn basis(&self, hd: &HairDesc) -> Result<Basis, SceneError> {
+        let Some(b) = &hd.basis else { return Ok(Basis::Linear) };
+        match b.get_ref().as_str() {
+            "linear" => Ok(Basis::Linear),
+            "bspline" => Ok(Basis::BSpline),
+            "catmull-rom" => Ok(Basis::CatmullRom),
+            "bezier" => Ok(Basis::Bezier),
+            other => Err(self.error(
+                b.span(),
+                format!("hair: basis = {other:?} must be one of \"linear\", \"bspline\", \"catmull-rom\", \"bezier\""),
+            )),
+        }
+    }
+
+    /// The points of a `.hair` file or of the generator as the control points of `basis`
+    /// (its span: where a strand that does not fit it is reported): unchanged for linear,
+    /// else their polylines of `per_curve` segments per span and the control points.
+    fn with_basis(
+        &self,
+        hair: HairFile,
+        per_curve: usize,
+        (basis, span): (Basis, std::ops::Range<usize>),
+        source: &str,
+    ) -> Result<(HairFile, Option<fiberlab_io::Strands>), SceneError> {
+        if basis == Basis::Linear {
+            return Ok((hair, None));
+        }
+        let strands = fiberlab_io::Strands { basis, ..fiberlab_io::Strands::from(&hair) };
+        let fail = |e: fiberlab_io::StrandsError| {
+            self.error(span.clone(), format!("hair: basis = \"{basis}\": {source}: {e}"))
+        };
+        let lines = strands.to_polylines(per_curve).map_err(fail)?.to_hair().map_err(fail)?;
+        Ok((lines, Some(strands)))
+    }
+
     /// A hair file of any format, by extension: its polylines as a [`HairFile`] (what the
-    /// diameters are checked on), and for cubic curves their control points too.
+    /// diameters are checked on), and for cubic curves their control points too. `basis`
+    /// applies to a `.hair` file's points; pbrt and USD files carry their own.
     fn hair_file(
         &self,
         path: &Path,
         span: std::ops::Range<usize>,
         per_curve: usize,
+        basis: (Basis, std::ops::Range<usize>),
+        source: &str,
     ) -> Result<(HairFile, Option<fiberlab_io::Strands>), SceneError> {
         let fail = |e: fiberlab_io::StrandsError| self.error(span.clone(), e.to_string());
         let fail_at = |e: fiberlab_io::StrandsError| self.error(span.clone(), format!("{}: {e}", path.display()));
         if fiberlab_io::Format::of(path).map_err(fail)? == fiberlab_io::Format::Hair {
-            return Ok((HairFile::read(path).map_err(|e| self.error(span.clone(), e.to_string()))?, None));
+            let hair = HairFile::read(path).map_err(|e| self.error(span.clone(), e.to_string()))?;
+            return self.with_basis(hair, per_curve, basis, source);
         }
         let strands = fiberlab_io::strand_files::read(path).map_err(fail)?;
-        if strands.basis == fiberlab_io::Basis::Linear {
+        if basis.0 != Basis::Linear && basis.0 != strands.basis {
+            return Err(self.error(
+                basis.1,
+                format!(
+                    "hair: basis = \"{}\" applies to .hair files and the generator; {source} holds {} curves of its own",
+                    basis.0, strands.basis
+                ),
+            ));
+        }
+        if strands.basis == Basis::Linear {
             return Ok((strands.to_hair().map_err(fail_at)?, None));
         }
         let lines = strands.to_polylines(per_curve).map_err(fail_at)?.to_hair().map_err(fail_at)?;
@@ -920,11 +996,21 @@ impl SceneDesc {
     }
 }
 
+/// Spans of `strands` strands of `points` control points in all, each read with a cubic
+/// `basis` (module docs of `fiberlab_io::strands`; 0 where a strand is too short, as
+/// `build` then refuses it).
+fn basis_spans(basis: Basis, strands: u64, points: u64) -> u64 {
+    match basis {
+        Basis::Linear => points.saturating_sub(strands),
+        Basis::Bezier => points.saturating_sub(strands) / 3,
+        Basis::BSpline | Basis::CatmullRom => points.saturating_sub(strands.saturating_mul(3)),
+    }
+}
+
 /// Tubes of cubic curves through [`CurveSet::from_cubic`], `per_curve` segments per span:
 /// B-splines and Bézier curves as they are, Catmull–Rom spans as the Bézier spans of the same
 /// curve (control points `c₁`, `c₁ + (c₂ − c₀)/6`, `c₂ − (c₃ − c₁)/6`, `c₂`, in `f64`).
 fn cubic_curves(strands: &fiberlab_io::Strands, per_curve: usize) -> CurveSet {
-    use fiberlab_io::Basis;
     let point = |p: &[f32; 3]| DVec3::new(p[0].into(), p[1].into(), p[2].into());
     let mut controls: Vec<(Vec<DVec3>, Vec<f64>)> = Vec::with_capacity(strands.strand_count());
     for r in strands.strand_ranges() {
@@ -957,6 +1043,122 @@ mod tests {
     }
 
     const CAMERA: &str = "[camera]\neye = [0, 0, 5]\ntarget = [0, 0, 0]\nfov = 30\nwidth = 8\nheight = 8\n";
+
+    /// A scene in a temporary directory with one `.hair` file of two wavy strands of 7 points
+    /// (radius 0.01) and a `[[hair]]` entry with `extra` keys.
+    fn basis_scene(extra: &str) -> (tempfile::TempDir, SceneFile, Vec<Vec<DVec3>>) {
+        let dir = tempfile::tempdir().unwrap();
+        let strands: Vec<Vec<DVec3>> = (0..2)
+            .map(|s| {
+                (0..7)
+                    .map(|k| {
+                        let t = f64::from(k);
+                        DVec3::new(
+                            0.3 * (t + f64::from(s)).sin(),
+                            0.25 * t - 0.8,
+                            0.2 * (1.7 * t).cos() + f64::from(s) * 0.1,
+                        )
+                    })
+                    .collect()
+            })
+            .collect();
+        let hair = HairFile {
+            segments: None,
+            points: strands.iter().flatten().map(|p| p.as_vec3().to_array()).collect(),
+            strand_count: 2,
+            default_segments: 6,
+            default_thickness: 0.02,
+            ..HairFile::default()
+        };
+        hair.write(&dir.path().join("h.hair")).unwrap();
+        let text = format!(
+            "{CAMERA}[materials.h]\nmodel = \"chiang\"\n[[hair]]\nmaterial = \"h\"\nfile = \"h.hair\"\n{extra}"
+        );
+        let path = dir.path().join("s.toml");
+        std::fs::write(&path, &text).unwrap();
+        let f = SceneFile::parse(&text, &path).unwrap();
+        (dir, f, strands)
+    }
+
+    /// `basis = "bspline"` on `.hair` points: the tubes' axis runs through the uniform cubic
+    /// B-spline of the points, evaluated here in its matrix form (1/6 [−1 3 −3 1; 3 −6 3 0;
+    /// −3 0 3 0; 1 4 1 0] times the span's four points, at t = j/4), independently of the
+    /// crate's weight polynomials: 4 spans × 4 segments per strand, each segment from the
+    /// blend at j/4 to the blend at (j+1)/4. Linear (the default) keeps the 6 segments of
+    /// each polyline, with the points as ends.
+    #[test]
+    fn hair_basis_bspline_subdivides_the_points_as_a_b_spline() {
+        let blend = |c: &[DVec3], t: f64| {
+            let tt = [t * t * t, t * t, t, 1.0];
+            let m = [[-1.0, 3.0, -3.0, 1.0], [3.0, -6.0, 3.0, 0.0], [-3.0, 0.0, 3.0, 0.0], [1.0, 4.0, 1.0, 0.0]];
+            (0..4).map(|i| (0..4).map(|r| tt[r] * m[r][i]).sum::<f64>() / 6.0 * c[i]).sum::<DVec3>()
+        };
+        let (_dir, f, strands) = basis_scene("basis = \"bspline\"\nsegments_per_curve = 4\n");
+        let (scene, _) = f.build().unwrap();
+        let mut got = Vec::new();
+        scene.fibers()[0].curves().each_segment(|a, b, r| got.push((a, b, r)));
+        let mut want = Vec::new();
+        for c in &strands {
+            for span in 0..4 {
+                for j in 0..4 {
+                    let (t0, t1) = (f64::from(j) / 4.0, f64::from(j + 1) / 4.0);
+                    want.push((blend(&c[span..span + 4], t0), blend(&c[span..span + 4], t1)));
+                }
+            }
+        }
+        assert_eq!(got.len(), want.len());
+        for (k, ((a, b, r), (wa, wb))) in got.iter().zip(&want).enumerate() {
+            assert!(a.distance(*wa) < 1e-6 && b.distance(*wb) < 1e-6, "segment {k}: {a} {b} vs {wa} {wb}");
+            assert!((r - 0.01).abs() < 1e-8, "segment {k}: radius {r}");
+        }
+        // The spline does not pass through the points: the first segment starts off c₀ and c₁.
+        assert!(got[0].0.distance(strands[0][0]) > 1e-3 && got[0].0.distance(strands[0][1]) > 1e-3);
+        let (_dir, f, strands) = basis_scene("");
+        let mut ends = Vec::new();
+        f.build().unwrap().0.fibers()[0].curves().each_segment(|a, _, _| ends.push(a));
+        assert_eq!(ends.len(), 12);
+        assert!(ends[..6].iter().zip(&strands[0]).all(|(a, p)| a.distance(*p) < 1e-6));
+        // The estimate counts the subdivided segments.
+        let (_dir, f, _) = basis_scene("basis = \"catmull-rom\"\nsegments_per_curve = 5\n");
+        assert_eq!(f.memory_estimate().unwrap().hair[0].segments, 2 * 4 * 5);
+    }
+
+    /// Bad `basis` values and strands that do not fit the basis are refused, naming the scene
+    /// file, the line and column of the key and what is wrong; pbrt/USD files keep theirs.
+    #[test]
+    fn hair_basis_errors_name_the_scene_line() {
+        let (_dir, f, _) = basis_scene("basis = \"cubic\"\n");
+        let e = f.build().unwrap_err().to_string();
+        assert!(e.contains("s.toml:12:9: hair: basis = \"cubic\" must be one of"), "{e}");
+        // 7 points per strand fit Bézier (3k + 1, k = 2); 6 do not.
+        let (_dir, f, _) = basis_scene("basis = \"bezier\"\n");
+        assert!(f.build().is_ok());
+        let e = err(&format!(
+            "{CAMERA}[materials.h]\nmodel = \"chiang\"\n[[hair]]\nmaterial = \"h\"\nbasis = \"bezier\"\ngenerator = {{ strands = 2, segments = 5 }}\n"
+        ))
+        .to_string();
+        assert!(
+            e.starts_with("s.toml:11:9: hair: basis = \"bezier\": hair generator: strand 0 has 6 points: a Bézier strand needs 3k + 1 points"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{CAMERA}[materials.h]\nmodel = \"chiang\"\n[[hair]]\nmaterial = \"h\"\nbasis = \"bspline\"\ngenerator = {{ strands = 2, segments = 2 }}\n"
+        ))
+        .to_string();
+        assert!(e.contains("s.toml:11:9: ") && e.contains("a B-spline strand needs at least 4 points"), "{e}");
+        let (dir, _, _) = basis_scene("");
+        std::fs::write(dir.path().join("c.usda"), "#usda 1.0\ndef BasisCurves \"c\" {\n uniform token type = \"cubic\"\n uniform token basis = \"bezier\"\n int[] curveVertexCounts = [4]\n point3f[] points = [(0,0,0), (0,1,0), (0,2,0), (0,3,0)]\n float[] widths = [0.1, 0.1, 0.1, 0.1]\n}\n").unwrap();
+        let text = format!(
+            "{CAMERA}[materials.h]\nmodel = \"chiang\"\n[[hair]]\nmaterial = \"h\"\nfile = \"c.usda\"\nbasis = \"bspline\"\n"
+        );
+        let path = dir.path().join("s.toml");
+        let e = SceneFile::parse(&text, &path).unwrap().build().unwrap_err().to_string();
+        assert!(
+            e.contains("s.toml:12:9: hair: basis = \"bspline\" applies to .hair files")
+                && e.contains("bezier curves of its own"),
+            "{e}"
+        );
+    }
 
     /// `uv_scale` only where a model takes a position, finite and non-zero; such a material
     /// needs an OBJ with texture coordinates.

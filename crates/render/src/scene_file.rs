@@ -1354,11 +1354,28 @@ mod tests {
     #[test]
     fn example_scenes_in_the_repository_build() {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+        let made = tempfile::tempdir().unwrap();
         for entry in std::fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
+            let mut path = entry.unwrap().path();
             // Scenes only (not the meshes and textures they use).
             if path.extension().is_none_or(|e| e != "toml") {
                 continue;
+            }
+            // The explicit woven patch's fibers are made by `fiberlab mesh cloth-patch` and not
+            // kept in the repository: that scene builds on one repeat of the default patch, made here.
+            let text = std::fs::read_to_string(&path).unwrap();
+            if text.contains("file = \"cloth_patch.usda\"") && !dir.join("cloth_patch.usda").exists() {
+                let fibers = crate::woven_patch::WovenPatch::default().fibers(1, 1).unwrap();
+                let strands = fiberlab_io::Strands {
+                    points: fibers.points.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(),
+                    widths: vec![(2.0 * fibers.radius) as f32; fibers.points.len()],
+                    counts: fibers.counts.iter().map(|&n| n as u32).collect(),
+                    basis: fiberlab_io::Basis::Linear,
+                    kind: fiberlab_io::CurveKind::Cylinder,
+                };
+                fiberlab_io::strand_files::write(&made.path().join("cloth_patch.usda"), &strands, 1).unwrap();
+                path = made.path().join(path.file_name().unwrap());
+                std::fs::write(&path, &text).unwrap();
             }
             let mut f = SceneFile::read(&path).unwrap_or_else(|e| panic!("{e}"));
             for h in &mut f.desc.hair {

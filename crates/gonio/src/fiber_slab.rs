@@ -36,7 +36,7 @@
 //! specular cone), `substrate` (the substrate and no fiber) and `multiple` (the rest,
 //! including every path through a cut face).
 
-use crate::LobeTable;
+use crate::{BinSums, LobeTable};
 use fiberlab_math::{DVec3, Rgb, fresnel};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -632,7 +632,7 @@ pub fn measure_surface(
     let (st, ct) = setup.theta_i.sin_cos();
     let wi = DVec3::new(st * setup.phi_i.cos(), st * setup.phi_i.sin(), ct);
     let chunks = setup.rays.div_ceil(CHUNK);
-    let mut sums = vec![[Rgb::ZERO; 2]; 5 * nt * np];
+    let mut sums = BinSums::new(4, nt * np);
     let (mut dropped, mut traced) = (0usize, 0usize);
     let batch = 2 * rayon::current_num_threads().max(1);
     let mut next = 0;
@@ -665,37 +665,14 @@ pub fn measure_surface(
             .collect();
         for (records, drop, n) in results {
             for r in records {
-                for class in [r.class as usize, 4] {
-                    let cell = &mut sums[class * nt * np + r.bin as usize];
-                    cell[0] += r.w;
-                    cell[1] += r.w * r.w;
-                }
+                sums.add(r.class as usize, r.bin as usize, r.w);
             }
             dropped += drop;
             traced += n;
         }
         next = end;
     }
-    let n = traced.max(1) as f64;
-    let lobes = (0..5)
-        .map(|class| {
-            let mut f = Vec::with_capacity(nt * np);
-            let mut std = Vec::with_capacity(nt * np);
-            let mut albedo = Rgb::ZERO;
-            for i in 0..nt {
-                let omega = bin_cos_solid_angle(i, nt, np);
-                for j in 0..np {
-                    let [s, s2] = sums[class * nt * np + i * np + j];
-                    let mean = s / n;
-                    albedo += mean;
-                    let var = (s2 / n - mean * mean).map(|x| x.max(0.0)) / n;
-                    f.push(mean / omega);
-                    std.push(var.map(f64::sqrt) / omega);
-                }
-            }
-            LobeTable { f, std, albedo }
-        })
-        .collect();
+    let lobes = sums.tables(traced, nt, np, |i| bin_cos_solid_angle(i, nt, np));
     Ok(SurfaceMeasurement { setup: *setup, lobes, dropped, traced })
 }
 

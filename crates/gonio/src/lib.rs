@@ -9,8 +9,10 @@
 //! Measurements are deterministic for a seed, whatever the thread count. Pure: no I/O.
 #![forbid(unsafe_code)]
 
+pub mod bin_sums;
 pub mod fiber;
 pub mod fiber_slab;
+pub use bin_sums::BinSums;
 pub mod surface;
 pub mod trace;
 
@@ -172,7 +174,7 @@ pub fn measure(
         Orientation::Average => (0..4096).map(|k| half_width(fiber, TAU * k as f64 / 4096.0, e)).sum::<f64>() / 4096.0,
     };
     let chunks = setup.rays.div_ceil(CHUNK);
-    let mut sums = vec![[Rgb::ZERO; 2]; 6 * nt * np];
+    let mut sums = BinSums::new(5, nt * np);
     let (mut missed, mut dropped, mut traced) = (0usize, 0usize, 0usize);
     let batch = 2 * rayon::current_num_threads().max(1);
     let mut next = 0;
@@ -215,11 +217,7 @@ pub fn measure(
         // Merge in chunk order: the sums do not depend on the thread count.
         for (records, miss, drop, n) in results {
             for r in records {
-                for lobe in [r.lobe as usize, 5] {
-                    let cell = &mut sums[lobe * nt * np + r.bin as usize];
-                    cell[0] += r.w;
-                    cell[1] += r.w * r.w;
-                }
+                sums.add(r.lobe as usize, r.bin as usize, r.w);
             }
             missed += miss;
             dropped += drop;
@@ -227,26 +225,7 @@ pub fn measure(
         }
         next = end;
     }
-    let n = traced.max(1) as f64;
-    let lobes = (0..6)
-        .map(|lobe| {
-            let mut f = Vec::with_capacity(nt * np);
-            let mut std = Vec::with_capacity(nt * np);
-            let mut albedo = Rgb::ZERO;
-            for i in 0..nt {
-                let omega = cos_weighted_solid_angle(i, nt, np);
-                for j in 0..np {
-                    let [s, s2] = sums[lobe * nt * np + i * np + j];
-                    albedo += s / n;
-                    let mean = s / n;
-                    let var = (s2 / n - mean * mean).map(|v| v.max(0.0)) / n;
-                    f.push(mean / omega);
-                    std.push(var.map(f64::sqrt) / omega);
-                }
-            }
-            LobeTable { f, std, albedo }
-        })
-        .collect();
+    let lobes = sums.tables(traced, nt, np, |i| cos_weighted_solid_angle(i, nt, np));
     Ok(Measurement { setup: *setup, lobes, missed, dropped, traced })
 }
 

@@ -256,7 +256,7 @@ pub fn measure_cloth(
     let (st, ct) = setup.theta_i.sin_cos();
     let wi = DVec3::new(st * setup.phi_i.cos(), st * setup.phi_i.sin(), ct);
     let chunks = setup.rays.div_ceil(CHUNK);
-    let mut sums = vec![[Rgb::ZERO; 2]; 4 * nt * np];
+    let mut sums = fiberlab_gonio::BinSums::new(3, nt * np);
     let mut down = [Rgb::ZERO; 2];
     let (mut dropped, mut traced, mut events) = (0usize, 0usize, 0u64);
     let batch = 2 * rayon::current_num_threads().max(1);
@@ -295,11 +295,7 @@ pub fn measure_cloth(
             .collect();
         for (records, d, drop, n, ev) in results {
             for (bin, class, w) in records {
-                for class in [class as usize, 3] {
-                    let cell = &mut sums[class * nt * np + bin as usize];
-                    cell[0] += w;
-                    cell[1] += w * w;
-                }
+                sums.add(class as usize, bin as usize, w);
             }
             down[0] += d[0];
             down[1] += d[1];
@@ -310,25 +306,7 @@ pub fn measure_cloth(
         next = end;
     }
     let n = traced.max(1) as f64;
-    let lobes = (0..4)
-        .map(|class| {
-            let mut f = Vec::with_capacity(nt * np);
-            let mut std = Vec::with_capacity(nt * np);
-            let mut albedo = Rgb::ZERO;
-            for i in 0..nt {
-                let omega = fiberlab_gonio::fiber_slab::bin_cos_solid_angle(i, nt, np);
-                for j in 0..np {
-                    let [s, s2] = sums[class * nt * np + i * np + j];
-                    let mean = s / n;
-                    albedo += mean;
-                    let var = (s2 / n - mean * mean).map(|x| x.max(0.0)) / n;
-                    f.push(mean / omega);
-                    std.push(var.map(f64::sqrt) / omega);
-                }
-            }
-            fiberlab_gonio::LobeTable { f, std, albedo }
-        })
-        .collect();
+    let lobes = sums.tables(traced, nt, np, |i| fiberlab_gonio::fiber_slab::bin_cos_solid_angle(i, nt, np));
     let t = down[0] / n;
     let t_std = ((down[1] / n - t * t).map(|x| x.max(0.0)) / n).map(f64::sqrt);
     Ok(ClothMeasurement {

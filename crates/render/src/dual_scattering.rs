@@ -632,5 +632,23 @@ mod tests {
         assert_eq!(off, 0.0, "dual scattering without surface_bounce sees no light");
         let tolerance = 4.0 * (path_se * path_se + on_se * on_se).sqrt();
         assert!((on - path).abs() < tolerance, "surface_bounce {on} ± {on_se}, path tracer {path} ± {path_se}");
+
+        // No double counting: with a sky and only black surfaces, the bounced rays escape or
+        // meet black surfaces, so surface_bounce adds exactly nothing to the dual terms.
+        let mut b = SceneBuilder::new(scene.camera().clone());
+        let m = b.fiber_material(fiberlab_scatter::build("chiang", &[("eumelanin", "0.3")]).unwrap());
+        b.fibers(CurveSet::from_polylines([(&line[..], &[R, R][..])]), m);
+        let black = b.surface_material(crate::scene::SurfaceMaterial::Lambert(Rgb::ZERO));
+        b.sphere(DVec3::new(0.0, 0.0, -1001.0), 1000.0, black, None);
+        b.light(crate::light::Light::Constant { radiance: Rgb::splat(0.5) });
+        let sky = b.build();
+        let dual = |surface_bounce| {
+            let s = DualScatteringSettings { surface_bounce, ..Default::default() };
+            Integrator::DualScattering(Arc::new(DualScattering::new(&sky, s, &small_tables()).unwrap()))
+        };
+        let (on, _) = fiber_radiance(&sky, &dual(true), 4000);
+        let (off, _) = fiber_radiance(&sky, &dual(false), 4000);
+        assert!(off > 0.0, "the sky lights the fiber");
+        assert_eq!(on, off, "surface_bounce counted sky light twice");
     }
 }

@@ -16,8 +16,8 @@ with 4x4 rays per pixel). Reference: path tracing at depth 64, --spp-ref spp, se
 shown by a second reference with seed 2 (row "reference, seed 2").
 
 Baselines, all at --spp spp:
-* single scattering: dual scattering with d_f = d_b = 0 (the fiber's own lobes, lit only where no fiber
-  is in the way; surfaces path traced as in every dual row);
+* single scattering: dual scattering with d_f = d_b = 0 and surface_bounce=off (the fiber's own lobes,
+  lit only where no fiber is in the way; surfaces path traced as in every dual row);
 * single + diffuse: single + a * D per channel, D = (Kajiya-Kay k_d = 1, k_s = 0) - (k_d = k_s = 0), both
   at path depth 1 (direct light on the fibers, shadowed), a fitted by least squares to the reference;
 * fitted Kajiya-Kay: Z + a * D + b * S per channel, S = (k_d = 0, k_s = 1, p = P) - (k_d = k_s = 0) at
@@ -122,7 +122,7 @@ for name in a.colours.split(","):
     t_eq = render(scene, os.path.join(d, f"path_eq{spp_eq}"), ["--spp", str(spp_eq), "--max-depth", "64"])
     out[f"path tracing at equal time"] = (compare(os.path.join(d, f"path_eq{spp_eq}.exr"), R, mask), t_eq, spp_eq)
     single = os.path.join(d, "single")
-    t_single = render(scene, single, spp + dual + ["--dual", "d_f=0", "--dual", "d_b=0"])
+    t_single = render(scene, single, spp + dual + ["--dual", "d_f=0", "--dual", "d_b=0", "--dual", "surface_bounce=off"])
     out["single scattering"] = (compare(single + ".exr", R, mask), t_single, a.spp)
     # Kajiya-Kay terms (direct light at depth 1, the hair's share alone by difference with the black hair).
     kk = lambda tag, line: write(os.path.join(d, f"kk_{tag}.toml"), scene_text(line, "kajiya-kay"))

@@ -61,7 +61,8 @@ pub struct Args {
     fiber_count: Option<String>,
     /// With dual scattering, a constant or choice (defaults shown): `d_f=0.5`, `d_b=1`, `k_back=0.25`,
     /// `pi=on|off` (on), `spread=weighted|literal`, `global=energy|forward-mean`, `grid=64`
-    /// (cells along the longest side). Repeatable.
+    /// (cells along the longest side), `surface_bounce=on|off` (on; off leaves out the light that
+    /// reaches the hair off surfaces). Repeatable.
     #[arg(long = "dual", value_name = "KEY=VALUE")]
     dual: Vec<String>,
     /// Render only part I of N (0-based bands of rows), for `fiberlab merge`.
@@ -428,6 +429,13 @@ fn dual_settings(count: &str, pairs: &[String]) -> anyhow::Result<DualScattering
             "d_b" => s.backward_density = number()?,
             "k_back" => s.back_scale = number()?,
             "grid" => s.grid_resolution = (number()? as usize).max(1),
+            "surface_bounce" => {
+                s.surface_bounce = match value {
+                    "on" | "true" => true,
+                    "off" | "false" => false,
+                    _ => anyhow::bail!("--dual surface_bounce: `{value}` (known: on, off)"),
+                }
+            }
             "pi" => {
                 s.back_pi = match value {
                     "on" | "true" => true,
@@ -449,7 +457,9 @@ fn dual_settings(count: &str, pairs: &[String]) -> anyhow::Result<DualScattering
                     _ => anyhow::bail!("--dual global: `{value}` (known: energy, forward-mean)"),
                 }
             }
-            _ => anyhow::bail!("--dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, global, grid)"),
+            _ => anyhow::bail!(
+                "--dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, global, grid, surface_bounce)"
+            ),
         }
     }
     Ok(s)

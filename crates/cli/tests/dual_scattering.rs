@@ -47,6 +47,17 @@ fn renders_hair_and_refuses_what_it_cannot_render() {
         );
         assert!(dir.path().join(format!("{count}.exr")).exists());
     }
+    // surface_bounce takes on/off and nothing else; the message names the key and the choices.
+    for (value, ok) in [("off", true), ("maybe", false)] {
+        let out = fiberlab()
+            .current_dir(dir.path())
+            .args(["render", "s.toml", "--dual", &format!("surface_bounce={value}"), "--out", "sb", "--quiet"])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.success(), ok, "{err}");
+        assert!(ok || (err.contains("surface_bounce") && err.contains("on, off")), "{err}");
+    }
     // A delta model has no far-field density for the tables.
     std::fs::write(dir.path().join("d.toml"), SCENE.replace("MODEL", "specular")).unwrap();
     let out = fiberlab().current_dir(dir.path()).args(["render", "d.toml", "--quiet"]).output().unwrap();

@@ -250,9 +250,15 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
     let mut prev_p = ray.o;
     let picker = scene.light_picker();
     let mut depth = 0u32;
+    // The ray left a fiber shaded by dual scattering (`surface_bounce`).
+    let mut after_dual = false;
     loop {
         *rays += 1;
         let Some(hit) = scene.intersect(&ray) else {
+            if after_dual {
+                // Light straight from the environment: the dual terms at the fiber.
+                break;
+            }
             for (i, light) in scene.lights().iter().enumerate() {
                 let le = light.escaped(ray.d);
                 if le.is_black() {
@@ -267,17 +273,27 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
             }
             break;
         };
-        // Dual scattering: one light sample at the first fiber, and the path ends.
+        // Dual scattering: one light sample at the first fiber, and the path ends there, unless
+        // `surface_bounce` lets one sampled ray go on toward a surface.
+        let mut dual_vertex = false;
         if let (Hit::Fiber { hit, material }, Integrator::DualScattering(dual)) = (&hit, &settings.integrator) {
+            if after_dual {
+                // Fiber to fiber: the dual terms' share.
+                break;
+            }
             let [u_pick, _] = sampler.next_2d();
             let u_light = sampler.next_2d();
             l += beta * dual.shade_fiber(scene, hit, *material, ray.d, u_pick, u_light, rays);
-            break;
+            if !dual.settings().surface_bounce {
+                break;
+            }
+            dual_vertex = true;
         }
         let (p, local) = match hit {
             Hit::Fiber { hit, material } => (hit.p, Local::fiber(scene.fiber_model(material), &hit, ray.d)),
             Hit::Surface { p, n, shading, material, emitter, .. } => {
                 if let Some(i) = emitter
+                    && !after_dual
                     && let Some(light) = scene.spheres()[i].light()
                     && n.dot(ray.d) < 0.0
                 {
@@ -306,10 +322,16 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
             break;
         }
         let eps = spawn_epsilon(p);
-        // Next-event estimation (two dimension pairs, always consumed).
-        let [u_pick, _] = sampler.next_2d();
-        let u_light = sampler.next_2d();
-        if !local.is_delta()
+        // Next-event estimation (two dimension pairs, always consumed; at a dual-scattering
+        // fiber, `shade_fiber` has done it).
+        let (u_pick, u_light) = if dual_vertex {
+            (1.0, [0.0; 2])
+        } else {
+            let [u_pick, _] = sampler.next_2d();
+            (u_pick, sampler.next_2d())
+        };
+        if !dual_vertex
+            && !local.is_delta()
             && let Some((emitter, select)) = picker.pick(u_pick)
             && let Some(ls) = scene.sample_emitter(emitter, p, u_light)
         {
@@ -333,6 +355,7 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
         if beta.is_black() || !beta.is_finite() {
             break;
         }
+        after_dual = dual_vertex;
         prev_delta = s.delta;
         prev_pdf = s.pdf;
         prev_p = p;

@@ -133,13 +133,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 fn cloth_patch(args: &PatchArgs, periods: usize, out: &std::path::Path) -> anyhow::Result<()> {
     let patch = args.patch()?;
     let fibers = patch.fibers(periods, periods)?;
-    let strands = fiberlab_io::Strands {
-        points: fibers.points.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(),
-        widths: vec![(2.0 * fibers.radius) as f32; fibers.points.len()],
-        counts: fibers.counts.iter().map(|&n| n as u32).collect(),
-        basis: fiberlab_io::Basis::Linear,
-        kind: fiberlab_io::CurveKind::Cylinder,
-    };
+    let strands = fibers.strands();
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }

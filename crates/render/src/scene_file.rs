@@ -1366,14 +1366,7 @@ mod tests {
             let text = std::fs::read_to_string(&path).unwrap();
             if text.contains("file = \"cloth_patch.usda\"") && !dir.join("cloth_patch.usda").exists() {
                 let fibers = crate::woven_patch::WovenPatch::default().fibers(1, 1).unwrap();
-                let strands = fiberlab_io::Strands {
-                    points: fibers.points.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(),
-                    widths: vec![(2.0 * fibers.radius) as f32; fibers.points.len()],
-                    counts: fibers.counts.iter().map(|&n| n as u32).collect(),
-                    basis: fiberlab_io::Basis::Linear,
-                    kind: fiberlab_io::CurveKind::Cylinder,
-                };
-                fiberlab_io::strand_files::write(&made.path().join("cloth_patch.usda"), &strands, 1).unwrap();
+                fiberlab_io::strand_files::write(&made.path().join("cloth_patch.usda"), &fibers.strands(), 1).unwrap();
                 path = made.path().join(path.file_name().unwrap());
                 std::fs::write(&path, &text).unwrap();
             }

@@ -194,6 +194,18 @@ impl Fibers {
             .collect()
     }
 
+    /// The fibers as linear cylinder strands, for the strand-file writers of `fiberlab_io`.
+    #[must_use]
+    pub fn strands(&self) -> fiberlab_io::Strands {
+        fiberlab_io::Strands {
+            points: self.points.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(),
+            widths: vec![(2.0 * self.radius) as f32; self.points.len()],
+            counts: self.counts.iter().map(|&n| n as u32).collect(),
+            basis: fiberlab_io::Basis::Linear,
+            kind: fiberlab_io::CurveKind::Cylinder,
+        }
+    }
+
     /// Segment count.
     #[must_use]
     pub fn segment_count(&self) -> usize {

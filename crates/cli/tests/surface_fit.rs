@@ -2,24 +2,9 @@
 //! traced fiber slab, the residual report against a closed form, and the refusals of a table
 //! of the wrong kind.
 
-use assert_cmd::Command;
+mod fiberlab_process;
+use fiberlab_process::{fiberlab, refused, stdout_of};
 use std::path::Path;
-
-fn fiberlab() -> Command {
-    Command::cargo_bin("fiberlab").expect("binary builds")
-}
-
-fn stdout_of(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("runs");
-    assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8(out.stdout).expect("utf-8")
-}
-
-fn stderr_of_failure(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("runs");
-    assert!(!out.status.success(), "should fail: {}", String::from_utf8_lossy(&out.stdout));
-    String::from_utf8(out.stderr).expect("utf-8")
-}
 
 /// A fitted number from `fit`'s output line `  KEY = VALUE …`.
 fn fitted(out: &str, key: &str) -> f64 {
@@ -204,8 +189,7 @@ fn tables_of_the_wrong_kind_are_refused() {
     let surface = dir.path().join("surface.csv");
     constant_table(&surface, 0.5);
     let s = surface.to_str().unwrap();
-    let e =
-        stderr_of_failure(fiberlab().args(["fit", "--model", "chiang", "--table", s, "--init", "beta_m=0.3", "-q"]));
+    let e = refused(fiberlab().args(["fit", "--model", "chiang", "--table", s, "--init", "beta_m=0.3", "-q"]));
     assert!(e.contains("is a surface table") && e.contains("fiber model") && e.contains("sadeghi-2013"), "{e}");
     let fiber = dir.path().join("fiber.csv");
     std::fs::write(
@@ -214,26 +198,9 @@ fn tables_of_the_wrong_kind_are_refused() {
     )
     .unwrap();
     let f = fiber.to_str().unwrap();
-    let e = stderr_of_failure(fiberlab().args([
-        "fit",
-        "--model",
-        "sadeghi-2013",
-        "--table",
-        f,
-        "--init",
-        "k_d_1=0.3",
-        "-q",
-    ]));
+    let e = refused(fiberlab().args(["fit", "--model", "sadeghi-2013", "--table", f, "--init", "k_d_1=0.3", "-q"]));
     assert!(e.contains("is a fiber table") && e.contains("surface model"), "{e}");
-    let e = stderr_of_failure(fiberlab().args([
-        "fit",
-        "--model",
-        "sadeghi-2013",
-        "--target",
-        "chiang",
-        "--init",
-        "k_d_1=0.3",
-        "-q",
-    ]));
+    let e =
+        refused(fiberlab().args(["fit", "--model", "sadeghi-2013", "--target", "chiang", "--init", "k_d_1=0.3", "-q"]));
     assert!(e.contains("is a surface model") && e.contains("--table"), "{e}");
 }

@@ -2,12 +2,9 @@
 //! that spells out a preset evaluates bit-identically to the preset; a different weave does
 //! not; bad files are refused naming file, line and field; `check --param` checks a file.
 
-use assert_cmd::Command;
+mod fiberlab_process;
+use fiberlab_process::fiberlab;
 use std::path::{Path, PathBuf};
-
-fn fiberlab() -> Command {
-    Command::cargo_bin("fiberlab").expect("binary builds")
-}
 
 fn weave(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/weaves").join(name)

@@ -63,22 +63,9 @@ pub enum ClothGonioError {
     },
 }
 
-/// What to measure.
-#[derive(Clone, Copy, Debug)]
-pub struct ClothSetup {
-    /// Inclination of the traced direction from the normal (radians, [0, 89.9°)).
-    pub theta_i: f64,
-    /// Its azimuth from `+x` toward `+y` (radians).
-    pub phi_i: f64,
-    /// Paths.
-    pub rays: usize,
-    /// Bins in θ over [0, π/2].
-    pub bins_theta: usize,
-    /// Bins in φ over [−π, π].
-    pub bins_phi: usize,
-    /// Seed.
-    pub seed: u64,
-}
+/// What to measure: the slab goniophotometer's setup. Here `theta_i`, `phi_i` are the direction
+/// paths are traced from (the viewer's, as the renderer's camera paths), θ_i in [0, 89.9°).
+pub use fiberlab_gonio::fiber_slab::SurfaceSetup as ClothSetup;
 
 /// A periodic fiber sample.
 pub struct PeriodicPatch {

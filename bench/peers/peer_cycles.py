@@ -256,7 +256,11 @@ def main():
     bpy.data.images["Render Result"].save_render(filepath=f"{prefix}.exr")
     extra = []
     for n in extra_spp:
+        # With persistent data Cycles keeps the synced sample count: a new `scene.cycles.samples`
+        # alone does not take (the 4-spp render came out as the 16-spp one). The view layer's
+        # sample override is read at every render.
         bpy.context.scene.cycles.samples = n
+        bpy.context.view_layer.samples = n
         seconds = timed_render()
         bpy.data.images["Render Result"].save_render(filepath=f"{prefix}_{n}spp.exr")
         extra.append({"spp": n, "render_s": seconds, "exr": f"{prefix}_{n}spp.exr"})

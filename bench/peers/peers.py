@@ -212,6 +212,13 @@ def error_curve(res, reference):
     for e in res.get("extra", []):
         points.append((e["spp"], e["render_s"], compare(reference, e["exr"])["rmse"]))
     points.sort()
+    # An unbiased renderer's error falls with its sample count: a render with more samples and no
+    # lower RMSE means the sample count did not take (as Cycles' persistent data once did), and the
+    # curve is refused rather than fitted.
+    if any(b[2] >= a[2] for a, b in zip(points, points[1:])):
+        print(f"warning: RMSE does not fall with spp ({points}): no equal-error figure", file=sys.stderr)
+        res["error_curve"] = None
+        return
     k = math.exp(sum(math.log(rmse) + 0.5 * math.log(t) for _, t, rmse in points) / len(points))
     res["error_curve"] = {"points": points, "k": k}
 

@@ -18,7 +18,7 @@ use fiberlab_io::LinearImage;
 use fiberlab_io::ToneMap;
 use fiberlab_render::accumulation::Accumulation;
 use fiberlab_render::dual_scattering::{
-    DualScattering, DualScatteringSettings, GlobalAzimuth, Integrator, RENDER_TABLE_RESOLUTION, Spread,
+    DualScattering, DualScatteringSettings, GlobalAzimuth, Integrator, RENDER_TABLE_RESOLUTION, Spread, SurfaceBounce,
 };
 use fiberlab_render::fiber_count::FiberCount;
 use fiberlab_render::integrator::{Progress, Region, RenderSettings, render_continuing};
@@ -61,8 +61,10 @@ pub struct Args {
     fiber_count: Option<String>,
     /// With dual scattering, a constant or choice (defaults shown): `d_f=0.5`, `d_b=1`, `k_back=0.25`,
     /// `pi=on|off` (on), `spread=weighted|literal`, `global=energy|forward-mean`, `grid=64`
-    /// (cells along the longest side), `surface_bounce=on|off` (on; off leaves out the light that
-    /// reaches the hair off surfaces). Repeatable.
+    /// (cells along the longest side), `cutoff=1e-4` (the exact count stops below this ∏ā_f),
+    /// `bounce_cutoff=0.01` (the same for the count toward a surface), `surface_bounce=through|on|off` (through: light off surfaces
+    /// reaches the hair through the fibers in between; on: only with no fiber in between; off:
+    /// left out). Repeatable.
     #[arg(long = "dual", value_name = "KEY=VALUE")]
     dual: Vec<String>,
     /// Render only part I of N (0-based bands of rows), for `fiberlab merge`.
@@ -429,12 +431,10 @@ fn dual_settings(count: &str, pairs: &[String]) -> anyhow::Result<DualScattering
             "d_b" => s.backward_density = number()?,
             "k_back" => s.back_scale = number()?,
             "grid" => s.grid_resolution = (number()? as usize).max(1),
+            "cutoff" => s.count_cutoff = number()?,
+            "bounce_cutoff" => s.bounce_cutoff = number()?,
             "surface_bounce" => {
-                s.surface_bounce = match value {
-                    "on" | "true" => true,
-                    "off" | "false" => false,
-                    _ => anyhow::bail!("--dual surface_bounce: `{value}` (known: on, off)"),
-                }
+                s.surface_bounce = SurfaceBounce::parse(value).map_err(|e| anyhow::anyhow!("--dual {e}"))?;
             }
             "pi" => {
                 s.back_pi = match value {
@@ -458,7 +458,7 @@ fn dual_settings(count: &str, pairs: &[String]) -> anyhow::Result<DualScattering
                 }
             }
             _ => anyhow::bail!(
-                "--dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, global, grid, surface_bounce)"
+                "--dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, global, grid, surface_bounce, cutoff, bounce_cutoff)"
             ),
         }
     }

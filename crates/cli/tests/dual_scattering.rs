@@ -47,8 +47,8 @@ fn renders_hair_and_refuses_what_it_cannot_render() {
         );
         assert!(dir.path().join(format!("{count}.exr")).exists());
     }
-    // surface_bounce takes on/off and nothing else; the message names the key and the choices.
-    for (value, ok) in [("off", true), ("maybe", false)] {
+    // surface_bounce takes off/on/through and nothing else; the message names the key and the choices.
+    for (value, ok) in [("off", true), ("on", true), ("maybe", false)] {
         let out = fiberlab()
             .current_dir(dir.path())
             .args(["render", "s.toml", "--dual", &format!("surface_bounce={value}"), "--out", "sb", "--quiet"])
@@ -56,7 +56,7 @@ fn renders_hair_and_refuses_what_it_cannot_render() {
             .unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.success(), ok, "{err}");
-        assert!(ok || (err.contains("surface_bounce") && err.contains("on, off")), "{err}");
+        assert!(ok || (err.contains("surface_bounce") && err.contains("off, on, through")), "{err}");
     }
     // A delta model has no far-field density for the tables.
     std::fs::write(dir.path().join("d.toml"), SCENE.replace("MODEL", "specular")).unwrap();

@@ -380,6 +380,38 @@ impl CurveSet {
         });
     }
 
+    /// [`CurveSet::each_entry`] that stops as soon as `each` returns true (true then): the
+    /// counting walk of dual scattering with its cut-off. The leaves are visited in no order
+    /// (the any-hit walk, no sorting of children), so the entries reported before the stop are
+    /// an arbitrary subset. Does not allocate once each thread's list of reported segments
+    /// has grown.
+    pub fn each_entry_until(&self, ray: &Ray, mut each: impl FnMut(&CurveHit) -> bool) -> bool {
+        thread_local! {
+            static SEEN: std::cell::Cell<Vec<u32>> = const { std::cell::Cell::new(Vec::new()) };
+        }
+        let quick = QuickRay::new(ray);
+        let mut last = u32::MAX;
+        // A segment split into pieces sits in several leaves: remember the ones reported.
+        let mut seen = SEEN.take();
+        seen.clear();
+        let stopped = self.bvh.any_leaf(ray, |prims| {
+            for seg in self.candidates(&quick, prims, &mut last) {
+                if seen.contains(&seg) {
+                    continue;
+                }
+                if let Some(hit) = self.intersect_segment(seg, ray, ray.t_max) {
+                    seen.push(seg);
+                    if each(&hit) {
+                        return true;
+                    }
+                }
+            }
+            false
+        });
+        SEEN.set(seen);
+        stopped
+    }
+
     /// Calls `each(p0, p1, radius)` for every segment (axis ends and tube radius).
     pub fn each_segment(&self, mut each: impl FnMut(DVec3, DVec3, f64)) {
         for s in &self.segments {

@@ -28,12 +28,22 @@
 //! through fibers. On the head scene about half of the hair's brightness arrives off the skin
 //! and the floor instead (`bench/dual_scattering/result.md`, "Surface-bounced light"). With
 //! [`DualScatteringSettings::surface_bounce`] the path does not end at the fiber: it samples
-//! the fiber's scattering function once; if that ray reaches an ordinary surface, the path goes
-//! on from there as a path-traced path (next-event estimation, further bounces, and dual
-//! scattering again at the next fiber it meets), weighted by the sample's weight. If the ray
-//! meets another fiber or escapes, the path ends: that light is what the dual terms already
-//! approximate, so nothing is counted twice. Emission seen directly along that ray (sphere
-//! lights) is skipped for the same reason.
+//! the fiber's scattering function once ([`DualScattering::bounce`]). If that ray escapes, the
+//! path ends: sky light is the dual terms' share, so nothing is counted twice. If it meets an
+//! ordinary surface, the path goes on from there as a path-traced path (next-event
+//! estimation, further bounces, and dual scattering again at the next fiber it meets):
+//! * `Unobstructed` (`on`): only when no fiber lies in between, weighted by the sample's
+//!   weight `f_s cosθ/p`; light off the skin under a thick layer mostly never arrives;
+//! * `Through` (default): the fibers in between are counted as for a light sample, and the
+//!   surface is shaded like a light behind them, `F(ω, ω_o; n, ∏ā_f, σ̄_f²)·cosθ/p`.
+//!
+//! Emission seen directly along that ray (sphere lights) is skipped.
+//!
+//! # Cost
+//! The counting walks are any-hit walks of the BVH that never sort children; the exact one
+//! stops once `∏ ā_f` is below [`DualScatteringSettings::count_cutoff`] in every channel (the
+//! light then counts as blocked). The bounce tests the surfaces first and walks the fibers
+//! only up to the surface it meets.
 //!
 //! The constants and the disputed choices are [`DualScatteringSettings`]; their defaults are
 //! the ones the slab benchmark of `bench/dual_scattering/` selected (ARCHITECTURE.md, "Dual
@@ -41,8 +51,8 @@
 
 use crate::bvh::Ray;
 use crate::curves::CurveHit;
-use crate::fiber_count::{Crossing, DensityGrid, FiberCount, exact_crossings};
-use crate::scene::{FiberMaterialId, Scene};
+use crate::fiber_count::{Crossing, DensityGrid, FiberCount, exact_crossings, exact_crossings_until};
+use crate::scene::{FiberMaterialId, Hit, Scene};
 use crate::shapes::sphere_hit;
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::dual_scattering_tables::{DualTables, DualTablesError, Resolution};
@@ -92,6 +102,33 @@ pub enum Spread {
     Literal,
 }
 
+/// What becomes of light that reaches a fiber off an ordinary surface (skin, floor)
+/// ([`DualScattering::bounce`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SurfaceBounce {
+    /// Left out: the path ends at the first fiber.
+    Off,
+    /// One ray sampled from the fiber's scattering function goes on as a path if it meets a
+    /// surface with no fiber in between (`on`).
+    Unobstructed,
+    /// As `Unobstructed`, but fibers between the fiber and the surface are counted, and the
+    /// surface's light is shaded like a light's behind them: `F(ω, ω_o; n)·cosθ/p(ω)`
+    /// (`through`).
+    Through,
+}
+
+impl SurfaceBounce {
+    /// `off`, `on` or `through`.
+    pub fn parse(name: &str) -> Result<Self, String> {
+        match name {
+            "off" | "false" => Ok(Self::Off),
+            "on" | "true" => Ok(Self::Unobstructed),
+            "through" => Ok(Self::Through),
+            other => Err(format!("surface_bounce: `{other}` (known: off, on, through)")),
+        }
+    }
+}
+
 /// The constants and disputed choices of dual scattering.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DualScatteringSettings {
@@ -111,12 +148,18 @@ pub struct DualScatteringSettings {
     pub global: GlobalAzimuth,
     /// Density grid cells along the scene's longest side (grid counting).
     pub grid_resolution: usize,
-    /// Light that reaches a fiber off an ordinary surface (skin, floor): when true, the path
+    /// Light that reaches a fiber off an ordinary surface (skin, floor): unless `Off`, the path
     /// samples the fiber's scattering function once after the dual-scattering light sample; a
-    /// ray that hits a surface goes on as an ordinary path from there, one that hits a fiber or
-    /// escapes ends (fiber-to-fiber and direct light are the dual terms). Default on: better on
-    /// the head scene for every hair colour (`bench/dual_scattering/result.md`).
-    pub surface_bounce: bool,
+    /// ray that meets a surface goes on as an ordinary path from there, one that escapes ends
+    /// (direct light is the dual terms'). Default `Through`: better on the head scene for
+    /// every hair colour (`bench/dual_scattering/result.md`).
+    pub surface_bounce: SurfaceBounce,
+    /// The exact counting walk stops once the transmittance product `∏ ā_f` is below this in
+    /// every channel, and the light is then taken as fully blocked (an error below this
+    /// fraction of the light's unshadowed contribution, times d_f); 0 walks every fiber.
+    pub count_cutoff: f64,
+    /// The same cut-off for the walk of a `Through` bounce toward a surface.
+    pub bounce_cutoff: f64,
 }
 
 impl Default for DualScatteringSettings {
@@ -130,7 +173,9 @@ impl Default for DualScatteringSettings {
             spread: Spread::Weighted,
             global: GlobalAzimuth::Energy,
             grid_resolution: 64,
-            surface_bounce: true,
+            surface_bounce: SurfaceBounce::Through,
+            count_cutoff: 1e-4,
+            bounce_cutoff: 1e-2,
         }
     }
 }
@@ -223,9 +268,23 @@ impl DualScattering {
         self.tables.iter().find(|(m, _)| *m == material).map_or(&self.tables[0].1, |(_, t)| t)
     }
 
-    /// `(n, ∏ ā_f(θ^k) as exp Σ ln, Σ β̄_f²(θ^k))` over the fibers crossed by `ray`.
+    /// `(n, ∏ ā_f(θ^k) as exp Σ ln, Σ β̄_f²(θ^k))` over the fibers crossed by `ray`. The
+    /// exact walk stops at [`DualScatteringSettings::count_cutoff`]; the product is then 0
+    /// (and `n`, the spread, the partial sums so far).
     #[must_use]
     pub fn count(&self, scene: &Scene, ray: &Ray, skip: Option<(usize, u32)>, skip_distance: f64) -> (f64, Rgb, Rgb) {
+        self.count_until(scene, ray, skip, skip_distance, self.settings.count_cutoff)
+    }
+
+    /// [`DualScattering::count`] with the cut-off `cutoff` (0: the whole walk).
+    fn count_until(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        skip: Option<(usize, u32)>,
+        skip_distance: f64,
+        cutoff: f64,
+    ) -> (f64, Rgb, Rgb) {
         let (mut n, mut log_t, mut var) = (0.0, Rgb::ZERO, Rgb::ZERO);
         let mut add = |c: Crossing| {
             let t = self.tables_of(c.material);
@@ -234,12 +293,27 @@ impl DualScattering {
             n += c.count;
             log_t += af.map(|a| a.clamp(1e-300, 1.0).ln()) * c.count;
             var += t.lookup(theta, |r| r.forward_variance) * c.count;
+            log_t
         };
-        match &self.grid {
-            Some(g) => g.crossings(ray, &mut add),
-            None => exact_crossings(scene, ray, skip, skip_distance, &mut add),
-        }
-        (n, log_t.exp(), var)
+        let stopped = match &self.grid {
+            Some(g) => {
+                g.crossings(ray, &mut |c| {
+                    add(c);
+                });
+                false
+            }
+            None if cutoff > 0.0 => {
+                let log_cut = cutoff.ln();
+                exact_crossings_until(scene, ray, skip, skip_distance, &mut |c| add(c).max_component() < log_cut)
+            }
+            None => {
+                exact_crossings(scene, ray, skip, skip_distance, &mut |c| {
+                    add(c);
+                });
+                false
+            }
+        };
+        (n, if stopped { Rgb::ZERO } else { log_t.exp() }, var)
     }
 
     /// `F(ω_i, ω_o)` (sr⁻¹, module docs) at a fiber of `material` for local directions `wi`
@@ -352,6 +426,62 @@ impl DualScattering {
     }
 }
 
+impl DualScattering {
+    /// The bounce of `surface_bounce` at the dual-scattering fiber `fiber` (seen along
+    /// `ray_d`): the direction `wi` sampled from the fiber's scattering function with density
+    /// `pdf` and weight `weight` (`f_s·cosθ/p`). Returns the surface the ray meets and the
+    /// path's new weight factor, or `None` when the path ends: the ray escapes (the dual terms
+    /// have the lights), meets no surface, or, with `Unobstructed`, meets a fiber first. With
+    /// `Through`, the fibers up to the surface are counted as toward a light and the factor is
+    /// `F(ω_i, ω_o; n, ∏ā_f, σ̄_f²)·cosθ_i/p` ([`DualScattering::scattering`]), which with
+    /// nothing in between and `d_b = 0` is `weight`. Adds the ray to `rays`.
+    #[must_use]
+    #[allow(clippy::too_many_arguments)]
+    pub fn bounce(
+        &self,
+        scene: &Scene,
+        fiber: &CurveHit,
+        material: FiberMaterialId,
+        ray_d: DVec3,
+        wi: DVec3,
+        pdf: f64,
+        weight: Rgb,
+        rays: &mut u64,
+    ) -> Option<(Hit, Rgb)> {
+        let p = fiber.p;
+        let eps = 1e-9 * (1.0 + p.abs().max_element());
+        let mut ray = Ray { o: p, d: wi, t_min: eps, t_max: f64::INFINITY };
+        *rays += 1;
+        let hit = scene.intersect_surfaces(&ray)?;
+        let Hit::Surface { t, .. } = hit else { return None };
+        ray.t_max = t;
+        match self.settings.surface_bounce {
+            SurfaceBounce::Off => None,
+            SurfaceBounce::Unobstructed => {
+                (!scene.fibers().iter().any(|f| f.curves().occluded(&ray))).then_some((hit, weight))
+            }
+            SurfaceBounce::Through => {
+                if pdf <= 0.0 {
+                    return None;
+                }
+                let assembly = scene.fibers().iter().position(|f| f.material() == material);
+                let skip = assembly.map(|a| (a, fiber.strand));
+                let (n, product, spread2) =
+                    self.count_until(scene, &ray, skip, 4.0 * fiber.radius, self.settings.bounce_cutoff);
+                if n > 0.0 && product.is_black() {
+                    return None;
+                }
+                let frame = fiber.frame(ray_d);
+                let (wi_l, wo_l) = (frame.to_local(wi), frame.to_local(-ray_d));
+                let f = self.scattering(scene, material, wi_l, wo_l, fiber.h, n, product, spread2);
+                let cos_i = (1.0 - wi_l.x * wi_l.x).max(0.0).sqrt();
+                let factor = f * (cos_i / pdf);
+                (!factor.is_black() && factor.is_finite()).then_some((hit, factor))
+            }
+        }
+    }
+}
+
 /// True when no sphere or mesh blocks the ray (fibers are counted, not tested).
 fn surfaces_unoccluded(scene: &Scene, ray: &Ray) -> bool {
     !(scene.spheres().iter().any(|s| sphere_hit(ray.o, ray.d, s.center(), s.radius(), ray.t_min, ray.t_max).is_some())
@@ -407,7 +537,8 @@ mod tests {
         // projection onto the y–z plane.
         let positions = random_positions(3, 400, 2.0, 3.0);
         let scene = slab(&positions, "chiang", &[]);
-        let dual = DualScattering::new(&scene, DualScatteringSettings::default(), &small_tables()).unwrap();
+        let all = DualScatteringSettings { count_cutoff: 0.0, ..Default::default() };
+        let dual = DualScattering::new(&scene, all, &small_tables()).unwrap();
         let mut u = uniforms(4);
         let mut total = 0.0;
         for _ in 0..200 {
@@ -439,12 +570,117 @@ mod tests {
     }
 
     #[test]
+    fn count_cutoff_drops_exactly_the_rays_below_it() {
+        // Against the full walk (cut-off 0): a ray whose whole product stays at or above the
+        // cut-off in some channel is counted identically; every other ray reports product 0.
+        // The cut-off is the median of the full products, so both cases occur.
+        let positions = random_positions(11, 600, 2.0, 3.0);
+        let scene = slab(&positions, "chiang", &[("eumelanin", "0.3")]);
+        let full = DualScattering::new(
+            &scene,
+            DualScatteringSettings { count_cutoff: 0.0, ..Default::default() },
+            &small_tables(),
+        )
+        .unwrap();
+        let mut u = uniforms(12);
+        let rays: Vec<Ray> = (0..300)
+            .map(|_| {
+                let o = DVec3::new(2.0 * (u() - 0.5), 0.5, 1.0 * (u() - 0.5));
+                let d = DVec3::new(1.6 * (u() - 0.5), -1.0, 1.6 * (u() - 0.5)).normalize();
+                Ray { o, d, t_min: 0.0, t_max: f64::INFINITY }
+            })
+            .collect();
+        let counts: Vec<(f64, Rgb, Rgb)> = rays.iter().map(|r| full.count(&scene, r, None, 0.0)).collect();
+        let mut products: Vec<f64> = counts.iter().map(|c| c.1.max_component()).collect();
+        products.sort_by(f64::total_cmp);
+        let cutoff = products[products.len() / 2];
+        assert!(cutoff > 1e-12 && cutoff < 0.5, "the rays cross fibers: median product {cutoff}");
+        let cut = DualScattering::new(
+            &scene,
+            DualScatteringSettings { count_cutoff: cutoff, ..Default::default() },
+            &small_tables(),
+        )
+        .unwrap();
+        let (mut kept, mut dropped) = (0, 0);
+        for (ray, &(n, product, spread)) in rays.iter().zip(&counts) {
+            let (m, p, s) = cut.count(&scene, ray, None, 0.0);
+            if product.max_component() >= cutoff {
+                kept += 1;
+                assert_eq!(n, m);
+                for c in 0..3 {
+                    assert!((p[c] / product[c] - 1.0).abs() < 1e-9 && (s[c] - spread[c]).abs() <= 1e-9 * spread[c]);
+                }
+            } else {
+                dropped += 1;
+                assert!(p.is_black() && m <= n, "{n} fibers, product {product:?}: cut walk {m}, {p:?}");
+            }
+        }
+        assert!(kept > 100 && dropped > 100, "both cases occur: {kept} kept, {dropped} dropped");
+    }
+
+    #[test]
+    fn bounce_through_counts_the_fibers_up_to_the_surface() {
+        // Fiber A along x at the origin, seen from +y; below it a floor (a huge sphere, top at
+        // z = −1), three fibers between A's hit point and the floor straight down, and one
+        // under the floor's top (beyond the surface). A bounce straight down meets the floor
+        // through exactly 3 fibers, each crossed at θ = 0: factor = F(n = 3, ā_f(0)³, 3 β̄_f²(0))
+        // ·cosθ_i / p. `on` refuses the same ray (fibers in the way).
+        let camera = Camera::look_at(DVec3::new(0.0, 10.0, 0.0), DVec3::ZERO, DVec3::X, 10.0, 4, 4).unwrap();
+        let lines_at = |zs: &[f64], y: f64| -> Vec<Vec<DVec3>> {
+            zs.iter().map(|&z| vec![DVec3::new(-4.0, y, z), DVec3::new(4.0, y, z)]).collect()
+        };
+        let build = |screen: &[Vec<DVec3>]| {
+            let mut b = SceneBuilder::new(camera.clone());
+            let m = b.fiber_material(fiberlab_scatter::build("chiang", &[("eumelanin", "0.3")]).unwrap());
+            let mut lines = vec![vec![DVec3::new(-4.0, 0.0, 0.0), DVec3::new(4.0, 0.0, 0.0)]];
+            lines.extend_from_slice(screen);
+            b.fibers(CurveSet::from_polylines(lines.iter().map(|p| (p.as_slice(), &[R, R][..]))), m);
+            let grey = b.surface_material(crate::scene::SurfaceMaterial::Lambert(Rgb::splat(0.5)));
+            b.sphere(DVec3::new(0.0, 0.0, -1001.0), 1000.0, grey, None);
+            b.build()
+        };
+        let ray_d = -DVec3::Y;
+        let probe = Ray { o: DVec3::new(0.0, 2.0, 0.3 * R), d: ray_d, t_min: 0.0, t_max: f64::INFINITY };
+        let Some(Hit::Fiber { hit, material }) = build(&[]).intersect(&probe) else { panic!("fiber A is hit") };
+        let scene = build(&lines_at(&[-0.3, -0.5, -0.7, -1.5], hit.p.y));
+        let settings = DualScatteringSettings { count_cutoff: 0.0, bounce_cutoff: 0.0, ..Default::default() };
+        let dual = DualScattering::new(&scene, settings, &small_tables()).unwrap();
+        let mut rays = 0;
+        let wi = -DVec3::Z;
+        let (surface, factor) =
+            dual.bounce(&scene, &hit, material, ray_d, wi, 0.7, Rgb::ONE, &mut rays).expect("the floor is met");
+        assert!(matches!(surface, Hit::Surface { t, .. } if (t - (1.0 + hit.p.z)).abs() < 1e-6));
+        let t = &dual.tables[0].1;
+        let af = t.lookup(0.0, |r| r.forward);
+        let var = t.lookup(0.0, |r| r.forward_variance);
+        let frame = hit.frame(ray_d);
+        let (wi_l, wo_l) = (frame.to_local(wi), frame.to_local(-ray_d));
+        let product = Rgb::new(af[0].powi(3), af[1].powi(3), af[2].powi(3));
+        let f = dual.scattering(&scene, material, wi_l, wo_l, hit.h, 3.0, product, var * 3.0);
+        let want = f * ((1.0 - wi_l.x * wi_l.x).sqrt() / 0.7);
+        assert!(!want.is_black());
+        for c in 0..3 {
+            assert!((factor[c] / want[c] - 1.0).abs() < 1e-9, "channel {c}: {} vs {}", factor[c], want[c]);
+        }
+        let on = DualScattering::new(
+            &scene,
+            DualScatteringSettings { surface_bounce: SurfaceBounce::Unobstructed, ..settings },
+            &small_tables(),
+        )
+        .unwrap();
+        assert!(on.bounce(&scene, &hit, material, ray_d, wi, 0.7, Rgb::ONE, &mut rays).is_none());
+        // Upward, nothing but sky: the path ends.
+        assert!(dual.bounce(&scene, &hit, material, ray_d, DVec3::Z, 0.7, Rgb::ONE, &mut rays).is_none());
+    }
+
+    #[test]
     fn grid_count_matches_exact_count_on_a_random_slab() {
         // Mean count over many vertical rays: within 10 % (the grid smears the fibers over
         // its cells; the mean over rays is what the density reproduces).
         let positions = random_positions(5, 1200, 2.0, 3.0);
         let scene = slab(&positions, "chiang", &[]);
-        let exact = DualScattering::new(&scene, DualScatteringSettings::default(), &small_tables()).unwrap();
+        let all = DualScatteringSettings { count_cutoff: 0.0, ..Default::default() };
+        let exact = DualScattering::new(&scene, all, &small_tables()).unwrap();
         let grid = DualScattering::new(
             &scene,
             DualScatteringSettings { count: FiberCount::Grid, grid_resolution: 48, ..Default::default() },
@@ -620,18 +856,22 @@ mod tests {
         b.sphere(DVec3::new(0.0, 0.0, -1001.0), 1000.0, grey, None);
         b.light(crate::light::Light::sun(DVec3::Z, 0.02, Rgb::splat(2.0)));
         let scene = b.build();
-        let dual = |surface_bounce| {
-            let s = DualScatteringSettings { surface_bounce, ..Default::default() };
+        let dual = |surface_bounce, backward_density| {
+            let s = DualScatteringSettings { surface_bounce, backward_density, ..Default::default() };
             Integrator::DualScattering(Arc::new(DualScattering::new(&scene, s, &small_tables()).unwrap()))
         };
         let n = 40_000;
         let (path, path_se) = fiber_radiance(&scene, &Integrator::Path, n);
-        let (on, on_se) = fiber_radiance(&scene, &dual(true), n);
-        let (off, _) = fiber_radiance(&scene, &dual(false), n);
+        let (on, on_se) = fiber_radiance(&scene, &dual(SurfaceBounce::Unobstructed, 1.0), n);
+        let (off, _) = fiber_radiance(&scene, &dual(SurfaceBounce::Off, 1.0), n);
         assert!(path > 20.0 * path_se, "the floor lights the fiber: {path} ± {path_se}");
         assert_eq!(off, 0.0, "dual scattering without surface_bounce sees no light");
         let tolerance = 4.0 * (path_se * path_se + on_se * on_se).sqrt();
         assert!((on - path).abs() < tolerance, "surface_bounce {on} ± {on_se}, path tracer {path} ± {path_se}");
+        // With no fiber between the fiber and the floor and no backscatter (d_b = 0), `through`
+        // shades the floor's light with f_s·cosθ/p, the sample's own weight: the same paths.
+        let (through, _) = fiber_radiance(&scene, &dual(SurfaceBounce::Through, 0.0), n);
+        assert!((through / on - 1.0).abs() < 1e-9, "through {through}, on {on}");
 
         // No double counting: with a sky and only black surfaces, the bounced rays escape or
         // meet black surfaces, so surface_bounce adds exactly nothing to the dual terms.
@@ -646,9 +886,11 @@ mod tests {
             let s = DualScatteringSettings { surface_bounce, ..Default::default() };
             Integrator::DualScattering(Arc::new(DualScattering::new(&sky, s, &small_tables()).unwrap()))
         };
-        let (on, _) = fiber_radiance(&sky, &dual(true), 4000);
-        let (off, _) = fiber_radiance(&sky, &dual(false), 4000);
+        let (off, _) = fiber_radiance(&sky, &dual(SurfaceBounce::Off), 4000);
         assert!(off > 0.0, "the sky lights the fiber");
-        assert_eq!(on, off, "surface_bounce counted sky light twice");
+        for mode in [SurfaceBounce::Unobstructed, SurfaceBounce::Through] {
+            let (on, _) = fiber_radiance(&sky, &dual(mode), 4000);
+            assert_eq!(on, off, "surface_bounce {mode:?} counted sky light twice");
+        }
     }
 }

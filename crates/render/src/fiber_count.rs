@@ -68,6 +68,25 @@ pub fn exact_crossings(
     }
 }
 
+/// [`exact_crossings`] that stops when `each` returns true (true then), in no particular
+/// order of the crossings ([`crate::curves::CurveSet::each_entry_until`]).
+pub fn exact_crossings_until(
+    scene: &Scene,
+    ray: &Ray,
+    skip: Option<(usize, u32)>,
+    skip_distance: f64,
+    each: &mut dyn FnMut(Crossing) -> bool,
+) -> bool {
+    scene.fibers().iter().enumerate().any(|(k, f)| {
+        f.curves().each_entry_until(ray, |hit| {
+            if skip == Some((k, hit.strand)) && hit.t < skip_distance {
+                return false;
+            }
+            each(Crossing { count: 1.0, sin_theta: ray.d.dot(hit.tangent).abs().min(1.0), material: f.material() })
+        })
+    })
+}
+
 /// Fiber density per cell (module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DensityGrid {

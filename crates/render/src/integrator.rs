@@ -21,7 +21,7 @@
 use crate::accumulation::{Accumulation, ResumeError};
 use crate::bvh::Ray;
 use crate::curves::CurveHit;
-use crate::dual_scattering::Integrator;
+use crate::dual_scattering::{Integrator, SurfaceBounce};
 use crate::mesh::ShadingFrame;
 pub use crate::region::Region;
 use crate::sampler::PixelSampler;
@@ -250,11 +250,19 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
     let mut prev_p = ray.o;
     let picker = scene.light_picker();
     let mut depth = 0u32;
-    // The ray left a fiber shaded by dual scattering (`surface_bounce`).
+    // The ray left a fiber shaded by dual scattering (`surface_bounce`), and the surface it
+    // meets ([`crate::dual_scattering::DualScattering::bounce`] has traced it).
     let mut after_dual = false;
+    let mut bounced: Option<Hit> = None;
     loop {
-        *rays += 1;
-        let Some(hit) = scene.intersect(&ray) else {
+        let next = match bounced.take() {
+            Some(h) => Some(h),
+            None => {
+                *rays += 1;
+                scene.intersect(&ray)
+            }
+        };
+        let Some(hit) = next else {
             if after_dual {
                 // Light straight from the environment: the dual terms at the fiber.
                 break;
@@ -275,7 +283,7 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
         };
         // Dual scattering: one light sample at the first fiber, and the path ends there, unless
         // `surface_bounce` lets one sampled ray go on toward a surface.
-        let mut dual_vertex = false;
+        let mut dual_vertex = None;
         if let (Hit::Fiber { hit, material }, Integrator::DualScattering(dual)) = (&hit, &settings.integrator) {
             if after_dual {
                 // Fiber to fiber: the dual terms' share.
@@ -284,10 +292,10 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
             let [u_pick, _] = sampler.next_2d();
             let u_light = sampler.next_2d();
             l += beta * dual.shade_fiber(scene, hit, *material, ray.d, u_pick, u_light, rays);
-            if !dual.settings().surface_bounce {
+            if dual.settings().surface_bounce == SurfaceBounce::Off {
                 break;
             }
-            dual_vertex = true;
+            dual_vertex = Some((dual, *hit, *material));
         }
         let (p, local) = match hit {
             Hit::Fiber { hit, material } => (hit.p, Local::fiber(scene.fiber_model(material), &hit, ray.d)),
@@ -324,13 +332,13 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
         let eps = spawn_epsilon(p);
         // Next-event estimation (two dimension pairs, always consumed; at a dual-scattering
         // fiber, `shade_fiber` has done it).
-        let (u_pick, u_light) = if dual_vertex {
+        let (u_pick, u_light) = if dual_vertex.is_some() {
             (1.0, [0.0; 2])
         } else {
             let [u_pick, _] = sampler.next_2d();
             (u_pick, sampler.next_2d())
         };
-        if !dual_vertex
+        if dual_vertex.is_none()
             && !local.is_delta()
             && let Some((emitter, select)) = picker.pick(u_pick)
             && let Some(ls) = scene.sample_emitter(emitter, p, u_light)
@@ -351,11 +359,21 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
         let (a, b) = (sampler.next_2d(), sampler.next_2d());
         let [u_rr, _] = sampler.next_2d();
         let Some(s) = local.sample([a[0], a[1], b[0], b[1]]) else { break };
-        beta *= s.weight;
+        match dual_vertex {
+            Some((dual, fiber, material)) => {
+                let Some((surface, factor)) = dual.bounce(scene, &fiber, material, ray.d, s.wi, s.pdf, s.weight, rays)
+                else {
+                    break;
+                };
+                beta *= factor;
+                bounced = Some(surface);
+            }
+            None => beta *= s.weight,
+        }
         if beta.is_black() || !beta.is_finite() {
             break;
         }
-        after_dual = dual_vertex;
+        after_dual = dual_vertex.is_some();
         prev_delta = s.delta;
         prev_pdf = s.pdf;
         prev_p = p;

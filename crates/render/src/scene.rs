@@ -316,6 +316,24 @@ impl Scene {
     /// Nearest hit along the ray.
     #[must_use]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let mut best = self.intersect_surfaces(ray);
+        let mut r = *ray;
+        if let Some(Hit::Surface { t, .. }) = best {
+            r.t_max = t;
+        }
+        for f in &self.fibers {
+            if let Some(hit) = f.curves.intersect(&r) {
+                r.t_max = hit.t;
+                best = Some(Hit::Fiber { hit, material: f.material });
+            }
+        }
+        best
+    }
+
+    /// Nearest sphere or mesh hit along the ray, fibers ignored (dual scattering's bounce
+    /// toward a surface counts the fibers in between instead).
+    #[must_use]
+    pub fn intersect_surfaces(&self, ray: &Ray) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut r = *ray;
         // Cheap solid shapes first: a head in front shortens the ray before the hair's tree.
@@ -333,12 +351,6 @@ impl Scene {
             if let Some((t, n, shading)) = m.mesh.intersect_point(&r) {
                 r.t_max = t;
                 best = Some(Hit::Surface { t, p: r.at(t), n, shading, material: m.material, emitter: None });
-            }
-        }
-        for f in &self.fibers {
-            if let Some(hit) = f.curves.intersect(&r) {
-                r.t_max = hit.t;
-                best = Some(Hit::Fiber { hit, material: f.material });
             }
         }
         best

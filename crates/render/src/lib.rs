@@ -13,7 +13,7 @@
 //! crate owns no scattering physics: at a fiber hit it builds the fiber frame (see [`curves`])
 //! and calls the model; at a surface-model hit it builds the shading frame (see [`mesh`]) and
 //! calls the surface model.
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 
 pub mod accumulation;
 pub mod bench;
@@ -37,6 +37,7 @@ pub mod sampler;
 pub mod scene;
 pub mod scene_file;
 pub mod shapes;
+pub mod simd;
 pub mod strand_diameters;
 pub mod surface_material;
 pub mod texture;

@@ -13,8 +13,9 @@
 //! grandchildren of its largest-area interior children until it has four; Wald et al. 2008,
 //! "Getting rid of packets"). A node is one 64-byte cache line holding its four child boxes
 //! quantized to 8 bits on the node's grid, rounded outward, as structure of arrays, so one ray
-//! tests all four with the same instructions; traversal visits the hit children nearest first
-//! and hands the caller a leaf at a time.
+//! tests all four with the same instructions (four `f32` lanes, or near and far planes in eight
+//! AVX2 lanes where the CPU has them: [`crate::simd`]); traversal visits the hit children nearest
+//! first and hands the caller a leaf at a time.
 
 use crate::simd::{Lanes, Portable, RowChoice, SimdLevel, SlabTerms};
 use fiberlab_math::DVec3;

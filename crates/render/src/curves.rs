@@ -514,9 +514,7 @@ impl QuickRay {
         debug_assert!((1..=8).contains(&prims.len()), "a leaf holds 1 to 8 primitives");
         // A short leaf repeats its last segment; those lanes are masked off.
         let last = prims.len() - 1;
-        let head = |k: usize| segments[prims[k.min(last)] as usize].head();
-        let heads = [head(0), head(1), head(2), head(3), head(4), head(5), head(6), head(7)];
-        lanes.near_axis(&self.0, &heads, prims.len())
+        lanes.near_axis(&self.0, |k| segments[prims[k.min(last)] as usize].head(), prims.len())
     }
 }
 

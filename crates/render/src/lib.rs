@@ -1,6 +1,7 @@
 //! fiberlab's renderer for fiber assemblies: strands as round tubes ([`curves`]) in a BVH
-//! ([`bvh`]), a procedural hair generator ([`generator`]), spheres and triangle meshes
-//! ([`shapes`]), camera, lights, a unidirectional path tracer with next-event estimation and
+//! ([`bvh`]; its node and leaf tests in explicit SIMD chosen at run time: [`simd`], the only
+//! module allowed `unsafe`), a procedural hair generator ([`generator`]), spheres and triangle
+//! meshes ([`shapes`]), camera, lights, a unidirectional path tracer with next-event estimation and
 //! MIS ([`integrator`]), tiles and part merging, the TOML scene format ([`scene_file`]), and the
 //! one model loader for user input ([`model_loader`], with [`toml_params`]). Surfaces carry
 //! texture coordinates, shading normals and tangents ([`mesh`]; cabochon domes: [`cabochon`];

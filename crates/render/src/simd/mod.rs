@@ -42,11 +42,19 @@ impl SimdLevel {
     /// The portable form, available everywhere.
     pub const PORTABLE: Self = Self(Level::Portable);
 
-    /// The best level this CPU supports (detected at run time).
+    /// The best level this CPU supports (detected at run time), unless the environment
+    /// variable [`SIMD_ENV`](Self::SIMD_ENV) is `portable` (to measure or check the portable form
+    /// on any machine).
     #[must_use]
     pub fn best() -> Self {
+        if std::env::var_os(Self::SIMD_ENV).is_some_and(|v| v == "portable") {
+            return Self::PORTABLE;
+        }
         Self::avx2().unwrap_or(Self::PORTABLE)
     }
+
+    /// `FIBERLAB_SIMD`: set to `portable`, trees built afterwards use the portable form.
+    pub const SIMD_ENV: &'static str = "FIBERLAB_SIMD";
 
     /// AVX2, if this CPU supports it.
     #[must_use]
@@ -163,10 +171,11 @@ pub(crate) trait Lanes: Copy {
     fn slab(self, q: &[[u8; 4]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 4]);
 
     /// Bit `k` (`k < n ≤ 8`) clear only when the ray's line certainly misses the infinite
-    /// cylinder of segment `heads[k]`: its squared distance to the axis exceeds r² by more than
+    /// cylinder of segment `head(k)`: its squared distance to the axis exceeds r² by more than
     /// the `f32` rounding of the inputs (relative 1e-5 of the origin's distance from the
-    /// segment start, far above the ~1e-7 actually incurred). Lanes `≥ n` are ignored.
-    fn near_axis(self, line: &LineF32, heads: &[SegmentHead; 8], n: usize) -> u32;
+    /// segment start, far above the ~1e-7 actually incurred). `head` is also called for lanes
+    /// `n..8` (it may repeat a segment there); their bits are cleared.
+    fn near_axis(self, line: &LineF32, head: impl Fn(usize) -> SegmentHead, n: usize) -> u32;
 }
 
 /// The portable form: four `Vec4` lanes.
@@ -176,7 +185,10 @@ pub(crate) struct Portable;
 impl Lanes for Portable {
     #[inline(always)]
     fn slab(self, q: &[[u8; 4]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 4]) {
-        let row = |r: usize| Vec4::from_array(q[r].map(f32::from));
+        let row = |r: usize| {
+            let q = q[r];
+            Vec4::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2]), f32::from(q[3]))
+        };
         let mut t0 = Vec4::splat(terms.t_min);
         let mut t1 = Vec4::splat(terms.t_max);
         let (step, lo, hi) = (terms.step.to_array(), terms.lo.to_array(), terms.hi.to_array());
@@ -191,12 +203,13 @@ impl Lanes for Portable {
     }
 
     #[inline(always)]
-    fn near_axis(self, line: &LineF32, heads: &[SegmentHead; 8], n: usize) -> u32 {
+    fn near_axis(self, line: &LineF32, head: impl Fn(usize) -> SegmentHead, n: usize) -> u32 {
         let mut mask = 0;
         for chunk in 0..n.div_ceil(4) {
-            let h = &heads[4 * chunk..4 * chunk + 4];
+            let h = [head(4 * chunk), head(4 * chunk + 1), head(4 * chunk + 2), head(4 * chunk + 3)];
             let gather = |i: usize| Vec4::new(h[0][i], h[1][i], h[2][i], h[3][i]);
-            let near = near_axis_lanes(line, [0, 1, 2, 3, 4, 5, 7].map(gather));
+            let fields = [gather(0), gather(1), gather(2), gather(3), gather(4), gather(5), gather(7)];
+            let near = near_axis_lanes(line, fields);
             let lanes = (1u32 << (n - 4 * chunk).min(4)) - 1;
             mask |= (near & lanes) << (4 * chunk);
         }
@@ -256,15 +269,16 @@ impl Lanes for Avx2 {
     }
 
     #[inline(always)]
-    fn near_axis(self, line: &LineF32, heads: &[SegmentHead; 8], n: usize) -> u32 {
+    fn near_axis(self, line: &LineF32, head: impl Fn(usize) -> SegmentHead, n: usize) -> u32 {
         #[cfg(target_arch = "x86_64")]
         {
+            let heads = [head(0), head(1), head(2), head(3), head(4), head(5), head(6), head(7)];
             // SAFETY: as in `Avx2::run`: this CPU has AVX2.
-            let near = unsafe { avx2::near_axis(line, heads) };
+            let near = unsafe { avx2::near_axis(line, &heads) };
             near & ((1u32 << n) - 1)
         }
         #[cfg(not(target_arch = "x86_64"))]
-        Portable.near_axis(line, heads, n)
+        Portable.near_axis(line, head, n)
     }
 }
 
@@ -337,8 +351,8 @@ mod tests {
             let (line, heads, n) = leaf_cases(&mut g, i % 5);
             for level in SimdLevel::available() {
                 let mask = match level.avx2_token() {
-                    Some(k) => k.run(|| k.near_axis(&line, &heads, n)),
-                    None => Portable.near_axis(&line, &heads, n),
+                    Some(k) => k.run(|| k.near_axis(&line, |j| heads[j], n)),
+                    None => Portable.near_axis(&line, |j| heads[j], n),
                 };
                 assert_eq!(mask >> n, 0, "bits beyond the leaf");
                 for (k, h) in heads[..n].iter().enumerate() {
@@ -367,8 +381,8 @@ mod tests {
         let (mut set, mut clear) = (0, 0);
         for i in 0..100_000 {
             let (line, heads, n) = leaf_cases(&mut g, i % 5);
-            let a = Portable.near_axis(&line, &heads, n);
-            let b = k.run(|| k.near_axis(&line, &heads, n));
+            let a = Portable.near_axis(&line, |j| heads[j], n);
+            let b = k.run(|| k.near_axis(&line, |j| heads[j], n));
             assert_eq!(a, b, "case {}: {heads:?} {line:?} n {n}", i % 5);
             set += a.count_ones();
             clear += n as u32 - a.count_ones();

@@ -7,9 +7,9 @@
 //! # Dispatch
 //! A [`SimdLevel`] is chosen once, when a tree is built ([`SimdLevel::best`]: CPU feature
 //! detection), and kept with it. A query dispatches once, at its start: the AVX2 form runs the
-//! whole walk inside [`Avx2::run`], a function compiled with AVX2 enabled into which the walk
+//! whole walk inside `Avx2::run`, a function compiled with AVX2 enabled into which the walk
 //! and its leaf tests are inlined; the portable form runs the same generic walk with
-//! [`Portable`]. Both implement [`Lanes`]. Builds need no `target-cpu` flag.
+//! `Portable`. Both implement `Lanes`. Builds need no `target-cpu` flag.
 //!
 //! # Same results on every path
 //! Both forms do the same IEEE-754 single-precision operations in the same order, lane by lane

@@ -13,9 +13,11 @@
 //! grandchildren of its largest-area interior children until it has four; Wald et al. 2008,
 //! "Getting rid of packets"). A node is one 64-byte cache line holding its four child boxes
 //! quantized to 8 bits on the node's grid, rounded outward, as structure of arrays, so one ray
-//! tests all four with the same instructions; traversal visits the hit children nearest first
-//! and hands the caller a leaf at a time.
+//! tests all four with the same instructions (four `f32` lanes, or near and far planes in eight
+//! AVX2 lanes where the CPU has them: [`crate::simd`]); traversal visits the hit children nearest
+//! first and hands the caller a leaf at a time.
 
+use crate::simd::{Lanes, Portable, RowChoice, SimdLevel, SlabTerms};
 use fiberlab_math::DVec3;
 use glam::{Vec3, Vec4};
 
@@ -203,6 +205,8 @@ impl Stack {
 pub struct Bvh {
     nodes: Vec<Node4>,
     prims: Vec<u32>,
+    /// The instruction set of the node tests ([`SimdLevel::best`] when built).
+    simd: SimdLevel,
 }
 
 fn round_down(x: f64) -> f32 {
@@ -445,7 +449,19 @@ impl Bvh {
         } else {
             collapse(&binary, 0, binary.len(), &mut nodes);
         }
-        Self { nodes, prims }
+        Self { nodes, prims, simd: SimdLevel::best() }
+    }
+
+    /// The instruction set the walks use.
+    #[must_use]
+    pub fn simd_level(&self) -> SimdLevel {
+        self.simd
+    }
+
+    /// Makes the walks use `level` (every level gives the same results; for tests and
+    /// benchmarks). A [`SimdLevel`] other than the portable one exists only where the CPU has it.
+    pub fn set_simd_level(&mut self, level: SimdLevel) {
+        self.simd = level;
     }
 
     /// Replaces every primitive index `p` in the leaves by `f(p)`: traversal then reports
@@ -486,7 +502,21 @@ impl Bvh {
 
     /// [`Bvh::traverse`] a leaf at a time: `hit(prims, t_max)` gets each reached leaf's
     /// primitives (at most [`MAX_LEAF`]) and returns `Some(t)` to shrink `t_max` to `t`.
-    pub fn traverse_leaves(&self, ray: &Ray, mut hit: impl FnMut(&[u32], f64) -> Option<f64>) -> f64 {
+    pub fn traverse_leaves(&self, ray: &Ray, hit: impl FnMut(&[u32], f64) -> Option<f64>) -> f64 {
+        match self.simd.avx2_token() {
+            Some(k) => k.run(|| self.traverse_leaves_in(k, ray, hit)),
+            None => self.traverse_leaves_in(Portable, ray, hit),
+        }
+    }
+
+    /// [`Bvh::traverse_leaves`] with the node tests in `lanes` (the caller has dispatched).
+    #[inline(always)]
+    pub(crate) fn traverse_leaves_in<L: Lanes>(
+        &self,
+        lanes: L,
+        ray: &Ray,
+        mut hit: impl FnMut(&[u32], f64) -> Option<f64>,
+    ) -> f64 {
         if self.nodes.is_empty() {
             return ray.t_max;
         }
@@ -496,7 +526,7 @@ impl Bvh {
             let mut node = 0usize;
             loop {
                 let n = &self.nodes[node];
-                let (mask, t_entry) = slabs.enter(n, t_max);
+                let (mask, t_entry) = slabs.enter(lanes, n, t_max);
                 // The hit children, nearest first: a sorting network over (distance, child)
                 // keys, misses last; push the farther ones (far first), go on with the nearest.
                 let mut e = [u64::MAX; 4];
@@ -550,7 +580,16 @@ impl Bvh {
     }
 
     /// [`Bvh::any`] a leaf at a time: true when `hit(prims)` is true for some reached leaf.
-    pub fn any_leaf(&self, ray: &Ray, mut hit: impl FnMut(&[u32]) -> bool) -> bool {
+    pub fn any_leaf(&self, ray: &Ray, hit: impl FnMut(&[u32]) -> bool) -> bool {
+        match self.simd.avx2_token() {
+            Some(k) => k.run(|| self.any_leaf_in(k, ray, hit)),
+            None => self.any_leaf_in(Portable, ray, hit),
+        }
+    }
+
+    /// [`Bvh::any_leaf`] with the node tests in `lanes` (the caller has dispatched).
+    #[inline(always)]
+    pub(crate) fn any_leaf_in<L: Lanes>(&self, lanes: L, ray: &Ray, mut hit: impl FnMut(&[u32]) -> bool) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
@@ -559,7 +598,7 @@ impl Bvh {
             let mut node = 0usize;
             loop {
                 let n = &self.nodes[node];
-                let (mask, _) = slabs.enter(n, ray.t_max);
+                let (mask, _) = slabs.enter(lanes, n, ray.t_max);
                 for k in 0..4 {
                     if mask & (1 << k) == 0 {
                         continue;
@@ -605,11 +644,8 @@ struct Slabs {
     inv_abs: Vec4,
     /// Box widening in scene units for the `f32` origin, off by up to half an ulp of |o|.
     slack: f32,
-    /// Row of `Node4::q` holding the near (entry) plane per axis: `axis` when the direction
-    /// component is ≥ 0, else `3 + axis`; the far row is the other.
-    near_row: [usize; 3],
-    /// The other row per axis (`near_row ± 3`).
-    far_row: [usize; 3],
+    /// The rows of `Node4::q` holding the near (entry) and far planes per axis.
+    rows: RowChoice,
     t_min: f32,
 }
 
@@ -621,26 +657,23 @@ impl Slabs {
     fn new(ray: &Ray) -> Self {
         let d = ray.d.map(|c| if c.abs() < MIN_DIRECTION { MIN_DIRECTION.copysign(c) } else { c });
         let inv = d.recip().as_vec3();
-        let near_row = [0, 1, 2].map(|a| if inv[a] >= 0.0 { a } else { 3 + a });
         Self {
             o: ray.o.as_vec3().extend(0.0),
             inv: inv.extend(0.0),
             inv_abs: inv.abs().extend(0.0),
             slack: (ray.o.abs().max_element() as f32) * f32::EPSILON * 4.0,
-            near_row,
-            far_row: near_row.map(|r| if r < 3 { r + 3 } else { r - 3 }),
+            rows: RowChoice::new([0, 1, 2].map(|a| inv[a] >= 0.0)),
             t_min: ray.t_min as f32 - 1e-6,
         }
     }
 
     /// Which of the node's four children the ray enters within `(t_min, t_max)` (bit mask)
-    /// and the entry distances (four lanes: one `f32x4` slab test per axis). A plane's
-    /// distance is `q·(scale·inv) + (origin − o)·inv`; each box is widened by the origin's
-    /// slack plus a few ulps of the terms, which bounds the rounding of that sum.
+    /// and the entry distances (four lanes: one `f32x4` slab test per axis, or near and far
+    /// planes of an axis in one eight-lane pass: [`Lanes::slab`]). A plane's distance is
+    /// `q·(scale·inv) + (origin − o)·inv`; each box is widened by the origin's slack plus a few
+    /// ulps of the terms, which bounds the rounding of that sum.
     #[inline(always)]
-    fn enter(&self, n: &Node4, t_max: f64) -> (u32, [f32; 4]) {
-        let mut t0 = Vec4::splat(self.t_min);
-        let mut t1 = Vec4::splat(t_max as f32);
+    fn enter(&self, lanes: impl Lanes, n: &Node4, t_max: f64) -> (u32, [f32; 4]) {
         // The per-axis terms for all three axes at once (lanes x, y, z), then per axis the
         // four children's planes.
         let scale = Vec4::new(n.scale[0], n.scale[1], n.scale[2], 0.0);
@@ -648,33 +681,18 @@ impl Slabs {
         let step = scale * self.inv;
         let base = offset * self.inv;
         let widen = (Vec4::splat(self.slack) + (offset.abs() + scale * 256.0) * (4.0 * f32::EPSILON)) * self.inv_abs;
-        let (lo, hi) = ((base - widen).to_array(), (base + widen).to_array());
-        let step = step.to_array();
-        for axis in 0..3 {
-            let step = Vec4::splat(step[axis]);
-            let near = Node4::row(n, self.near_row[axis]) * step + Vec4::splat(lo[axis]);
-            let far = Node4::row(n, self.far_row[axis]) * step + Vec4::splat(hi[axis]);
-            t0 = t0.max(near);
-            t1 = t1.min(far);
-        }
-        let hit = t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask();
+        let terms = SlabTerms { step, lo: base - widen, hi: base + widen, t_min: self.t_min, t_max: t_max as f32 };
+        let (hit, t0) = lanes.slab(&n.q, &self.rows, &terms);
         // Unused slots hold exactly `EMPTY_REF` (`Node4::new`): compared as `f32` bit patterns,
         // four lanes at once. That pattern is a normal number, so float equality is bit
         // equality here (a NaN pattern of a used slot compares unequal, as it should).
         let refs = Vec4::from_array(n.child.map(f32::from_bits));
         let empty = refs.cmpeq(Vec4::splat(f32::from_bits(EMPTY_REF))).bitmask();
-        (hit & !empty & 0xF, t0.to_array())
+        (hit & !empty & 0xF, t0)
     }
 }
 
 impl Node4 {
-    /// Row `row` of the quantized grid coordinates of the four children, as `f32` lanes.
-    #[inline(always)]
-    fn row(n: &Node4, row: usize) -> Vec4 {
-        let q = n.q[row];
-        Vec4::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2]), f32::from(q[3]))
-    }
-
     /// The decoded coordinate `row` (0–2 lower, 3–5 upper corner, by axis) of child `k`.
     #[inline(always)]
     fn decode(n: &Node4, row: usize, k: usize) -> f32 {
@@ -849,11 +867,22 @@ mod tests {
 
     #[test]
     fn degenerate_inputs_build_and_traverse() {
+        for level in SimdLevel::available() {
+            degenerate_inputs_at(level);
+        }
+    }
+
+    fn degenerate_inputs_at(level: SimdLevel) {
+        let build = |b: &[Aabb]| {
+            let mut bvh = Bvh::build(b);
+            bvh.set_simd_level(level);
+            bvh
+        };
         let ray = Ray::new(DVec3::new(0.0, 0.0, -5.0), DVec3::Z);
-        assert_eq!(Bvh::build(&[]).traverse(&ray, |_, _| Some(1.0)), f64::INFINITY);
+        assert_eq!(build(&[]).traverse(&ray, |_, _| Some(1.0)), f64::INFINITY);
         // Many identical boxes: every one must still be reported.
         let same = vec![Aabb::sphere(DVec3::ZERO, 1.0); 1000];
-        let bvh = Bvh::build(&same);
+        let bvh = build(&same);
         let mut seen = vec![false; 1000];
         bvh.traverse(&ray, |p, _| {
             seen[p as usize] = true;
@@ -864,7 +893,7 @@ mod tests {
         assert!(!bvh.any(&Ray::new(DVec3::new(5.0, 5.0, -5.0), DVec3::Z), |_| true));
         // Axis-parallel rays with zero direction components.
         let flat: Vec<Aabb> = (0..100).map(|i| Aabb::sphere(DVec3::new(i as f64, 0.0, 0.0), 0.1)).collect();
-        let bvh = Bvh::build(&flat);
+        let bvh = build(&flat);
         let mut hits = Vec::new();
         bvh.traverse(&Ray::new(DVec3::new(-1.0, 0.0, 0.0), DVec3::X), |p, _| {
             hits.push(p);
@@ -894,14 +923,22 @@ mod tests {
             let t = -b - disc.sqrt();
             (t > ray.t_min && t < t_max).then_some(t)
         };
-        for _ in 0..2000 {
-            let o = DVec3::new(rnd(), rnd(), rnd()) * 14.0 - 7.0;
-            let d = (DVec3::new(rnd(), rnd(), rnd()) - 0.5).normalize();
-            let ray = Ray::new(o, d);
-            let brute =
-                spheres.iter().filter_map(|&s| hit_sphere(&ray, s, f64::INFINITY)).fold(f64::INFINITY, f64::min);
-            let t = bvh.traverse(&ray, |p, t_max| hit_sphere(&ray, spheres[p as usize], t_max));
-            assert_eq!(t, brute);
+        let mut bvh = bvh;
+        for level in SimdLevel::available() {
+            bvh.set_simd_level(level);
+            for _ in 0..2000 {
+                let o = DVec3::new(rnd(), rnd(), rnd()) * 14.0 - 7.0;
+                let d = (DVec3::new(rnd(), rnd(), rnd()) - 0.5).normalize();
+                let ray = Ray::new(o, d);
+                let brute =
+                    spheres.iter().filter_map(|&s| hit_sphere(&ray, s, f64::INFINITY)).fold(f64::INFINITY, f64::min);
+                let t = bvh.traverse(&ray, |p, t_max| hit_sphere(&ray, spheres[p as usize], t_max));
+                assert_eq!(t, brute, "{}", level.name());
+                assert_eq!(
+                    bvh.any(&ray, |p| hit_sphere(&ray, spheres[p as usize], f64::INFINITY).is_some()),
+                    brute.is_finite()
+                );
+            }
         }
     }
 }

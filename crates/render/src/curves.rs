@@ -37,9 +37,10 @@
 //! reflecting the ray off the actual cylinder normal).
 
 use crate::bvh::{Aabb, BuildPrim, Bvh, Ray};
+use crate::simd::{Lanes, LineF32, Portable, SegmentHead, SimdLevel};
 use fiberlab_io::HairFile;
 use fiberlab_math::{DVec3, FiberFrame};
-use glam::{Vec3, Vec4};
+use glam::Vec3;
 
 /// Bends sharper than this (cosine of the half-angle between segments) are not mitered.
 const MIN_MITER_COS: f64 = 0.5;
@@ -50,8 +51,10 @@ const SPLIT_SPREAD_IN_RADII: f64 = 4.0;
 /// At most this many BVH pieces per segment.
 const MAX_PIECES: usize = 8;
 
-/// One tube segment (f32 storage, 64 bytes: one cache line).
+/// One tube segment (f32 storage, 64 bytes: one cache line). `repr(C)`: the first eight
+/// `f32` (`p0`, `axis`, `length`, `radius`) are what the leaf pre-test reads, contiguous.
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 struct Segment {
     /// Root-side end of the axis.
     p0: Vec3,
@@ -69,9 +72,19 @@ struct Segment {
     strand: u32,
 }
 
+const _: () = assert!(std::mem::size_of::<Segment>() == 64, "a segment is one cache line");
+const _: () = assert!(std::mem::offset_of!(Segment, radius) == 28, "the pre-test's fields come first");
+
 impl Segment {
     fn p1(&self) -> Vec3 {
         self.p0 + self.axis * self.length
+    }
+
+    /// The fields of the leaf pre-test, in order.
+    #[inline(always)]
+    fn head(&self) -> SegmentHead {
+        let (p, a) = (self.p0, self.axis);
+        [p.x, p.y, p.z, a.x, a.y, a.z, self.length, self.radius]
     }
 }
 
@@ -328,16 +341,36 @@ impl CurveSet {
         })
     }
 
+    /// The instruction set of the tree walk and the leaf pre-test.
+    #[must_use]
+    pub fn simd_level(&self) -> SimdLevel {
+        self.bvh.simd_level()
+    }
+
+    /// Makes the walks and leaf tests use `level` (every level gives the same results; for
+    /// tests and benchmarks).
+    pub fn set_simd_level(&mut self, level: SimdLevel) {
+        self.bvh.set_simd_level(level);
+    }
+
     /// Nearest tube entry along the ray, through the BVH.
     #[must_use]
     pub fn intersect(&self, ray: &Ray) -> Option<CurveHit> {
+        match self.simd_level().avx2_token() {
+            Some(k) => k.run(|| self.intersect_in(k, ray)),
+            None => self.intersect_in(Portable, ray),
+        }
+    }
+
+    #[inline(always)]
+    fn intersect_in(&self, lanes: impl Lanes, ray: &Ray) -> Option<CurveHit> {
         let mut best: Option<CurveHit> = None;
         let quick = QuickRay::new(ray);
         // Pieces of one segment sit side by side in the tree: skip a segment just tested.
         let mut last = u32::MAX;
-        self.bvh.traverse_leaves(ray, |prims, mut t_max| {
+        self.bvh.traverse_leaves_in(lanes, ray, |prims, mut t_max| {
             let mut found = None;
-            for seg in self.candidates(&quick, prims, &mut last) {
+            for seg in self.candidates(lanes, &quick, prims, &mut last) {
                 if let Some(hit) = self.intersect_segment(seg, ray, t_max) {
                     t_max = hit.t;
                     best = Some(hit);
@@ -352,10 +385,19 @@ impl CurveSet {
     /// True when the ray enters any tube within `(t_min, t_max)` (shadow rays).
     #[must_use]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        match self.simd_level().avx2_token() {
+            Some(k) => k.run(|| self.occluded_in(k, ray)),
+            None => self.occluded_in(Portable, ray),
+        }
+    }
+
+    #[inline(always)]
+    fn occluded_in(&self, lanes: impl Lanes, ray: &Ray) -> bool {
         let quick = QuickRay::new(ray);
         let mut last = u32::MAX;
-        self.bvh.any_leaf(ray, |prims| {
-            self.candidates(&quick, prims, &mut last).any(|seg| self.intersect_segment(seg, ray, ray.t_max).is_some())
+        self.bvh.any_leaf_in(lanes, ray, |prims| {
+            self.candidates(lanes, &quick, prims, &mut last)
+                .any(|seg| self.intersect_segment(seg, ray, ray.t_max).is_some())
         })
     }
 
@@ -367,7 +409,7 @@ impl CurveSet {
         // A segment split into pieces sits in several leaves: remember the ones reported.
         let mut seen: Vec<u32> = Vec::new();
         self.bvh.traverse_leaves(ray, |prims, _| {
-            for seg in self.candidates(&quick, prims, &mut last) {
+            for seg in self.candidates(Portable, &quick, prims, &mut last) {
                 if seen.contains(&seg) {
                     continue;
                 }
@@ -421,8 +463,15 @@ impl CurveSet {
 
     /// The segments of a leaf that pass the `f32` pre-test, in leaf order, skipping the
     /// segment tested just before (`last`, updated).
-    fn candidates<'a>(&'a self, quick: &QuickRay, prims: &'a [u32], last: &mut u32) -> impl Iterator<Item = u32> + 'a {
-        let mut mask = quick.may_hit(&self.segments, prims);
+    #[inline(always)]
+    fn candidates<'a>(
+        &'a self,
+        lanes: impl Lanes,
+        quick: &QuickRay,
+        prims: &'a [u32],
+        last: &mut u32,
+    ) -> impl Iterator<Item = u32> + 'a {
+        let mut mask = quick.may_hit(lanes, &self.segments, prims);
         if prims.first() == Some(last) {
             mask &= !1;
         }
@@ -481,48 +530,23 @@ impl CurveSet {
     }
 }
 
-/// A ray in `f32` for the conservative pre-test of a leaf's segments, four at a time.
-struct QuickRay {
-    o: Vec3,
-    d: Vec3,
-}
+/// A ray in `f32` for the conservative pre-test of a leaf's segments ([`Lanes::near_axis`]).
+struct QuickRay(LineF32);
 
 impl QuickRay {
     fn new(ray: &Ray) -> Self {
-        Self { o: ray.o.as_vec3(), d: ray.d.as_vec3() }
+        Self(LineF32 { o: ray.o.as_vec3(), d: ray.d.as_vec3() })
     }
 
     /// Bit `k` clear only when the ray's line certainly misses the infinite cylinder of
-    /// segment `prims[k]`: its squared distance to the axis exceeds r² by more than the `f32`
-    /// rounding of the inputs (relative 1e-5 of the origin's distance, far above the ~1e-7
-    /// actually incurred). Lanes of four segments (structure of arrays).
-    #[inline]
-    fn may_hit(&self, segments: &[Segment], prims: &[u32]) -> u32 {
-        let mut mask = 0;
-        for (chunk, ids) in prims.chunks(4).enumerate() {
-            // Gather (a short chunk repeats its last segment; those lanes are masked off).
-            let lane = |k: usize| &segments[ids[k.min(ids.len() - 1)] as usize];
-            let s = [lane(0), lane(1), lane(2), lane(3)];
-            let gather = |f: &dyn Fn(&Segment) -> f32| Vec4::new(f(s[0]), f(s[1]), f(s[2]), f(s[3]));
-            let (px, py, pz) = (gather(&|s| s.p0.x), gather(&|s| s.p0.y), gather(&|s| s.p0.z));
-            let (ax, ay, az) = (gather(&|s| s.axis.x), gather(&|s| s.axis.y), gather(&|s| s.axis.z));
-            let radius = gather(&|s| s.radius);
-            let (ox, oy, oz) = (Vec4::splat(self.o.x) - px, Vec4::splat(self.o.y) - py, Vec4::splat(self.o.z) - pz);
-            let (dx, dy, dz) = (Vec4::splat(self.d.x), Vec4::splat(self.d.y), Vec4::splat(self.d.z));
-            let d_along = dx * ax + dy * ay + dz * az;
-            let (ux, uy, uz) = (dx - ax * d_along, dy - ay * d_along, dz - az * d_along);
-            let o_along = ox * ax + oy * ay + oz * az;
-            let (wx, wy, wz) = (ox - ax * o_along, oy - ay * o_along, oz - az * o_along);
-            let aa = ux * ux + uy * uy + uz * uz;
-            // The closest approach as a vector (no cancellation between large terms).
-            let t = (wx * ux + wy * uy + wz * uz) / aa.max(Vec4::splat(1e-30));
-            let (qx, qy, qz) = (wx - ux * t, wy - uy * t, wz - uz * t);
-            let slack = radius + (Vec4::ONE + (ox * ox + oy * oy + oz * oz).sqrt()) * 1e-5;
-            let near = (qx * qx + qy * qy + qz * qz).cmplt(slack * slack) | aa.cmplt(Vec4::splat(1e-12));
-            let lanes = (1u32 << ids.len()) - 1;
-            mask |= (near.bitmask() & lanes) << (4 * chunk);
-        }
-        mask
+    /// segment `prims[k]` ([`Lanes::near_axis`]: all of a leaf's segments in one pass of eight
+    /// lanes, or in passes of four).
+    #[inline(always)]
+    fn may_hit(&self, lanes: impl Lanes, segments: &[Segment], prims: &[u32]) -> u32 {
+        debug_assert!((1..=8).contains(&prims.len()), "a leaf holds 1 to 8 primitives");
+        // A short leaf repeats its last segment; those lanes are masked off.
+        let last = prims.len() - 1;
+        lanes.near_axis(&self.0, |k| segments[prims[k.min(last)] as usize].head(), prims.len())
     }
 }
 
@@ -577,29 +601,110 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn bvh_agrees_with_brute_force_on_random_scenes() {
-        for seed in 0..4 {
-            let strands = random_strands(seed, 300);
-            let set = CurveSet::from_polylines(strands.iter().map(|(p, r)| (p.as_slice(), r.as_slice())));
-            assert!(set.piece_count() > set.segment_count());
-            let mut g = Lcg(seed + 100);
-            let mut hits = 0;
-            for _ in 0..3000 {
-                let o = (g.vec() - 0.5) * 4.0;
-                let target = (g.vec() - 0.5) * 1.5;
-                let ray = Ray::new(o, (target - o).normalize());
-                let a = set.intersect(&ray);
-                let b = set.intersect_brute_force(&ray);
-                assert_eq!(a.map(|h| h.t), b.map(|h| h.t), "seed {seed} ray {ray:?}");
-                assert_eq!(set.occluded(&ray), b.is_some());
+    /// The closest hit and the any-hit query through the tree against testing every segment,
+    /// on every instruction set this CPU has (whose hits must be the same, field for field);
+    /// returns the number of rays that hit. Overlapping segments can tie: the distance is
+    /// compared with brute force, not which of the tied segments is reported.
+    fn check_against_brute_force(set: &mut CurveSet, rays: &[Ray], what: &str) -> usize {
+        let mut hits = 0;
+        let mut first: Option<Vec<Option<CurveHit>>> = None;
+        for level in SimdLevel::available() {
+            set.set_simd_level(level);
+            let found: Vec<Option<CurveHit>> = rays.iter().map(|ray| set.intersect(ray)).collect();
+            if let Some(first) = &first {
+                assert!(first == &found, "{what}: {} differs from the portable form", level.name());
+            }
+            hits = 0;
+            for (ray, a) in rays.iter().zip(&found) {
+                let b = set.intersect_brute_force(ray);
+                assert_eq!(a.map(|h| h.t), b.map(|h| h.t), "{what}, {}: ray {ray:?}", level.name());
+                assert_eq!(set.occluded(ray), b.is_some(), "{what}, {}: ray {ray:?}", level.name());
                 if let Some(h) = b {
-                    let short = Ray { t_max: h.t * 0.999_999, ..ray };
+                    let short = Ray { t_max: h.t * 0.999_999, ..*ray };
                     assert_eq!(set.occluded(&short), set.intersect_brute_force(&short).is_some());
                 }
                 hits += usize::from(b.is_some());
             }
+            first.get_or_insert(found);
+        }
+        hits
+    }
+
+    #[test]
+    fn bvh_agrees_with_brute_force_on_random_scenes() {
+        for seed in 0..4 {
+            let strands = random_strands(seed, 300);
+            let mut set = CurveSet::from_polylines(strands.iter().map(|(p, r)| (p.as_slice(), r.as_slice())));
+            assert!(set.piece_count() > set.segment_count());
+            let mut g = Lcg(seed + 100);
+            let rays: Vec<Ray> = (0..3000)
+                .map(|_| {
+                    let o = (g.vec() - 0.5) * 4.0;
+                    let target = (g.vec() - 0.5) * 1.5;
+                    Ray::new(o, (target - o).normalize())
+                })
+                .collect();
+            let hits = check_against_brute_force(&mut set, &rays, &format!("seed {seed}"));
             assert!(hits > 100, "too few hits ({hits}) to be a test");
+        }
+    }
+
+    /// Segment sets that stress the tree and the leaf tests: many parallel strands side by
+    /// side (full leaves of near-identical boxes), strands crossing at one point, degenerate
+    /// strands (zero-length segments, sharp reversals), and huge and tiny radii in one set;
+    /// rays aimed at the strands, along them and at random.
+    #[test]
+    fn bvh_agrees_with_brute_force_on_adversarial_sets() {
+        let mut g = Lcg(77);
+        let straight = |p: DVec3, d: DVec3, n: usize, r: f64| {
+            let pts: Vec<DVec3> = (0..=n).map(|k| p + d * (k as f64 / n as f64)).collect();
+            let rad = vec![r; n + 1];
+            (pts, rad)
+        };
+        let parallel: Vec<_> =
+            (0..200).map(|i| straight(DVec3::new(0.004 * f64::from(i), 0.0, 0.0), DVec3::Y, 8, 0.002)).collect();
+        let crossing: Vec<_> = (0..100)
+            .map(|i| {
+                let a = std::f64::consts::PI * f64::from(i) / 100.0;
+                let d = DVec3::new(a.cos(), a.sin(), 0.01 * f64::from(i % 7));
+                straight(-d, 2.0 * d, 6, 0.003)
+            })
+            .collect();
+        let degenerate: Vec<_> = (0..100)
+            .map(|_| {
+                let p = (g.vec() - 0.5) * 2.0;
+                let q = p + (g.vec() - 0.5) * 0.2;
+                // Repeated points, a reversal onto itself, a collinear run.
+                (vec![p, p, q, p, q, q, 2.0 * q - p], vec![0.01; 7])
+            })
+            .collect();
+        let radii: Vec<_> = (0..150)
+            .map(|i| {
+                let r = [1e-7, 1e-4, 0.5, 3.0][i % 4];
+                let p = (g.vec() - 0.5) * 10.0;
+                straight(p, (g.vec() - 0.5) * 4.0, 3, r)
+            })
+            .collect();
+        for (what, strands) in
+            [("parallel", parallel), ("crossing", crossing), ("degenerate", degenerate), ("radii", radii)]
+        {
+            let mut set = CurveSet::from_polylines(strands.iter().map(|(p, r)| (p.as_slice(), r.as_slice())));
+            let mut rays = Vec::new();
+            for k in 0..3000 {
+                let (pts, _) = &strands[k % strands.len()];
+                let target = pts[k % pts.len()] + (g.vec() - 0.5) * 0.01;
+                let o = match k % 3 {
+                    0 => target + (g.vec() - 0.5).normalize() * 3.0,
+                    // Along the strand's own segment (parallel to its axis).
+                    1 => target - (pts[1] - pts[0]).normalize_or(DVec3::X) * 2.0,
+                    _ => (g.vec() - 0.5) * 12.0,
+                };
+                if let Some(d) = (target - o).try_normalize() {
+                    rays.push(Ray::new(o, d));
+                }
+            }
+            let hits = check_against_brute_force(&mut set, &rays, what);
+            assert!(hits > 100, "{what}: too few hits ({hits}) to be a test");
         }
     }
 

@@ -1,6 +1,7 @@
 //! fiberlab's renderer for fiber assemblies: strands as round tubes ([`curves`]) in a BVH
-//! ([`bvh`]), a procedural hair generator ([`generator`]), spheres and triangle meshes
-//! ([`shapes`]), camera, lights, a unidirectional path tracer with next-event estimation and
+//! ([`bvh`]; its node and leaf tests in explicit SIMD chosen at run time: [`simd`], the only
+//! module allowed `unsafe`), a procedural hair generator ([`generator`]), spheres and triangle
+//! meshes ([`shapes`]), camera, lights, a unidirectional path tracer with next-event estimation and
 //! MIS ([`integrator`]), tiles and part merging, the TOML scene format ([`scene_file`]), and the
 //! one model loader for user input ([`model_loader`], with [`toml_params`]). Surfaces carry
 //! texture coordinates, shading normals and tangents ([`mesh`]; cabochon domes: [`cabochon`];
@@ -13,7 +14,7 @@
 //! crate owns no scattering physics: at a fiber hit it builds the fiber frame (see [`curves`])
 //! and calls the model; at a surface-model hit it builds the shading frame (see [`mesh`]) and
 //! calls the surface model.
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 
 pub mod accumulation;
 pub mod bench;
@@ -37,6 +38,7 @@ pub mod sampler;
 pub mod scene;
 pub mod scene_file;
 pub mod shapes;
+pub mod simd;
 pub mod strand_diameters;
 pub mod surface_material;
 pub mod texture;

@@ -1,0 +1,471 @@
+//! The two inner loops of ray tracing in explicit SIMD: the slab test of a wide BVH node and the
+//! `f32` distance-to-axis pre-test of a leaf's segments, each in a portable form (`glam`'s
+//! four-lane `Vec4`, SSE2 on x86-64) and, on x86-64 CPUs that have it, an AVX2 form chosen at
+//! run time. This is the one module of the crate allowed `unsafe` (ARCHITECTURE.md, "Unsafe
+//! code: one audited SIMD module").
+//!
+//! # Dispatch
+//! A [`SimdLevel`] is chosen once, when a tree is built ([`SimdLevel::best`]: CPU feature
+//! detection), and kept with it. A query dispatches once, at its start: the AVX2 form runs the
+//! whole walk inside `Avx2::run`, a function compiled with AVX2 enabled into which the walk
+//! and its leaf tests are inlined; the portable form runs the same generic walk with
+//! `Portable`. Both implement `Lanes`. Builds need no `target-cpu` flag.
+//!
+//! # Same results on every path
+//! Both forms do the same IEEE-754 single-precision operations in the same order, lane by lane
+//! (multiply then add, never fused; `max`/`min` with the SSE operand order; exact `u8 → f32`
+//! conversions; correctly rounded division and square root), so they return the same bits; the
+//! tests below check this on random and adversarial inputs, and the BVH-versus-brute-force
+//! tests of `bvh` and `curves` run with both levels. Images are therefore identical whichever
+//! path a machine takes.
+
+#![allow(unsafe_code)]
+
+use glam::{Vec3, Vec4};
+
+#[cfg(target_arch = "x86_64")]
+mod avx2;
+
+/// Which instruction set the tree walks and leaf tests use. Holding [`SimdLevel`] with AVX2
+/// selected proves that the CPU supports it: the only ways to get one check the CPU.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SimdLevel(Level);
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Level {
+    Portable,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+}
+
+impl SimdLevel {
+    /// The portable form, available everywhere.
+    pub const PORTABLE: Self = Self(Level::Portable);
+
+    /// The best level this CPU supports (detected at run time), unless the environment
+    /// variable [`SIMD_ENV`](Self::SIMD_ENV) is `portable` (to measure or check the portable form
+    /// on any machine).
+    #[must_use]
+    pub fn best() -> Self {
+        if std::env::var_os(Self::SIMD_ENV).is_some_and(|v| v == "portable") {
+            return Self::PORTABLE;
+        }
+        Self::avx2().unwrap_or(Self::PORTABLE)
+    }
+
+    /// `FIBERLAB_SIMD`: set to `portable`, trees built afterwards use the portable form.
+    pub const SIMD_ENV: &'static str = "FIBERLAB_SIMD";
+
+    /// AVX2, if this CPU supports it.
+    #[must_use]
+    pub fn avx2() -> Option<Self> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            return Some(Self(Level::Avx2));
+        }
+        None
+    }
+
+    /// The levels this CPU supports, portable first (for tests and benchmarks).
+    #[must_use]
+    pub fn available() -> Vec<Self> {
+        std::iter::once(Self::PORTABLE).chain(Self::avx2()).collect()
+    }
+
+    /// The level's name: `portable` or `avx2`.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self.0 {
+            Level::Portable => "portable",
+            #[cfg(target_arch = "x86_64")]
+            Level::Avx2 => "avx2",
+        }
+    }
+
+    /// The AVX2 token when this level is AVX2.
+    #[must_use]
+    pub(crate) fn avx2_token(self) -> Option<Avx2> {
+        match self.0 {
+            Level::Portable => None,
+            #[cfg(target_arch = "x86_64")]
+            Level::Avx2 => Some(Avx2(())),
+        }
+    }
+}
+
+impl Default for SimdLevel {
+    /// [`SimdLevel::best`].
+    fn default() -> Self {
+        Self::best()
+    }
+}
+
+/// The per-ray choice of the near and far box rows by axis (from the signs of the direction),
+/// in the forms both paths use.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RowChoice {
+    /// Row of the node's quantized grid holding the near (entry) plane per axis: `axis` when
+    /// the direction component is ≥ 0, else `3 + axis`.
+    pub near: [usize; 3],
+    /// The far row per axis (`near ± 3`).
+    pub far: [usize; 3],
+    /// Byte shuffle per axis taking, from the 16 bytes that start at row `axis`, the near row's
+    /// four bytes then the far row's (rows `axis` and `3 + axis` are bytes 0–3 and 12–15).
+    shuffle: [[u8; 16]; 3],
+}
+
+impl RowChoice {
+    /// The rows for a ray whose direction component on axis `a` is ≥ 0 when `positive[a]`.
+    pub fn new(positive: [bool; 3]) -> Self {
+        let near = [0, 1, 2].map(|a| if positive[a] { a } else { 3 + a });
+        let far = near.map(|r| if r < 3 { r + 3 } else { r - 3 });
+        let shuffle = [0, 1, 2].map(|a| {
+            let (n, f) = if positive[a] { (0u8, 12u8) } else { (12, 0) };
+            let mut s = [0x80u8; 16];
+            for k in 0..4u8 {
+                s[usize::from(k)] = n + k;
+                s[usize::from(4 + k)] = f + k;
+            }
+            s
+        });
+        Self { near, far, shuffle }
+    }
+}
+
+/// The inputs of one node's slab test that do not depend on the child: per axis (lanes x, y,
+/// z) the plane distance per grid step and the distances of the widened grid origin on the
+/// near and far side.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SlabTerms {
+    /// Ray distance per quantization step.
+    pub step: Vec4,
+    /// Distance of the grid origin, lowered by the widening (near planes).
+    pub lo: Vec4,
+    /// Distance of the grid origin, raised by the widening (far planes).
+    pub hi: Vec4,
+    /// The ray's distance interval.
+    pub t_min: f32,
+    /// See `t_min`.
+    pub t_max: f32,
+}
+
+/// The first eight `f32` of a segment, as the leaf test reads them: axis start point `x, y, z`,
+/// unit axis `x, y, z`, length (unused by the test) and radius.
+pub(crate) type SegmentHead = [f32; 8];
+
+/// A ray in `f32` for the leaf pre-test.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LineF32 {
+    /// Origin.
+    pub o: Vec3,
+    /// Unit direction.
+    pub d: Vec3,
+}
+
+/// The two kernels, in one instruction set.
+pub(crate) trait Lanes: Copy {
+    /// The slab test of a node's four children: bit `k` of the mask is set when the ray's
+    /// interval meets child `k`'s box, widened by the relative `4ε` of the far distance (the
+    /// caller masks unused slots); also the entry distances. `q`: the node's quantized
+    /// coordinates, rows 0–2 lower and 3–5 upper corners by axis, one byte per child.
+    fn slab(self, q: &[[u8; 4]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 4]);
+
+    /// Bit `k` (`k < n ≤ 8`) clear only when the ray's line certainly misses the infinite
+    /// cylinder of segment `head(k)`: its squared distance to the axis exceeds r² by more than
+    /// the `f32` rounding of the inputs (relative 1e-5 of the origin's distance from the
+    /// segment start, far above the ~1e-7 actually incurred). `head` is also called for lanes
+    /// `n..8` (it may repeat a segment there); their bits are cleared.
+    fn near_axis(self, line: &LineF32, head: impl Fn(usize) -> SegmentHead, n: usize) -> u32;
+}
+
+/// The portable form: four `Vec4` lanes.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Portable;
+
+impl Lanes for Portable {
+    #[inline(always)]
+    fn slab(self, q: &[[u8; 4]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 4]) {
+        let row = |r: usize| {
+            let q = q[r];
+            Vec4::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2]), f32::from(q[3]))
+        };
+        let mut t0 = Vec4::splat(terms.t_min);
+        let mut t1 = Vec4::splat(terms.t_max);
+        let (step, lo, hi) = (terms.step.to_array(), terms.lo.to_array(), terms.hi.to_array());
+        for axis in 0..3 {
+            let s = Vec4::splat(step[axis]);
+            let near = row(rows.near[axis]) * s + Vec4::splat(lo[axis]);
+            let far = row(rows.far[axis]) * s + Vec4::splat(hi[axis]);
+            t0 = t0.max(near);
+            t1 = t1.min(far);
+        }
+        (t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask(), t0.to_array())
+    }
+
+    #[inline(always)]
+    fn near_axis(self, line: &LineF32, head: impl Fn(usize) -> SegmentHead, n: usize) -> u32 {
+        let mut mask = 0;
+        for chunk in 0..n.div_ceil(4) {
+            let h = [head(4 * chunk), head(4 * chunk + 1), head(4 * chunk + 2), head(4 * chunk + 3)];
+            let gather = |i: usize| Vec4::new(h[0][i], h[1][i], h[2][i], h[3][i]);
+            let fields = [gather(0), gather(1), gather(2), gather(3), gather(4), gather(5), gather(7)];
+            let near = near_axis_lanes(line, fields);
+            let lanes = (1u32 << (n - 4 * chunk).min(4)) - 1;
+            mask |= (near & lanes) << (4 * chunk);
+        }
+        mask
+    }
+}
+
+/// The leaf pre-test on four lanes; `f`: segment start `x, y, z`, axis `x, y, z`, radius.
+#[inline(always)]
+fn near_axis_lanes(line: &LineF32, f: [Vec4; 7]) -> u32 {
+    let [px, py, pz, ax, ay, az, radius] = f;
+    let (ox, oy, oz) = (Vec4::splat(line.o.x) - px, Vec4::splat(line.o.y) - py, Vec4::splat(line.o.z) - pz);
+    let (dx, dy, dz) = (Vec4::splat(line.d.x), Vec4::splat(line.d.y), Vec4::splat(line.d.z));
+    let d_along = dx * ax + dy * ay + dz * az;
+    let (ux, uy, uz) = (dx - ax * d_along, dy - ay * d_along, dz - az * d_along);
+    let o_along = ox * ax + oy * ay + oz * az;
+    let (wx, wy, wz) = (ox - ax * o_along, oy - ay * o_along, oz - az * o_along);
+    let aa = ux * ux + uy * uy + uz * uz;
+    // The closest approach as a vector (no cancellation between large terms).
+    let t = (wx * ux + wy * uy + wz * uz) / aa.max(Vec4::splat(1e-30));
+    let (qx, qy, qz) = (wx - ux * t, wy - uy * t, wz - uz * t);
+    let slack = radius + (Vec4::ONE + (ox * ox + oy * oy + oz * oz).sqrt()) * 1e-5;
+    ((qx * qx + qy * qy + qz * qz).cmplt(slack * slack) | aa.cmplt(Vec4::splat(1e-12))).bitmask()
+}
+
+/// The AVX2 form: eight lanes. A value of this type exists only on a CPU with AVX2 (it is made
+/// by [`SimdLevel::avx2_token`] from a level that detection returned).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Avx2(());
+
+impl Avx2 {
+    /// Runs `f` inside a function compiled with AVX2 enabled, so that `f`'s body (a whole walk,
+    /// inlined) uses AVX2 throughout and the kernels inline into it.
+    #[inline(always)]
+    pub fn run<R>(self, f: impl FnOnce() -> R) -> R {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: `self` exists only when `is_x86_feature_detected!("avx2")` returned true
+            // (`SimdLevel::avx2`), so the AVX2 instructions of `with_avx2` are supported.
+            unsafe { avx2::with_avx2(f) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        f()
+    }
+}
+
+impl Lanes for Avx2 {
+    #[inline(always)]
+    fn slab(self, q: &[[u8; 4]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 4]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: as in `Avx2::run`: this CPU has AVX2.
+            unsafe { avx2::slab(q, &rows.shuffle, terms) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Portable.slab(q, rows, terms)
+    }
+
+    #[inline(always)]
+    fn near_axis(self, line: &LineF32, head: impl Fn(usize) -> SegmentHead, n: usize) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let heads = [head(0), head(1), head(2), head(3), head(4), head(5), head(6), head(7)];
+            // SAFETY: as in `Avx2::run`: this CPU has AVX2.
+            let near = unsafe { avx2::near_axis(line, &heads) };
+            near & ((1u32 << n) - 1)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Portable.near_axis(line, head, n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> f32 {
+            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((self.0 >> 40) as f32) / (1u64 << 24) as f32
+        }
+        fn vec(&mut self) -> Vec3 {
+            Vec3::new(self.next(), self.next(), self.next())
+        }
+        /// A value spanning many orders of magnitude, either sign, sometimes exactly 0.
+        fn wild(&mut self) -> f32 {
+            let e = (self.next() * 80.0) as i32 - 40;
+            let v = 2f32.powi(e) * (1.0 + self.next());
+            match (self.next() * 8.0) as u32 {
+                0 => 0.0,
+                1..=3 => -v,
+                _ => v,
+            }
+        }
+    }
+
+    /// Leaf pre-test inputs: hair-like, parallel, crossing, degenerate, huge and tiny radii.
+    fn leaf_cases(g: &mut Lcg, case: u32) -> (LineF32, [SegmentHead; 8], usize) {
+        let n = 1 + (g.next() * 8.0) as usize % 8;
+        let mut heads = [[0.0; 8]; 8];
+        let o = (g.vec() - 0.5) * 4.0;
+        let d = (g.vec() - 0.5).normalize_or(Vec3::X);
+        for h in &mut heads {
+            let (p, a, r) = match case {
+                // Hair: short segments around the unit sphere, radius ~0.002.
+                0 => ((g.vec() - 0.5) * 2.0, (g.vec() - 0.5).normalize_or(Vec3::Y), 0.002 * (0.5 + g.next())),
+                // Parallel to the ray (the `aa` guard), or nearly.
+                1 => ((g.vec() - 0.5) * 0.01 + o, (d + (g.vec() - 0.5) * 1e-6).normalize(), 0.001),
+                // Crossing the ray's line at distances around the radius.
+                2 => {
+                    let at = o + d * (g.next() * 3.0);
+                    let a = d.cross(g.vec() - 0.5).normalize_or(Vec3::Z);
+                    (at + d.cross(a).normalize_or(Vec3::X) * (0.01 * (g.next() - 0.5) * 2.1), a, 0.01)
+                }
+                // Degenerate axes (zero) and radii (zero).
+                3 => {
+                    (g.vec(), if g.next() < 0.5 { Vec3::ZERO } else { Vec3::Z }, if g.next() < 0.5 { 0.0 } else { 0.1 })
+                }
+                // Huge and tiny magnitudes.
+                _ => (
+                    Vec3::new(g.wild(), g.wild(), g.wild()),
+                    Vec3::new(g.wild(), g.wild(), g.wild()).normalize_or(Vec3::X),
+                    g.wild().abs(),
+                ),
+            };
+            *h = [p.x, p.y, p.z, a.x, a.y, a.z, 1.0, r];
+        }
+        (LineF32 { o, d }, heads, n)
+    }
+
+    /// The pre-test must never clear the bit of a segment whose axis line passes within the
+    /// radius of the ray's line (checked in `f64`, closest distance between the lines).
+    #[test]
+    fn leaf_pre_test_keeps_every_near_axis() {
+        let mut g = Lcg(5);
+        let mut kept = 0;
+        for i in 0..20_000 {
+            let (line, heads, n) = leaf_cases(&mut g, i % 5);
+            for level in SimdLevel::available() {
+                let mask = match level.avx2_token() {
+                    Some(k) => k.run(|| k.near_axis(&line, |j| heads[j], n)),
+                    None => Portable.near_axis(&line, |j| heads[j], n),
+                };
+                assert_eq!(mask >> n, 0, "bits beyond the leaf");
+                for (k, h) in heads[..n].iter().enumerate() {
+                    let (p, a) = (Vec3::new(h[0], h[1], h[2]).as_dvec3(), Vec3::new(h[3], h[4], h[5]).as_dvec3());
+                    let (o, d) = (line.o.as_dvec3(), line.d.as_dvec3());
+                    let c = d.cross(a);
+                    let dist =
+                        if c.length() < 1e-9 { (p - o).cross(d).length() } else { (p - o).dot(c).abs() / c.length() };
+                    if dist < f64::from(h[7]) * 0.999 {
+                        assert_ne!(mask & (1 << k), 0, "{}: near axis dropped: {h:?} {line:?}", level.name());
+                        kept += 1;
+                    }
+                }
+            }
+        }
+        assert!(kept > 1000, "too few near axes ({kept}) to be a test");
+    }
+
+    #[test]
+    fn leaf_pre_test_is_the_same_on_every_level() {
+        let Some(k) = SimdLevel::avx2().and_then(SimdLevel::avx2_token) else {
+            eprintln!("no AVX2 on this CPU: only the portable form runs");
+            return;
+        };
+        let mut g = Lcg(7);
+        let (mut set, mut clear) = (0, 0);
+        for i in 0..100_000 {
+            let (line, heads, n) = leaf_cases(&mut g, i % 5);
+            let a = Portable.near_axis(&line, |j| heads[j], n);
+            let b = k.run(|| k.near_axis(&line, |j| heads[j], n));
+            assert_eq!(a, b, "case {}: {heads:?} {line:?} n {n}", i % 5);
+            set += a.count_ones();
+            clear += n as u32 - a.count_ones();
+        }
+        assert!(set > 10_000 && clear > 10_000, "{set} set, {clear} clear: both outcomes must occur");
+    }
+
+    /// Random quantized nodes, rays and intervals, including huge and tiny terms (infinite and
+    /// NaN plane distances arise from them) and rays along the axes.
+    #[test]
+    fn slab_test_is_the_same_on_every_level() {
+        let Some(k) = SimdLevel::avx2().and_then(SimdLevel::avx2_token) else {
+            eprintln!("no AVX2 on this CPU: only the portable form runs");
+            return;
+        };
+        let mut g = Lcg(11);
+        let mut hits = [0u32; 5];
+        for i in 0..100_000 {
+            // Child boxes with lower ≤ upper corner, a direction sign per axis with the step's
+            // sign matching it, plane distances around the ray's interval.
+            let mut q = [[0u8; 4]; 6];
+            let (lower, upper) = q.split_at_mut(3);
+            for (l, u) in lower.iter_mut().flatten().zip(upper.iter_mut().flatten()) {
+                let (a, b) = ((g.next() * 256.0) as u8, (g.next() * 256.0) as u8);
+                (*l, *u) = (a.min(b), a.max(b));
+            }
+            let positive = [g.next() < 0.5, g.next() < 0.5, g.next() < 0.5];
+            let rows = RowChoice::new(positive);
+            let wild = i % 4 == 3;
+            let mut term = |a: usize| {
+                let m = if wild { g.wild().abs() } else { 0.02 * g.next() };
+                if positive[a] { m } else { -m }
+            };
+            let step = Vec4::new(term(0), term(1), term(2), 0.0);
+            let base = -step * 128.0 + Vec4::new(g.next(), g.next(), g.next(), 0.0);
+            let widen = Vec4::new(g.next(), g.next(), g.next(), 0.0) * 1e-3;
+            let t_min = if wild { g.wild() } else { g.next() - 0.5 };
+            let t_max = if g.next() < 0.2 { f32::INFINITY } else { t_min + g.next() * 4.0 };
+            let mut terms = SlabTerms { step, lo: base - widen, hi: base + widen, t_min, t_max };
+            if i % 4 == 1 {
+                // The far end just below a child's entry, within the test's relative 4ε.
+                let (_, t) = Portable.slab(&q, &rows, &terms);
+                terms.t_max = t[i / 4 % 4] * (1.0 - 3.0 * f32::EPSILON);
+            }
+            let (ma, ta) = Portable.slab(&q, &rows, &terms);
+            let (mb, tb) = k.run(|| k.slab(&q, &rows, &terms));
+            assert_eq!(ma, mb, "{q:?} {rows:?} {terms:?}");
+            assert_eq!(ta.map(f32::to_bits), tb.map(f32::to_bits), "{q:?} {rows:?} {terms:?}");
+            hits[ma.count_ones() as usize] += 1;
+        }
+        assert!(hits.iter().all(|&h| h > 100), "every number of hit children must occur: {hits:?}");
+    }
+
+    /// The portable slab test against the plain definition (interval intersection per child).
+    #[test]
+    fn portable_slab_test_is_the_interval_intersection() {
+        let mut g = Lcg(13);
+        for _ in 0..10_000 {
+            let mut q = [[0u8; 4]; 6];
+            for row in &mut q {
+                for c in row.iter_mut() {
+                    *c = (g.next() * 256.0) as u8;
+                }
+            }
+            let positive = [g.next() < 0.5, g.next() < 0.5, g.next() < 0.5];
+            let rows = RowChoice::new(positive);
+            let step = Vec4::new(g.next() - 0.5, g.next() - 0.5, g.next() - 0.5, 0.0) * 0.1;
+            let base = Vec4::new(g.next() - 0.5, g.next() - 0.5, g.next() - 0.5, 0.0) * 10.0;
+            let terms = SlabTerms { step, lo: base, hi: base, t_min: g.next() - 0.5, t_max: 1.0 + g.next() * 5.0 };
+            let (mask, t) = Portable.slab(&q, &rows, &terms);
+            for k in 0..4 {
+                let (mut t0, mut t1) = (f64::from(terms.t_min), f64::from(terms.t_max));
+                for a in 0..3 {
+                    let plane = |row: usize| f64::from(q[row][k]) * f64::from(step[a]) + f64::from(base[a]);
+                    let (n, f) = if positive[a] { (a, 3 + a) } else { (3 + a, a) };
+                    t0 = t0.max(plane(n));
+                    t1 = t1.min(plane(f));
+                }
+                assert!((f64::from(t[k]) - t0).abs() < 1e-5);
+                if (t0 - t1).abs() > 1e-4 {
+                    assert_eq!(mask & (1 << k) != 0, t0 < t1, "child {k}");
+                }
+            }
+        }
+    }
+}

@@ -429,18 +429,33 @@ pub const CLUSTER_MAX: usize = 1 << 18;
 /// item with this index.
 pub(crate) type Pieces<'a> = dyn Fn(u32, &mut Vec<BuildPrim>) + Sync + 'a;
 
+/// How a cluster joins the tree over clusters: as one child slot of a wide node (its root), or,
+/// where the collapse above opens the cluster's root, as its root's two children.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Joint {
+    Root,
+    Children,
+}
+
+/// A child slot: the box and the [`ChildRef`] (unused: [`EMPTY_REF`]).
+type Slot = (FBox, u32);
+
+/// The unused slot.
+const NO_SLOT: Slot = (FBox::EMPTY, EMPTY_REF);
+
 /// A tree over one cluster's records (or over all): its wide nodes and primitive offsets
-/// numbered from 0, its box and the reference of its root (a leaf when `nodes` is empty).
+/// numbered from 0, its box and the slots it joins the tree above with (one for
+/// [`Joint::Root`], the root's two children for [`Joint::Children`]; a leaf root is one slot).
 struct SubTree {
     bounds: FBox,
     nodes: Vec<Node4>,
     prims: Vec<u32>,
-    root: u32,
+    slots: [Slot; 2],
 }
 
 impl SubTree {
     /// Builds the tree over `records` (consumed); `None` when there are none.
-    fn build(mut records: Vec<BuildPrim>) -> Option<Self> {
+    fn build(mut records: Vec<BuildPrim>, joint: Joint) -> Option<Self> {
         if records.is_empty() {
             return None;
         }
@@ -451,13 +466,23 @@ impl SubTree {
         drop(records);
         let binary = b.nodes;
         let mut nodes = Vec::new();
-        let root = if binary[0].count > 0 {
-            plain_leaf(&binary[0])
-        } else {
-            nodes.reserve(binary.len() / 3 + 1);
-            ChildRef::pack(0, collapse(&binary, 0, binary.len(), &plain_leaf, &mut nodes))
+        // The slot of the binary subtree at `i` (spanning `i..end`), its wide nodes appended.
+        let mut slot = |i: usize, end: usize| -> Slot {
+            let r = if binary[i].count > 0 {
+                plain_leaf(&binary[i])
+            } else {
+                nodes.reserve((end - i) / 3 + 1);
+                ChildRef::pack(0, collapse(&binary, i, end, &plain_leaf, &mut nodes))
+            };
+            (binary[i].bounds, r)
         };
-        Some(Self { bounds, nodes, prims, root })
+        let slots = if joint == Joint::Root || binary[0].count > 0 {
+            [slot(0, binary.len()), NO_SLOT]
+        } else {
+            let right = binary[0].offset as usize;
+            [slot(1, right), slot(right, binary.len())]
+        };
+        Some(Self { bounds, nodes, prims, slots })
     }
 }
 
@@ -474,7 +499,7 @@ impl Bvh {
     #[must_use]
     pub fn build_records(records: Vec<BuildPrim>) -> Self {
         assert!(records.len() < u32::MAX as usize, "too many primitives for u32 indices");
-        SubTree::build(records).map_or_else(Self::default, Self::from_one)
+        SubTree::build(records, Joint::Root).map_or_else(Self::default, Self::from_one)
     }
 
     /// Builds the hierarchy over the records that `pieces(index, out)` appends to `out` for
@@ -508,8 +533,9 @@ impl Bvh {
     fn from_one(t: SubTree) -> Self {
         let nodes = if t.nodes.is_empty() {
             // A single leaf: one wide node holding it.
-            let leaf = Node { bounds: t.bounds, offset: 0, count: ChildRef::count(t.root) };
-            vec![Node4::new(&[(&leaf, t.root)])]
+            let root = t.slots[0].1;
+            let leaf = Node { bounds: t.bounds, offset: 0, count: ChildRef::count(root) };
+            vec![Node4::new(&[(&leaf, root)])]
         } else {
             t.nodes
         };
@@ -529,31 +555,35 @@ impl Bvh {
         let order: Vec<u32> = items.iter().map(|it| it.index).collect();
         drop(items);
         let clusters: Vec<(u32, u32)> = top.iter().filter(|n| n.count > 0).map(|n| (n.offset, n.count)).collect();
+        let cluster_of = |leaf: &Node| clusters.partition_point(|&(first, _)| first < leaf.offset);
         // Its wide nodes come first (the root is node 0), then each cluster's, in cluster
-        // order; their number does not depend on what the leaves refer to.
+        // order. A first pass of its collapse decides how each cluster joins it (this does not
+        // depend on the clusters' contents) and counts its wide nodes.
+        let mut joints = vec![Joint::Root; clusters.len()];
         let mut top_nodes = Vec::new();
-        collapse(&top, 0, top.len(), &|_| ChildRef::pack(1, 0), &mut top_nodes);
+        collapse_top(&top, 0, top.len(), &cluster_of, &mut joints, None, &mut top_nodes);
         let mut nodes = top_nodes.clone();
         let mut prims = Vec::new();
-        // Each cluster's root, moved to its place in the whole tree.
-        let mut roots = Vec::with_capacity(clusters.len());
+        // Each cluster's slots, moved to their place in the whole tree.
+        let mut slots = Vec::with_capacity(clusters.len());
         // Clusters are built in parallel a few at a time and appended in order, so that only
         // those few exist apart from the whole tree.
         let batch = rayon::current_num_threads();
-        for group in clusters.chunks(batch) {
+        for (k, group) in clusters.chunks(batch).enumerate() {
             let subtrees: Vec<Option<SubTree>> = group
                 .par_iter()
-                .map(|&(first, count)| {
+                .zip(&joints[k * batch..])
+                .map(|(&(first, count), &joint)| {
                     let mut records = Vec::new();
                     for &it in &order[first as usize..(first + count) as usize] {
                         pieces(it, &mut records);
                     }
-                    SubTree::build(records)
+                    SubTree::build(records, joint)
                 })
                 .collect();
             for t in subtrees {
                 let Some(t) = t else {
-                    roots.push(EMPTY_REF);
+                    slots.push([NO_SLOT; 2]);
                     continue;
                 };
                 let (node_base, prim_base) = (nodes.len() as u32, prims.len() as u32);
@@ -563,7 +593,7 @@ impl Bvh {
                     0 => ChildRef::pack(0, ChildRef::index(r) + node_base),
                     n => ChildRef::pack(n, ChildRef::index(r) + prim_base),
                 };
-                roots.push(shift(t.root));
+                slots.push(t.slots.map(|(b, r)| (b, shift(r))));
                 nodes.extend(t.nodes.into_iter().map(|mut n| {
                     n.child = n.child.map(shift);
                     n
@@ -573,13 +603,7 @@ impl Bvh {
         }
         drop(order);
         top_nodes.clear();
-        collapse(
-            &top,
-            0,
-            top.len(),
-            &|leaf| roots[clusters.partition_point(|&(first, _)| first < leaf.offset)],
-            &mut top_nodes,
-        );
+        collapse_top(&top, 0, top.len(), &cluster_of, &mut joints, Some(&slots), &mut top_nodes);
         let count = top_nodes.len();
         nodes[..count].copy_from_slice(&top_nodes);
         Self { nodes, prims }
@@ -864,6 +888,79 @@ type LeafRef<'a> = dyn Fn(&Node) -> u32 + Sync + 'a;
 /// The reference of a binary leaf's own primitive range.
 fn plain_leaf(b: &Node) -> u32 {
     ChildRef::pack(b.count, b.offset)
+}
+
+/// A slot while the tree over clusters is collapsed: a node of that tree (an interior node, or
+/// a leaf: a cluster) and the end of its subtree, or child `side` of cluster `j`'s root.
+#[derive(Clone, Copy)]
+enum TopSlot {
+    Node(usize, usize),
+    Half(usize, usize),
+}
+
+/// [`collapse`] of the tree over clusters `top`, whose leaves (clusters, numbered by
+/// `cluster_of`) can be opened as interior nodes are: into their roots' two children. Records
+/// in `joints` how each cluster joins; with `slots` (each cluster's, in the whole tree) it makes
+/// the wide nodes, without (the first pass) placeholders of the same number.
+fn collapse_top(
+    top: &[Node],
+    root: usize,
+    end: usize,
+    cluster_of: &dyn Fn(&Node) -> usize,
+    joints: &mut [Joint],
+    slots: Option<&[[Slot; 2]]>,
+    out: &mut Vec<Node4>,
+) -> u32 {
+    let children = |i: usize, end: usize| {
+        [TopSlot::Node(i + 1, top[i].offset as usize), TopSlot::Node(top[i].offset as usize, end)]
+    };
+    let mut open = [TopSlot::Half(0, 0); 4];
+    open[..2].copy_from_slice(&children(root, end));
+    let mut len = 2;
+    while len < 4 {
+        // Open the node (interior or cluster) with the largest box.
+        let area = |s: TopSlot| match s {
+            TopSlot::Node(i, _) => top[i].bounds.half_area(),
+            TopSlot::Half(..) => f32::NEG_INFINITY,
+        };
+        let best = (0..len)
+            .filter(|&i| matches!(open[i], TopSlot::Node(..)))
+            .max_by(|&a, &b| area(open[a]).total_cmp(&area(open[b])));
+        let Some(i) = best else { break };
+        let TopSlot::Node(n, e) = open[i] else { break };
+        let [a, b] = if top[n].count == 0 {
+            children(n, e)
+        } else {
+            let j = cluster_of(&top[n]);
+            [TopSlot::Half(j, 0), TopSlot::Half(j, 1)]
+        };
+        open[i] = a;
+        open[len] = b;
+        len += 1;
+    }
+    let index = out.len();
+    out.push(Node4::new(&[]));
+    let mut kids = [(Node { bounds: FBox::EMPTY, offset: 0, count: 0 }, EMPTY_REF); 4];
+    for (kid, &slot) in kids.iter_mut().zip(&open[..len]) {
+        let (bounds, r) = match slot {
+            TopSlot::Node(n, e) if top[n].count == 0 => {
+                (top[n].bounds, ChildRef::pack(0, collapse_top(top, n, e, cluster_of, joints, slots, out)))
+            }
+            TopSlot::Node(n, _) => {
+                let j = cluster_of(&top[n]);
+                joints[j] = Joint::Root;
+                slots.map_or(NO_SLOT, |s| s[j][0])
+            }
+            TopSlot::Half(j, side) => {
+                joints[j] = Joint::Children;
+                slots.map_or(NO_SLOT, |s| s[j][side])
+            }
+        };
+        *kid = (Node { bounds, offset: 0, count: 0 }, r);
+    }
+    let refs: Vec<(&Node, u32)> = kids[..len].iter().map(|(n, r)| (n, *r)).collect();
+    out[index] = Node4::new(&refs);
+    index as u32
 }
 
 /// Binary subtrees of at least this many nodes are collapsed in parallel.

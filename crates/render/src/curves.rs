@@ -601,13 +601,20 @@ mod tests {
     }
 
     /// Closest hit and any hit of `set` against brute force for `rays` rays from a box of
-    /// half-size `reach` toward points of a box of half-size `aim`; returns the number of hits.
-    fn check_against_brute_force(set: &CurveSet, seed: u64, rays: usize, reach: f64, aim: f64) -> usize {
+    /// half-size `reach` toward points of a box of half-size `aim` around `center`; returns the
+    /// number of hits.
+    fn check_against_brute_force(
+        set: &CurveSet,
+        seed: u64,
+        rays: usize,
+        reach: f64,
+        (center, aim): (DVec3, f64),
+    ) -> usize {
         let mut g = Lcg(seed);
         let mut hits = 0;
         for _ in 0..rays {
             let o = (g.vec() - 0.5) * 2.0 * reach;
-            let target = (g.vec() - 0.5) * 2.0 * aim;
+            let target = center + (g.vec() - 0.5) * 2.0 * aim;
             let ray = Ray::new(o, (target - o).normalize());
             let b = set.intersect_brute_force(&ray);
             assert_eq!(set.intersect(&ray).map(|h| h.t), b.map(|h| h.t), "seed {seed} ray {ray:?}");
@@ -627,7 +634,10 @@ mod tests {
     fn clustered_bvh_agrees_with_brute_force_on_adversarial_sets() {
         let mut g = Lcg(7);
         let line = |a: DVec3, b: DVec3, r: f64| (vec![a, b], vec![r, r]);
-        let mut sets: Vec<(&str, Vec<(Vec<DVec3>, Vec<f64>)>)> = vec![("hair-like", random_strands(11, 300))];
+        type Strands = Vec<(Vec<DVec3>, Vec<f64>)>;
+        // Each set with the box that its rays aim at.
+        let mut sets: Vec<(&str, Strands, (DVec3, f64))> =
+            vec![("hair-like", random_strands(11, 300), (DVec3::ZERO, 0.8))];
         // Parallel diagonal strands packed closer than their radii.
         let dir = DVec3::new(1.0, 0.7, 0.4).normalize();
         sets.push((
@@ -639,6 +649,7 @@ mod tests {
                     (vec![a, (a + b) * 0.5 + off * 0.1, b], vec![0.01; 3])
                 })
                 .collect(),
+            (DVec3::ZERO, 0.3),
         ));
         // Strands crossing near one point in random directions.
         sets.push((
@@ -650,13 +661,14 @@ mod tests {
                     line(c - d, c + d, 0.004)
                 })
                 .collect(),
+            (DVec3::ZERO, 0.05),
         ));
         // Coincident copies of one segment, zero-length segments and repeated points.
         let p = DVec3::new(0.1, -0.2, 0.3);
         let mut degenerate: Vec<_> = (0..200).map(|_| line(p, p + DVec3::new(0.3, 0.2, 0.1), 0.02)).collect();
         degenerate.extend((0..100).map(|_| (vec![p, p, p + DVec3::X * 0.2, p + DVec3::X * 0.2], vec![0.01; 4])));
         degenerate.extend((0..100).map(|i| line(DVec3::splat(i as f64 * 1e-3), DVec3::splat(i as f64 * 1e-3), 0.05)));
-        sets.push(("degenerate", degenerate));
+        sets.push(("degenerate", degenerate, (p + DVec3::new(0.15, 0.1, 0.05), 0.12)));
         // Huge and tiny radii mixed.
         sets.push((
             "radii",
@@ -667,12 +679,13 @@ mod tests {
                     line(a, b, if i % 7 == 0 { 0.3 } else { 1e-4 + 1e-3 * g.next() })
                 })
                 .collect(),
+            (DVec3::ZERO, 0.8),
         ));
-        for (name, strands) in &sets {
+        for (name, strands, aim) in &sets {
             for cluster_max in [2, 5, 64, usize::MAX] {
                 let set = clustered(strands, cluster_max);
-                let hits = check_against_brute_force(&set, cluster_max as u64 % 1000, 2000, 2.0, 0.8);
-                assert!(hits > 10, "{name}: too few hits ({hits}) to be a test");
+                let hits = check_against_brute_force(&set, cluster_max as u64 % 1000, 2000, 2.0, *aim);
+                assert!(hits > 100, "{name}: too few hits ({hits}) to be a test");
             }
         }
     }

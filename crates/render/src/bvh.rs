@@ -281,6 +281,11 @@ impl FBox {
 
 struct Builder {
     nodes: Vec<Node>,
+    /// Subtrees of at most this many records are leaves without a split: 2, or the cluster
+    /// size for the tree over clusters ([`Bvh::build_grouped`]).
+    min_leaf: usize,
+    /// Most records in one leaf: [`MAX_LEAF`], or the cluster size.
+    max_leaf: usize,
 }
 
 impl Builder {
@@ -297,7 +302,7 @@ impl Builder {
             nodes[node].offset = first as u32;
             nodes[node].count = prims.len() as u32;
         };
-        if prims.len() <= 2 {
+        if prims.len() <= self.min_leaf {
             return leaf(&mut self.nodes);
         }
         let extent = cb.max - cb.min;
@@ -309,7 +314,7 @@ impl Builder {
             2
         };
         if extent[axis] <= 0.0 || !extent[axis].is_finite() {
-            if prims.len() <= MAX_LEAF {
+            if prims.len() <= self.max_leaf {
                 return leaf(&mut self.nodes);
             }
             let mid = prims.len() / 2;
@@ -353,8 +358,8 @@ impl Builder {
         }
         let leaf_cost = prims.len() as f32;
         let split_cost = 1.0 + best_cost / bounds.half_area().max(f32::MIN_POSITIVE);
-        if best_split == 0 || (split_cost >= leaf_cost && prims.len() <= MAX_LEAF) {
-            if prims.len() <= MAX_LEAF {
+        if best_split == 0 || (split_cost >= leaf_cost && prims.len() <= self.max_leaf) {
+            if prims.len() <= self.max_leaf {
                 return leaf(&mut self.nodes);
             }
             let mid = prims.len() / 2;
@@ -402,7 +407,7 @@ impl Builder {
         // Large subtrees are built in parallel: the left one in place (it follows its parent),
         // the right one into its own node list, then appended with its interior-node offsets
         // shifted (the result does not depend on the thread count).
-        let mut right_builder = Builder { nodes: Vec::new() };
+        let mut right_builder = Builder { nodes: Vec::new(), ..*self };
         rayon::join(|| self.build(left, first, lb, lc), || right_builder.build(right, first + mid, rb, rc));
         self.nodes[node].offset = self.nodes.len() as u32;
         self.append(right_builder.nodes);
@@ -420,6 +425,71 @@ impl Builder {
     }
 }
 
+/// Up to this many items are built as one tree; more are split into clusters of at most this
+/// many ([`Bvh::build_grouped`]).
+pub const CLUSTER_MAX: usize = 1 << 18;
+
+/// What [`Bvh::build_grouped`] calls for each item: append the records of the pieces of the
+/// item with this index.
+pub(crate) type Pieces<'a> = dyn Fn(u32, &mut Vec<BuildPrim>) + Sync + 'a;
+
+/// How a cluster joins the tree over clusters: as one child slot of a wide node (its root), or,
+/// where the collapse above opens the cluster's root, as its root's two children.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Joint {
+    Root,
+    Children,
+}
+
+/// A child slot: the box and the [`ChildRef`] (unused: [`EMPTY_REF`]).
+type Slot = (FBox, u32);
+
+/// The unused slot.
+const NO_SLOT: Slot = (FBox::EMPTY, EMPTY_REF);
+
+/// A tree over one cluster's records (or over all): its wide nodes and primitive offsets
+/// numbered from 0, its box and the slots it joins the tree above with (one for
+/// [`Joint::Root`], the root's two children for [`Joint::Children`]; a leaf root is one slot).
+struct SubTree {
+    bounds: FBox,
+    nodes: Vec<Node4>,
+    prims: Vec<u32>,
+    slots: [Slot; 2],
+}
+
+impl SubTree {
+    /// Builds the tree over `records` (consumed); `None` when there are none.
+    fn build(mut records: Vec<BuildPrim>, joint: Joint) -> Option<Self> {
+        if records.is_empty() {
+            return None;
+        }
+        let mut b = Builder { nodes: Vec::with_capacity(2 * records.len() / 3 + 1), min_leaf: 2, max_leaf: MAX_LEAF };
+        let (bounds, cb) = FBox::of(&records);
+        b.build(&mut records, 0, bounds, cb);
+        let prims = records.iter().map(|r| r.index).collect();
+        drop(records);
+        let binary = b.nodes;
+        let mut nodes = Vec::new();
+        // The slot of the binary subtree at `i` (spanning `i..end`), its wide nodes appended.
+        let mut slot = |i: usize, end: usize| -> Slot {
+            let r = if binary[i].count > 0 {
+                plain_leaf(&binary[i])
+            } else {
+                nodes.reserve((end - i) / 3 + 1);
+                ChildRef::pack(0, collapse(&binary, i, end, &plain_leaf, &mut nodes))
+            };
+            (binary[i].bounds, r)
+        };
+        let slots = if joint == Joint::Root || binary[0].count > 0 {
+            [slot(0, binary.len()), NO_SLOT]
+        } else {
+            let right = binary[0].offset as usize;
+            [slot(1, right), slot(right, binary.len())]
+        };
+        Some(Self { bounds, nodes, prims, slots })
+    }
+}
+
 impl Bvh {
     /// Builds the hierarchy over `bounds`; traversal reports indices into `bounds`.
     #[must_use]
@@ -431,24 +501,115 @@ impl Bvh {
     /// Builds the hierarchy over prepared records (consumed: their memory is freed before the
     /// wide nodes are made); traversal reports each record's index.
     #[must_use]
-    pub fn build_records(mut records: Vec<BuildPrim>) -> Self {
+    pub fn build_records(records: Vec<BuildPrim>) -> Self {
         assert!(records.len() < u32::MAX as usize, "too many primitives for u32 indices");
-        if records.is_empty() {
-            return Self::default();
+        SubTree::build(records, Joint::Root).map_or_else(Self::default, Self::from_one)
+    }
+
+    /// Builds the hierarchy over the records that `pieces(index, out)` appends to `out` for
+    /// the index of each of `items` (several tight boxes per shape, say; they must lie inside
+    /// the item's box), in clusters: a binned-SAH tree over the
+    /// items' own boxes down to subtrees of at most [`CLUSTER_MAX`] items, then for each such
+    /// cluster, in parallel, its items' pieces are made and built into a subtree on their own
+    /// (see `ARCHITECTURE.md`). Only one cluster's pieces exist at a time per thread; up to
+    /// [`CLUSTER_MAX`] items this is [`Bvh::build_records`] over all the pieces.
+    #[must_use]
+    pub fn build_grouped(items: Vec<BuildPrim>, pieces: impl Fn(u32, &mut Vec<BuildPrim>) + Sync) -> Self {
+        Self::build_grouped_in(items, &pieces, CLUSTER_MAX)
+    }
+
+    /// [`Bvh::build_grouped`] with clusters of at most `cluster_max` items (≥ 2).
+    pub(crate) fn build_grouped_in(items: Vec<BuildPrim>, pieces: &Pieces<'_>, cluster_max: usize) -> Self {
+        assert!(cluster_max >= 2, "clusters need at least two items");
+        assert!(items.len() < u32::MAX as usize, "too many primitives for u32 indices");
+        if items.len() <= cluster_max {
+            let mut records = Vec::new();
+            for it in &items {
+                pieces(it.index, &mut records);
+            }
+            drop(items);
+            return Self::build_records(records);
         }
-        let mut b = Builder { nodes: Vec::with_capacity(2 * records.len() / 3 + 1) };
-        let (root, cb) = FBox::of(&records);
-        b.build(&mut records, 0, root, cb);
-        let prims = records.iter().map(|r| r.index).collect();
-        drop(records);
-        let binary = b.nodes;
-        let mut nodes = Vec::with_capacity(binary.len() / 3 + 1);
-        if binary[0].count > 0 {
+        Self::build_clustered(items, pieces, cluster_max)
+    }
+
+    /// A hierarchy of one subtree (its root becomes node 0).
+    fn from_one(t: SubTree) -> Self {
+        let nodes = if t.nodes.is_empty() {
             // A single leaf: one wide node holding it.
-            nodes.push(Node4::new(&[(&binary[0], ChildRef::pack(binary[0].count, binary[0].offset))]));
+            let root = t.slots[0].1;
+            let leaf = Node { bounds: t.bounds, offset: 0, count: ChildRef::count(root) };
+            vec![Node4::new(&[(&leaf, root)])]
         } else {
-            collapse(&binary, 0, binary.len(), &mut nodes);
+            t.nodes
+        };
+        Self { nodes, prims: t.prims, simd: SimdLevel::best() }
+    }
+
+    /// The clustered build of [`Bvh::build_grouped`] (more than `cluster_max` items).
+    fn build_clustered(mut items: Vec<BuildPrim>, pieces: &Pieces<'_>, cluster_max: usize) -> Self {
+        use rayon::prelude::*;
+        // The top tree over the items, whose leaves are the clusters (item ranges, in order).
+        // It keeps the items' boxes: they hold their pieces', so they hold the clusters'.
+        let mut builder = Builder { nodes: Vec::new(), min_leaf: cluster_max, max_leaf: cluster_max };
+        let (bounds, cb) = FBox::of(&items);
+        builder.build(&mut items, 0, bounds, cb);
+        let top = builder.nodes;
+        // Only the items' order is needed from here on.
+        let order: Vec<u32> = items.iter().map(|it| it.index).collect();
+        drop(items);
+        let clusters: Vec<(u32, u32)> = top.iter().filter(|n| n.count > 0).map(|n| (n.offset, n.count)).collect();
+        let cluster_of = |leaf: &Node| clusters.partition_point(|&(first, _)| first < leaf.offset);
+        // Its wide nodes come first (the root is node 0), then each cluster's, in cluster
+        // order. A first pass of its collapse decides how each cluster joins it (this does not
+        // depend on the clusters' contents) and counts its wide nodes.
+        let mut joints = vec![Joint::Root; clusters.len()];
+        let mut top_nodes = Vec::new();
+        collapse_top(&top, 0, top.len(), &cluster_of, &mut joints, None, &mut top_nodes);
+        let mut nodes = top_nodes.clone();
+        let mut prims = Vec::new();
+        // Each cluster's slots, moved to their place in the whole tree.
+        let mut slots = Vec::with_capacity(clusters.len());
+        // Clusters are built in parallel a few at a time and appended in order, so that only
+        // those few exist apart from the whole tree.
+        let batch = rayon::current_num_threads();
+        for (k, group) in clusters.chunks(batch).enumerate() {
+            let subtrees: Vec<Option<SubTree>> = group
+                .par_iter()
+                .zip(&joints[k * batch..])
+                .map(|(&(first, count), &joint)| {
+                    let mut records = Vec::new();
+                    for &it in &order[first as usize..(first + count) as usize] {
+                        pieces(it, &mut records);
+                    }
+                    SubTree::build(records, joint)
+                })
+                .collect();
+            for t in subtrees {
+                let Some(t) = t else {
+                    slots.push([NO_SLOT; 2]);
+                    continue;
+                };
+                let (node_base, prim_base) = (nodes.len() as u32, prims.len() as u32);
+                assert!(prims.len() + t.prims.len() < u32::MAX as usize, "too many primitives for u32 indices");
+                let shift = |r: u32| match ChildRef::count(r) {
+                    EMPTY_SLOT => r,
+                    0 => ChildRef::pack(0, ChildRef::index(r) + node_base),
+                    n => ChildRef::pack(n, ChildRef::index(r) + prim_base),
+                };
+                slots.push(t.slots.map(|(b, r)| (b, shift(r))));
+                nodes.extend(t.nodes.into_iter().map(|mut n| {
+                    n.child = n.child.map(shift);
+                    n
+                }));
+                prims.extend_from_slice(&t.prims);
+            }
         }
+        drop(order);
+        top_nodes.clear();
+        collapse_top(&top, 0, top.len(), &cluster_of, &mut joints, Some(&slots), &mut top_nodes);
+        let count = top_nodes.len();
+        nodes[..count].copy_from_slice(&top_nodes);
         Self { nodes, prims, simd: SimdLevel::best() }
     }
 
@@ -738,6 +899,88 @@ fn clamp_finite(x: f32) -> f32 {
     if x.is_nan() { 0.0 } else { x.clamp(-1e30, 1e30) }
 }
 
+/// What a binary leaf becomes in the wide tree: its primitive range ([`plain_leaf`]), or in the
+/// top tree over clusters, the cluster's root.
+type LeafRef<'a> = dyn Fn(&Node) -> u32 + Sync + 'a;
+
+/// The reference of a binary leaf's own primitive range.
+fn plain_leaf(b: &Node) -> u32 {
+    ChildRef::pack(b.count, b.offset)
+}
+
+/// A slot while the tree over clusters is collapsed: a node of that tree (an interior node, or
+/// a leaf: a cluster) and the end of its subtree, or child `side` of cluster `j`'s root.
+#[derive(Clone, Copy)]
+enum TopSlot {
+    Node(usize, usize),
+    Half(usize, usize),
+}
+
+/// [`collapse`] of the tree over clusters `top`, whose leaves (clusters, numbered by
+/// `cluster_of`) can be opened as interior nodes are: into their roots' two children. Records
+/// in `joints` how each cluster joins; with `slots` (each cluster's, in the whole tree) it makes
+/// the wide nodes, without (the first pass) placeholders of the same number.
+fn collapse_top(
+    top: &[Node],
+    root: usize,
+    end: usize,
+    cluster_of: &dyn Fn(&Node) -> usize,
+    joints: &mut [Joint],
+    slots: Option<&[[Slot; 2]]>,
+    out: &mut Vec<Node4>,
+) -> u32 {
+    let children = |i: usize, end: usize| {
+        [TopSlot::Node(i + 1, top[i].offset as usize), TopSlot::Node(top[i].offset as usize, end)]
+    };
+    let mut open = [TopSlot::Half(0, 0); 4];
+    open[..2].copy_from_slice(&children(root, end));
+    let mut len = 2;
+    while len < 4 {
+        // Open the node (interior or cluster) with the largest box.
+        let area = |s: TopSlot| match s {
+            TopSlot::Node(i, _) => top[i].bounds.half_area(),
+            TopSlot::Half(..) => f32::NEG_INFINITY,
+        };
+        let best = (0..len)
+            .filter(|&i| matches!(open[i], TopSlot::Node(..)))
+            .max_by(|&a, &b| area(open[a]).total_cmp(&area(open[b])));
+        let Some(i) = best else { break };
+        let TopSlot::Node(n, e) = open[i] else { break };
+        let [a, b] = if top[n].count == 0 {
+            children(n, e)
+        } else {
+            let j = cluster_of(&top[n]);
+            [TopSlot::Half(j, 0), TopSlot::Half(j, 1)]
+        };
+        open[i] = a;
+        open[len] = b;
+        len += 1;
+    }
+    let index = out.len();
+    out.push(Node4::new(&[]));
+    let mut kids = [(Node { bounds: FBox::EMPTY, offset: 0, count: 0 }, EMPTY_REF); 4];
+    for (kid, &slot) in kids.iter_mut().zip(&open[..len]) {
+        let (bounds, r) = match slot {
+            TopSlot::Node(n, e) if top[n].count == 0 => {
+                (top[n].bounds, ChildRef::pack(0, collapse_top(top, n, e, cluster_of, joints, slots, out)))
+            }
+            TopSlot::Node(n, _) => {
+                let j = cluster_of(&top[n]);
+                joints[j] = Joint::Root;
+                slots.map_or(NO_SLOT, |s| s[j][0])
+            }
+            TopSlot::Half(j, side) => {
+                joints[j] = Joint::Children;
+                slots.map_or(NO_SLOT, |s| s[j][side])
+            }
+        };
+        *kid = (Node { bounds, offset: 0, count: 0 }, r);
+    }
+    let refs: Vec<(&Node, u32)> = kids[..len].iter().map(|(n, r)| (n, *r)).collect();
+    out[index] = Node4::new(&refs);
+    index as u32
+}
+
 /// Binary subtrees of at least this many nodes are collapsed in parallel.
 const PARALLEL_COLLAPSE_MIN: usize = 16_384;
 
@@ -746,8 +989,8 @@ const PARALLEL_COLLAPSE_MIN: usize = 16_384;
 /// one starts at `offset`), into wide nodes appended to `out`; returns the index of its wide
 /// node. Wide nodes come out in depth-first order; large subtrees are collapsed in parallel
 /// into their own lists, then appended in that same order, so the result does not depend on
-/// the thread count.
-fn collapse(binary: &[Node], root: usize, end: usize, out: &mut Vec<Node4>) -> u32 {
+/// the thread count. `leaf` gives the reference that a binary leaf becomes.
+fn collapse(binary: &[Node], root: usize, end: usize, leaf: &LeafRef<'_>, out: &mut Vec<Node4>) -> u32 {
     // A binary node and the end of its subtree.
     let children = |i: usize, end: usize| [(i + 1, binary[i].offset as usize), (binary[i].offset as usize, end)];
     let mut slots = [(0usize, 0usize); 4];
@@ -770,11 +1013,7 @@ fn collapse(binary: &[Node], root: usize, end: usize, out: &mut Vec<Node4>) -> u
     if end - root < PARALLEL_COLLAPSE_MIN {
         for (r, &(c, e)) in refs.iter_mut().zip(&slots[..len]) {
             let b = &binary[c];
-            let child = if b.count > 0 {
-                ChildRef::pack(b.count, b.offset)
-            } else {
-                ChildRef::pack(0, collapse(binary, c, e, out))
-            };
+            let child = if b.count > 0 { leaf(b) } else { ChildRef::pack(0, collapse(binary, c, e, leaf, out)) };
             *r = (b, child);
         }
     } else {
@@ -786,7 +1025,7 @@ fn collapse(binary: &[Node], root: usize, end: usize, out: &mut Vec<Node4>) -> u
         let ((), subtrees) = rayon::join(
             || {
                 if let Some(&(c, e)) = slots.get(first).filter(|_| first < len) {
-                    first_ref = collapse(binary, c, e, out);
+                    first_ref = collapse(binary, c, e, leaf, out);
                 }
             },
             || {
@@ -796,7 +1035,7 @@ fn collapse(binary: &[Node], root: usize, end: usize, out: &mut Vec<Node4>) -> u
                     .map(|(k, &(c, e))| {
                         let mut v = Vec::new();
                         if k > first && binary[c].count == 0 {
-                            collapse(binary, c, e, &mut v);
+                            collapse(binary, c, e, leaf, &mut v);
                         }
                         v
                     })
@@ -806,7 +1045,7 @@ fn collapse(binary: &[Node], root: usize, end: usize, out: &mut Vec<Node4>) -> u
         for (k, ((r, &(c, _)), sub)) in refs.iter_mut().zip(&slots[..len]).zip(subtrees).enumerate() {
             let b = &binary[c];
             let child = if b.count > 0 {
-                ChildRef::pack(b.count, b.offset)
+                leaf(b)
             } else if k == first {
                 ChildRef::pack(0, first_ref)
             } else {
@@ -862,6 +1101,54 @@ mod tests {
             let brute =
                 spheres.iter().filter_map(|&s| hit_sphere(&ray, s, f64::INFINITY)).fold(f64::INFINITY, f64::min);
             assert_eq!(two.traverse(&ray, |p, t_max| hit_sphere(&ray, spheres[p as usize], t_max)), brute);
+        }
+    }
+
+    /// The clustered build over items whose pieces are two boxes each (the halves of each
+    /// sphere's box, split along x): closest and any hit against brute force, and the same
+    /// tree on one and two threads.
+    #[test]
+    fn clustered_build_is_correct_and_independent_of_threads() {
+        let mut state = 5u64;
+        let mut rnd = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64) / (1u64 << 53) as f64
+        };
+        let spheres: Vec<(DVec3, f64)> =
+            (0..3000).map(|_| (DVec3::new(rnd(), rnd(), rnd()) * 10.0 - 5.0, 0.02 + 0.3 * rnd())).collect();
+        let boxes: Vec<Aabb> = spheres.iter().map(|&(c, r)| Aabb::sphere(c, r)).collect();
+        let items = || boxes.iter().enumerate().map(|(i, b)| BuildPrim::new(b, i as u32)).collect::<Vec<_>>();
+        let halves = |i: u32, out: &mut Vec<BuildPrim>| {
+            let b = boxes[i as usize];
+            let mid = 0.5 * (b.min.x + b.max.x);
+            out.push(BuildPrim::new(&Aabb { max: DVec3::new(mid, b.max.y, b.max.z), ..b }, i));
+            out.push(BuildPrim::new(&Aabb { min: DVec3::new(mid, b.min.y, b.min.z), ..b }, i));
+        };
+        let pool = |n| rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+        for cluster_max in [2, 3, 17, 500, 5000] {
+            let one = pool(1).install(|| Bvh::build_grouped_in(items(), &halves, cluster_max));
+            let two = pool(2).install(|| Bvh::build_grouped_in(items(), &halves, cluster_max));
+            assert_eq!(one.prims, two.prims);
+            assert_eq!(one.nodes, two.nodes);
+            assert_eq!(two.prims.len(), 2 * spheres.len());
+            let hit_sphere = |ray: &Ray, (c, r): (DVec3, f64), t_max: f64| -> Option<f64> {
+                let oc = ray.o - c;
+                let b = oc.dot(ray.d);
+                let disc = b * b - (oc.length_squared() - r * r);
+                let t = -b - disc.sqrt();
+                (disc >= 0.0 && t > ray.t_min && t < t_max).then_some(t)
+            };
+            for _ in 0..500 {
+                let o = DVec3::new(rnd(), rnd(), rnd()) * 14.0 - 7.0;
+                let ray = Ray::new(o, (DVec3::new(rnd(), rnd(), rnd()) - 0.5).normalize());
+                let brute =
+                    spheres.iter().filter_map(|&s| hit_sphere(&ray, s, f64::INFINITY)).fold(f64::INFINITY, f64::min);
+                assert_eq!(two.traverse(&ray, |p, t_max| hit_sphere(&ray, spheres[p as usize], t_max)), brute);
+                assert_eq!(
+                    two.any(&ray, |p| hit_sphere(&ray, spheres[p as usize], f64::INFINITY).is_some()),
+                    brute.is_finite()
+                );
+            }
         }
     }
 

@@ -251,8 +251,11 @@ impl CurveSet {
     }
 
     fn from_segments(segments: Vec<Segment>, strands: usize) -> Self {
-        // The pieces' records are made straight in the build's `f32` form, each reporting its
-        // segment (no `f64` box array, no piece → segment table).
+        Self::from_segments_in(segments, strands, crate::bvh::CLUSTER_MAX)
+    }
+
+    /// [`Self::from_segments`] with BVH clusters of at most `cluster_max` segments.
+    fn from_segments_in(segments: Vec<Segment>, strands: usize, cluster_max: usize) -> Self {
         let pieces_of = |s: &Segment| {
             let mut e = (s.p1().as_dvec3() - s.p0.as_dvec3()).abs().to_array();
             e.sort_by(f64::total_cmp);
@@ -260,23 +263,42 @@ impl CurveSet {
             // sides that a whole-segment box inflates.
             ((e[1] / (SPLIT_SPREAD_IN_RADII * f64::from(s.radius))).ceil() as usize).clamp(1, MAX_PIECES)
         };
-        let total: usize = segments.iter().map(pieces_of).sum();
-        let mut records = Vec::with_capacity(total);
-        for (i, s) in segments.iter().enumerate() {
+        // The axis ends of segment `s` and how far its tube reaches around them.
+        let ends = |s: &Segment| {
             let (p0, p1) = (s.p0.as_dvec3(), s.p1().as_dvec3());
-            let r = f64::from(s.radius);
             let d = (p1 - p0).normalize();
             // A miter ellipse reaches r/cos from the vertex; bound both ends by that sphere.
             let cos = s.n0.as_dvec3().dot(d).min(s.n1.as_dvec3().dot(d)).max(MIN_MITER_COS);
-            let reach = r / cos * (1.0 + 1e-6);
-            let pieces = pieces_of(s);
-            for k in 0..pieces {
-                let a = p0 + (p1 - p0) * (k as f64 / pieces as f64);
-                let b = p0 + (p1 - p0) * ((k + 1) as f64 / pieces as f64);
-                records.push(BuildPrim::new(&Aabb::sphere(a, reach).union(Aabb::sphere(b, reach)), i as u32));
-            }
-        }
-        let bvh = Bvh::build_records(records);
+            (p0, p1, f64::from(s.radius) / cos * (1.0 + 1e-6))
+        };
+        let total: usize = segments.iter().map(pieces_of).sum();
+        // The tree is built over the segments' own boxes, in clusters; each cluster's pieces
+        // are made in the build's `f32` records when it is built, each reporting its segment.
+        let items: Vec<BuildPrim> = segments
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let (p0, p1, reach) = ends(s);
+                BuildPrim::new(&Aabb::sphere(p0, reach).union(Aabb::sphere(p1, reach)), i as u32)
+            })
+            .collect();
+        let bvh = Bvh::build_grouped_in(
+            items,
+            &|i, out| {
+                let s = &segments[i as usize];
+                let (p0, p1, reach) = ends(s);
+                let pieces = pieces_of(s);
+                let step = (p1 - p0) / pieces as f64;
+                let mut a = Aabb::sphere(p0, reach);
+                for k in 1..=pieces {
+                    // The last piece ends exactly at the tip.
+                    let b = Aabb::sphere(if k == pieces { p1 } else { p0 + step * k as f64 }, reach);
+                    out.push(BuildPrim::new(&a.union(b), i));
+                    a = b;
+                }
+            },
+            cluster_max,
+        );
         Self { segments, pieces: total, bvh, strands }
     }
 
@@ -427,7 +449,15 @@ impl CurveSet {
     /// (the any-hit walk, no sorting of children), so the entries reported before the stop are
     /// an arbitrary subset. Does not allocate once each thread's list of reported segments
     /// has grown.
-    pub fn each_entry_until(&self, ray: &Ray, mut each: impl FnMut(&CurveHit) -> bool) -> bool {
+    pub fn each_entry_until(&self, ray: &Ray, each: impl FnMut(&CurveHit) -> bool) -> bool {
+        match self.simd_level().avx2_token() {
+            Some(k) => k.run(|| self.each_entry_until_in(k, ray, each)),
+            None => self.each_entry_until_in(Portable, ray, each),
+        }
+    }
+
+    #[inline(always)]
+    fn each_entry_until_in(&self, lanes: impl Lanes, ray: &Ray, mut each: impl FnMut(&CurveHit) -> bool) -> bool {
         thread_local! {
             static SEEN: std::cell::Cell<Vec<u32>> = const { std::cell::Cell::new(Vec::new()) };
         }
@@ -436,8 +466,8 @@ impl CurveSet {
         // A segment split into pieces sits in several leaves: remember the ones reported.
         let mut seen = SEEN.take();
         seen.clear();
-        let stopped = self.bvh.any_leaf(ray, |prims| {
-            for seg in self.candidates(&quick, prims, &mut last) {
+        let stopped = self.bvh.any_leaf_in(lanes, ray, |prims| {
+            for seg in self.candidates(lanes, &quick, prims, &mut last) {
                 if seen.contains(&seg) {
                     continue;
                 }
@@ -705,6 +735,112 @@ mod tests {
             }
             let hits = check_against_brute_force(&mut set, &rays, what);
             assert!(hits > 100, "{what}: too few hits ({hits}) to be a test");
+        }
+    }
+
+    /// The tube set of `strands` with its tree built in clusters of at most `cluster_max`
+    /// segments.
+    fn clustered(strands: &[(Vec<DVec3>, Vec<f64>)], cluster_max: usize) -> CurveSet {
+        let (segments, count) = CurveSet::segments_of(strands.iter().map(|(p, r)| (p.as_slice(), r.as_slice())), 0);
+        CurveSet::from_segments_in(segments, count, cluster_max)
+    }
+
+    /// Closest hit and any hit of `set` against brute force for `rays` rays from a box of
+    /// half-size `reach` toward points of a box of half-size `aim` around `center`; returns the
+    /// number of hits.
+    fn check_clustered_against_brute_force(
+        set: &mut CurveSet,
+        seed: u64,
+        rays: usize,
+        reach: f64,
+        (center, aim): (DVec3, f64),
+    ) -> usize {
+        let mut hits = 0;
+        for level in SimdLevel::available() {
+            set.set_simd_level(level);
+            hits = check_clustered_at(set, seed, rays, reach, (center, aim));
+        }
+        hits
+    }
+
+    fn check_clustered_at(set: &CurveSet, seed: u64, rays: usize, reach: f64, (center, aim): (DVec3, f64)) -> usize {
+        let mut g = Lcg(seed);
+        let mut hits = 0;
+        for _ in 0..rays {
+            let o = (g.vec() - 0.5) * 2.0 * reach;
+            let target = center + (g.vec() - 0.5) * 2.0 * aim;
+            let ray = Ray::new(o, (target - o).normalize());
+            let b = set.intersect_brute_force(&ray);
+            assert_eq!(set.intersect(&ray).map(|h| h.t), b.map(|h| h.t), "seed {seed} ray {ray:?}");
+            assert_eq!(set.occluded(&ray), b.is_some(), "seed {seed} ray {ray:?}");
+            if let Some(h) = b {
+                let short = Ray { t_max: h.t * 0.999_999, ..ray };
+                assert_eq!(set.occluded(&short), set.intersect_brute_force(&short).is_some());
+            }
+            hits += usize::from(b.is_some());
+        }
+        hits
+    }
+
+    /// The clustered build (a tree over the segments' boxes down to clusters, then one over
+    /// each cluster's pieces) against brute force, on hair-like and adversarial sets.
+    #[test]
+    fn clustered_bvh_agrees_with_brute_force_on_adversarial_sets() {
+        let mut g = Lcg(7);
+        let line = |a: DVec3, b: DVec3, r: f64| (vec![a, b], vec![r, r]);
+        type Strands = Vec<(Vec<DVec3>, Vec<f64>)>;
+        // Each set with the box that its rays aim at.
+        let mut sets: Vec<(&str, Strands, (DVec3, f64))> =
+            vec![("hair-like", random_strands(11, 300), (DVec3::ZERO, 0.8))];
+        // Parallel diagonal strands packed closer than their radii.
+        let dir = DVec3::new(1.0, 0.7, 0.4).normalize();
+        sets.push((
+            "parallel",
+            (0..400)
+                .map(|i| {
+                    let off = DVec3::new((i % 20) as f64, (i / 20) as f64, 0.0) * 0.015 - 0.15;
+                    let (a, b) = (off - dir, off + dir);
+                    (vec![a, (a + b) * 0.5 + off * 0.1, b], vec![0.01; 3])
+                })
+                .collect(),
+            (DVec3::ZERO, 0.3),
+        ));
+        // Strands crossing near one point in random directions.
+        sets.push((
+            "crossing",
+            (0..400)
+                .map(|_| {
+                    let d = (g.vec() - 0.5).normalize();
+                    let c = (g.vec() - 0.5) * 0.02;
+                    line(c - d, c + d, 0.004)
+                })
+                .collect(),
+            (DVec3::ZERO, 0.05),
+        ));
+        // Coincident copies of one segment, zero-length segments and repeated points.
+        let p = DVec3::new(0.1, -0.2, 0.3);
+        let mut degenerate: Vec<_> = (0..200).map(|_| line(p, p + DVec3::new(0.3, 0.2, 0.1), 0.02)).collect();
+        degenerate.extend((0..100).map(|_| (vec![p, p, p + DVec3::X * 0.2, p + DVec3::X * 0.2], vec![0.01; 4])));
+        degenerate.extend((0..100).map(|i| line(DVec3::splat(i as f64 * 1e-3), DVec3::splat(i as f64 * 1e-3), 0.05)));
+        sets.push(("degenerate", degenerate, (p + DVec3::new(0.15, 0.1, 0.05), 0.12)));
+        // Huge and tiny radii mixed.
+        sets.push((
+            "radii",
+            (0..400)
+                .map(|i| {
+                    let a = (g.vec() - 0.5) * 2.0;
+                    let b = a + (g.vec() - 0.5) * 0.8;
+                    line(a, b, if i % 7 == 0 { 0.3 } else { 1e-4 + 1e-3 * g.next() })
+                })
+                .collect(),
+            (DVec3::ZERO, 0.8),
+        ));
+        for (name, strands, aim) in &sets {
+            for cluster_max in [2, 5, 64, usize::MAX] {
+                let mut set = clustered(strands, cluster_max);
+                let hits = check_clustered_against_brute_force(&mut set, cluster_max as u64 % 1000, 2000, 2.0, *aim);
+                assert!(hits > 100, "{name}: too few hits ({hits}) to be a test");
+            }
         }
     }
 

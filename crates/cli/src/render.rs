@@ -62,7 +62,8 @@ pub struct Args {
     /// With dual scattering, a constant or choice (defaults shown): `d_f=0.5`, `d_b=1`, `k_back=0.25`,
     /// `pi=on|off` (on), `spread=weighted|literal`, `global=energy|forward-mean`, `grid=64`
     /// (cells along the longest side), `cutoff=1e-4` (the exact count stops below this ∏ā_f),
-    /// `bounce_cutoff=0.01` (the same for the count toward a surface), `surface_bounce=through|on|off` (through: light off surfaces
+    /// `bounce_cutoff=0.01` (the same for the count toward a surface), `bounce_p=1` (Russian roulette:
+    /// the bounce toward a surface is traced with this probability, weight 1/p), `surface_bounce=through|on|off` (through: light off surfaces
     /// reaches the hair through the fibers in between; on: only with no fiber in between; off:
     /// left out). Repeatable.
     #[arg(long = "dual", value_name = "KEY=VALUE")]
@@ -433,6 +434,11 @@ fn dual_settings(count: &str, pairs: &[String]) -> anyhow::Result<DualScattering
             "grid" => s.grid_resolution = (number()? as usize).max(1),
             "cutoff" => s.count_cutoff = number()?,
             "bounce_cutoff" => s.bounce_cutoff = number()?,
+            "bounce_p" => {
+                let q = number()?;
+                anyhow::ensure!(q > 0.0 && q <= 1.0, "--dual bounce_p = {q} must be in (0, 1]");
+                s.bounce_probability = q;
+            }
             "surface_bounce" => {
                 s.surface_bounce = SurfaceBounce::parse(value).map_err(|e| anyhow::anyhow!("--dual {e}"))?;
             }
@@ -458,7 +464,7 @@ fn dual_settings(count: &str, pairs: &[String]) -> anyhow::Result<DualScattering
                 }
             }
             _ => anyhow::bail!(
-                "--dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, global, grid, surface_bounce, cutoff, bounce_cutoff)"
+                "--dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, global, grid, surface_bounce, cutoff, bounce_cutoff, bounce_p)"
             ),
         }
     }

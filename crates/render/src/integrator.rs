@@ -357,15 +357,20 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
         }
         // Scattering sample (two pairs) and Russian roulette (one pair).
         let (a, b) = (sampler.next_2d(), sampler.next_2d());
-        let [u_rr, _] = sampler.next_2d();
+        let [u_rr, u_bounce] = sampler.next_2d();
         let Some(s) = local.sample([a[0], a[1], b[0], b[1]]) else { break };
         match dual_vertex {
             Some((dual, fiber, material)) => {
+                // Russian roulette on the bounce (`bounce_probability`, in (0, 1]).
+                let q = dual.settings().bounce_probability;
+                if u_bounce >= q {
+                    break;
+                }
                 let Some((surface, factor)) = dual.bounce(scene, &fiber, material, ray.d, s.wi, s.pdf, s.weight, rays)
                 else {
                     break;
                 };
-                beta *= factor;
+                beta *= factor / q;
                 bounced = Some(surface);
             }
             None => beta *= s.weight,

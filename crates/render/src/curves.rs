@@ -315,8 +315,9 @@ impl CurveSet {
     /// ([`fiberlab_io::HairHeader::read_bytes`], [`crate::generator::HairParams::estimated_bytes`])
     /// and added, so the estimate stays above what was measured: the default render (512×512,
     /// 1 spp) peaks at 597 MB against 608 MB estimated in all. These figures predate building the
-    /// pieces straight into `f32` records (no `f64` boxes): the 5M-segment head now peaks at
-    /// about 420 bytes per segment, so the constant errs on the safe side.
+    /// pieces straight into `f32` records (no `f64` boxes) and the clustered build (sets of more
+    /// than 2^18 segments make and build one cluster's pieces at a time): the 5M-segment head now
+    /// peaks at 994 MiB, about 210 bytes per segment, so the constant errs on the safe side.
     pub const BUILD_BYTES_PER_SEGMENT: u64 = 1200;
 
     /// At most this many segments in one set: the BVH indexes its pieces (up to

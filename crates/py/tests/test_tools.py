@@ -229,8 +229,13 @@ def test_frames_round_trip_and_map_angles_as_documented():
 
 def test_ctrl_c_stops_a_measurement():
     import _thread
+    import signal
     import threading
 
+    # A process started in the background by a non-interactive shell inherits SIGINT ignored,
+    # and Python then installs no handler, so `interrupt_main` would do nothing: install
+    # Python's own handler for the test (what an interactive session has).
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.5, _thread.interrupt_main)
     timer.start()
     try:
@@ -238,6 +243,7 @@ def test_ctrl_c_stops_a_measurement():
             fl.measure({"sigma_a": 0.2}, theta_i=0.3, rays=200_000_000, bins=(4, 4))
     finally:
         timer.cancel()
+        signal.signal(signal.SIGINT, previous)
 
 
 def test_fit_recovers_the_parameters_data_were_made_with():

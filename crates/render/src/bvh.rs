@@ -1088,13 +1088,6 @@ mod tests {
         assert_eq!(one.prims, two.prims);
         assert_eq!(one.nodes.len(), two.nodes.len());
         assert_eq!(one.nodes, two.nodes);
-        let hit_sphere = |ray: &Ray, (c, r): (DVec3, f64), t_max: f64| -> Option<f64> {
-            let oc = ray.o - c;
-            let b = oc.dot(ray.d);
-            let disc = b * b - (oc.length_squared() - r * r);
-            let t = -b - disc.sqrt();
-            (disc >= 0.0 && t > ray.t_min && t < t_max).then_some(t)
-        };
         for _ in 0..200 {
             let o = DVec3::new(rnd(), rnd(), rnd()) * 24.0 - 12.0;
             let ray = Ray::new(o, (DVec3::new(rnd(), rnd(), rnd()) - 0.5).normalize());
@@ -1102,6 +1095,15 @@ mod tests {
                 spheres.iter().filter_map(|&s| hit_sphere(&ray, s, f64::INFINITY)).fold(f64::INFINITY, f64::min);
             assert_eq!(two.traverse(&ray, |p, t_max| hit_sphere(&ray, spheres[p as usize], t_max)), brute);
         }
+    }
+
+    /// The ray's entry into the sphere `(c, r)` within `(t_min, t_max)`, in closed form.
+    fn hit_sphere(ray: &Ray, (c, r): (DVec3, f64), t_max: f64) -> Option<f64> {
+        let oc = ray.o - c;
+        let b = oc.dot(ray.d);
+        let disc = b * b - (oc.length_squared() - r * r);
+        let t = -b - disc.sqrt();
+        (disc >= 0.0 && t > ray.t_min && t < t_max).then_some(t)
     }
 
     /// The clustered build over items whose pieces are two boxes each (the halves of each
@@ -1131,13 +1133,6 @@ mod tests {
             assert_eq!(one.prims, two.prims);
             assert_eq!(one.nodes, two.nodes);
             assert_eq!(two.prims.len(), 2 * spheres.len());
-            let hit_sphere = |ray: &Ray, (c, r): (DVec3, f64), t_max: f64| -> Option<f64> {
-                let oc = ray.o - c;
-                let b = oc.dot(ray.d);
-                let disc = b * b - (oc.length_squared() - r * r);
-                let t = -b - disc.sqrt();
-                (disc >= 0.0 && t > ray.t_min && t < t_max).then_some(t)
-            };
             for _ in 0..500 {
                 let o = DVec3::new(rnd(), rnd(), rnd()) * 14.0 - 7.0;
                 let ray = Ray::new(o, (DVec3::new(rnd(), rnd(), rnd()) - 0.5).normalize());
@@ -1200,16 +1195,6 @@ mod tests {
             (0..500).map(|_| (DVec3::new(rnd(), rnd(), rnd()) * 10.0 - 5.0, 0.05 + 0.3 * rnd())).collect();
         let bounds: Vec<Aabb> = spheres.iter().map(|&(c, r)| Aabb::sphere(c, r)).collect();
         let bvh = Bvh::build(&bounds);
-        let hit_sphere = |ray: &Ray, (c, r): (DVec3, f64), t_max: f64| -> Option<f64> {
-            let oc = ray.o - c;
-            let b = oc.dot(ray.d);
-            let disc = b * b - (oc.length_squared() - r * r);
-            if disc < 0.0 {
-                return None;
-            }
-            let t = -b - disc.sqrt();
-            (t > ray.t_min && t < t_max).then_some(t)
-        };
         let mut bvh = bvh;
         for level in SimdLevel::available() {
             bvh.set_simd_level(level);

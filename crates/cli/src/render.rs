@@ -61,7 +61,8 @@ pub struct Args {
     fiber_count: Option<String>,
     /// With dual scattering, a constant or choice (defaults shown): `d_f=0.5`, `d_b=1`, `k_back=0.25`,
     /// `pi=on|off` (on), `spread=weighted|literal`, `global=energy|forward-mean`, `grid=64`
-    /// (cells along the longest side), `cutoff=1e-4` (the exact count stops below this ∏ā_f),
+    /// (cells along the longest side), `grid_near=1` (grid count: the first this many cells of a ray
+    /// walked exactly, the grid beyond; 0 = grid only), `cutoff=1e-4` (the exact count stops below this ∏ā_f),
     /// `bounce_cutoff=0.01` (the same for the count toward a surface), `bounce_p=1` (Russian roulette:
     /// the bounce toward a surface is traced with this probability, weight 1/p), `surface_bounce=through|on|off` (through: light off surfaces
     /// reaches the hair through the fibers in between; on: only with no fiber in between; off:
@@ -432,6 +433,7 @@ fn dual_settings(count: &str, pairs: &[String]) -> anyhow::Result<DualScattering
             "d_b" => s.backward_density = number()?,
             "k_back" => s.back_scale = number()?,
             "grid" => s.grid_resolution = (number()? as usize).max(1),
+            "grid_near" => s.grid_near_cells = number()?,
             "cutoff" => s.count_cutoff = number()?,
             "bounce_cutoff" => s.bounce_cutoff = number()?,
             "bounce_p" => {
@@ -464,7 +466,7 @@ fn dual_settings(count: &str, pairs: &[String]) -> anyhow::Result<DualScattering
                 }
             }
             _ => anyhow::bail!(
-                "--dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, global, grid, surface_bounce, cutoff, bounce_cutoff, bounce_p)"
+                "--dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, global, grid, grid_near, surface_bounce, cutoff, bounce_cutoff, bounce_p)"
             ),
         }
     }

@@ -11,7 +11,10 @@
 //!   length, `W·⟨sin γ⟩` fibers (γ the angle between ray and fiber), estimated as
 //!   `W·√(1 − dᵀTd/W)` (exact for parallel fibers); the light's inclination to the cell's fibers
 //!   is `sin²θ = dᵀTd/W`. The walk marches half-cell steps. Memory: 7 `f32` per cell, 28 bytes
-//!   (64³ cells: 7.3 MB).
+//!   (64³ cells: 7.3 MB). Dual scattering walks the first cells of each ray exactly and uses
+//!   the grid only beyond ([`crate::dual_scattering::DualScatteringSettings::grid_near_cells`]):
+//!   a cell's average is wrong right at the shading point, where it holds the shading fiber and,
+//!   at the edge of a hair layer, the fibers on the far side of the start.
 
 use crate::bvh::Ray;
 use crate::scene::{FiberMaterialId, Scene};
@@ -149,6 +152,12 @@ impl DensityGrid {
     #[must_use]
     pub fn bytes(&self) -> usize {
         self.cells.len() * std::mem::size_of::<[f32; 7]>()
+    }
+
+    /// Edge length of a cell, scene units.
+    #[must_use]
+    pub fn cell(&self) -> f64 {
+        self.cell
     }
 
     /// Cells along each axis.

@@ -547,6 +547,13 @@ mod tests {
         (0..count).map(|_| (-depth * u(), width * (u() - 0.5))).collect()
     }
 
+    /// A ray from above the slab of [`random_positions`] down through it, slightly tilted.
+    fn ray_down_through_slab(u: &mut impl FnMut() -> f64) -> Ray {
+        let o = DVec3::new(2.0 * (u() - 0.5), 0.5, u() - 0.5);
+        let d = DVec3::new(0.5 * (u() - 0.5), -1.0, 0.3 * (u() - 0.5)).normalize();
+        Ray { o, d, t_min: 0.0, t_max: f64::INFINITY }
+    }
+
     fn small_tables() -> Resolution {
         Resolution {
             inclinations: 16,
@@ -718,9 +725,7 @@ mod tests {
         let mut u = uniforms(6);
         let (mut a, mut b) = (0.0, 0.0);
         for _ in 0..400 {
-            let o = DVec3::new(2.0 * (u() - 0.5), 0.5, 1.0 * (u() - 0.5));
-            let d = DVec3::new(0.5 * (u() - 0.5), -1.0, 0.3 * (u() - 0.5)).normalize();
-            let ray = Ray { o, d, t_min: 0.0, t_max: f64::INFINITY };
+            let ray = ray_down_through_slab(&mut u);
             a += exact.count(&scene, &ray, None, 0.0).0;
             b += grid.count(&scene, &ray, None, 0.0).0;
         }
@@ -743,9 +748,7 @@ mod tests {
         let hybrid = DualScattering::new(&scene, near, &small_tables()).unwrap();
         let mut u = uniforms(8);
         for _ in 0..100 {
-            let o = DVec3::new(2.0 * (u() - 0.5), 0.5, u() - 0.5);
-            let d = DVec3::new(0.5 * (u() - 0.5), -1.0, 0.3 * (u() - 0.5)).normalize();
-            let ray = Ray { o, d, t_min: 0.0, t_max: f64::INFINITY };
+            let ray = ray_down_through_slab(&mut u);
             let (a, b) = (exact.count(&scene, &ray, None, 0.0), hybrid.count(&scene, &ray, None, 0.0));
             assert_eq!(a.0, b.0);
             for c in 0..3 {

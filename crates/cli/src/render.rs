@@ -17,10 +17,7 @@ use anyhow::Context;
 use fiberlab_io::LinearImage;
 use fiberlab_io::ToneMap;
 use fiberlab_render::accumulation::Accumulation;
-use fiberlab_render::dual_scattering::{
-    DualScattering, DualScatteringSettings, GlobalAzimuth, Integrator, RENDER_TABLE_RESOLUTION, Spread, SurfaceBounce,
-};
-use fiberlab_render::fiber_count::FiberCount;
+use fiberlab_render::dual_scattering::{DualScatteringSettings, Integrator, integrator_named};
 use fiberlab_render::integrator::{Progress, Region, RenderSettings, render_continuing};
 use fiberlab_render::scene_file::SceneFile;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -297,13 +294,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             settings.spp
         );
     }
-    let (scene, _) = file.build()?;
     let integrator = args.integrator.clone().unwrap_or_else(|| file.render_settings().integrator.clone());
-    let settings = if integrator == "dual-scattering" {
-        let count = args.fiber_count.clone().unwrap_or_else(|| file.render_settings().fiber_count.clone());
-        let dual = dual_settings(&count, &args.dual)?;
-        let t = Instant::now();
-        let d = DualScattering::new(&scene, dual, &RENDER_TABLE_RESOLUTION)?;
+    let count = args.fiber_count.clone().unwrap_or_else(|| file.render_settings().fiber_count.clone());
+    let dual = DualScatteringSettings::from_options(&count, &args.dual).map_err(|e| anyhow::anyhow!("--{e}"))?;
+    let (scene, _) = file.build()?;
+    let t = Instant::now();
+    let integrator = integrator_named(&scene, &integrator, dual)?;
+    if let Integrator::DualScattering(d) = &integrator {
         eprintln!(
             "dual scattering: tables in {:.2} s, fibers counted {}",
             t.elapsed().as_secs_f64(),
@@ -312,10 +309,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 None => "exactly (BVH walk)".into(),
             }
         );
-        RenderSettings { integrator: Integrator::DualScattering(Arc::new(d)), ..settings }
-    } else {
-        settings
-    };
+    }
+    let settings = RenderSettings { integrator, ..settings };
     let build_seconds = t0.elapsed().as_secs_f64();
     let settings = RenderSettings { deadline: config.time_limit.map(|limit| Instant::now() + limit), ..settings };
     let stop = Arc::new(AtomicBool::new(false));
@@ -415,60 +410,4 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     eprintln!("stopped by --time-limit: {how}");
     Ok(())
-}
-
-/// Dual-scattering settings from `--fiber-count` and the `--dual KEY=VALUE` flags.
-fn dual_settings(count: &str, pairs: &[String]) -> anyhow::Result<DualScatteringSettings> {
-    let mut s =
-        DualScatteringSettings { count: FiberCount::parse(count).map_err(anyhow::Error::msg)?, ..Default::default() };
-    for pair in pairs {
-        let (key, value) = pair.split_once('=').ok_or_else(|| anyhow::anyhow!("--dual {pair}: expected KEY=VALUE"))?;
-        let number = || -> anyhow::Result<f64> {
-            let v: f64 = value.parse().map_err(|_| anyhow::anyhow!("--dual {key}: `{value}` is not a number"))?;
-            anyhow::ensure!(v.is_finite() && v >= 0.0, "--dual {key} = {v} must be finite and ≥ 0");
-            Ok(v)
-        };
-        match key {
-            "d_f" => s.forward_density = number()?,
-            "d_b" => s.backward_density = number()?,
-            "k_back" => s.back_scale = number()?,
-            "grid" => s.grid_resolution = (number()? as usize).max(1),
-            "grid_near" => s.grid_near_cells = number()?,
-            "cutoff" => s.count_cutoff = number()?,
-            "bounce_cutoff" => s.bounce_cutoff = number()?,
-            "bounce_p" => {
-                let q = number()?;
-                anyhow::ensure!(q > 0.0 && q <= 1.0, "--dual bounce_p = {q} must be in (0, 1]");
-                s.bounce_probability = q;
-            }
-            "surface_bounce" => {
-                s.surface_bounce = SurfaceBounce::parse(value).map_err(|e| anyhow::anyhow!("--dual {e}"))?;
-            }
-            "pi" => {
-                s.back_pi = match value {
-                    "on" | "true" => true,
-                    "off" | "false" => false,
-                    _ => anyhow::bail!("--dual pi: `{value}` (known: on, off)"),
-                }
-            }
-            "spread" => {
-                s.spread = match value {
-                    "weighted" => Spread::Weighted,
-                    "literal" => Spread::Literal,
-                    _ => anyhow::bail!("--dual spread: `{value}` (known: weighted, literal)"),
-                }
-            }
-            "global" => {
-                s.global = match value {
-                    "energy" => GlobalAzimuth::Energy,
-                    "forward-mean" => GlobalAzimuth::ForwardMean,
-                    _ => anyhow::bail!("--dual global: `{value}` (known: energy, forward-mean)"),
-                }
-            }
-            _ => anyhow::bail!(
-                "--dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, global, grid, grid_near, surface_bounce, cutoff, bounce_cutoff, bounce_p)"
-            ),
-        }
-    }
-    Ok(s)
 }

@@ -444,9 +444,12 @@ fn read_exr<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'p
 /// are `None`) like `fiberlab render`, returning `(H, W, 3)` float32 linear RGB. `spp`,
 /// `seed`, `max_depth` override the scene's; `threads` 0 uses every core. `progress(done,
 /// total)` (pixel samples) is called as tiles finish; Ctrl-C (KeyboardInterrupt) stops the
-/// render and raises it.
+/// render and raises it. `integrator` (`path` or `dual-scattering`) and `fiber_count`
+/// (`exact` or `grid`) override the scene's `[render]` entries; `dual` holds `KEY=VALUE`
+/// dual-scattering options, as `fiberlab render --dual`.
 #[pyfunction]
-#[pyo3(signature = (path = None, text = None, spp = None, seed = None, max_depth = None, threads = 0, progress = None))]
+#[pyo3(signature = (path = None, text = None, spp = None, seed = None, max_depth = None, threads = 0, progress = None,
+                    integrator = None, fiber_count = None, dual = Vec::new()))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -457,6 +460,9 @@ fn render<'py>(
     max_depth: Option<u32>,
     threads: usize,
     progress: Option<Py<PyAny>>,
+    integrator: Option<String>,
+    fiber_count: Option<String>,
+    dual: Vec<String>,
 ) -> PyResult<Bound<'py, numpy::PyArray3<f32>>> {
     use fiberlab_render::scene_file::SceneFile;
     use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -470,6 +476,10 @@ fn render<'py>(
     if spp == Some(0) {
         return Err(PyValueError::new_err("render: spp must be at least 1"));
     }
+    let integrator = integrator.unwrap_or_else(|| file.render_settings().integrator.clone());
+    let fiber_count = fiber_count.unwrap_or_else(|| file.render_settings().fiber_count.clone());
+    let dual = fiberlab_render::dual_scattering::DualScatteringSettings::from_options(&fiber_count, &dual)
+        .map_err(|e| PyValueError::new_err(format!("render: {e}")))?;
     let scene_settings = file.sampling();
     let settings = fiberlab_render::integrator::RenderSettings {
         spp: spp.unwrap_or(scene_settings.spp),
@@ -483,6 +493,9 @@ fn render<'py>(
     let mut interrupt: Option<PyErr> = None;
     let out = py.detach(|| -> Result<_, PyErr> {
         let (scene, _) = file.build().map_err(scene_error)?;
+        let integrator = fiberlab_render::dual_scattering::integrator_named(&scene, &integrator, dual)
+            .map_err(|e| PyValueError::new_err(format!("render: {e}")))?;
+        let settings = fiberlab_render::integrator::RenderSettings { integrator, ..settings };
         let report = |p: &fiberlab_render::integrator::Progress| {
             done.store(p.samples_done, Ordering::Relaxed);
             total.store(p.samples_total, Ordering::Relaxed);

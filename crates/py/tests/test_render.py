@@ -56,3 +56,41 @@ def test_scene_errors_raise_value_error():
         fl.render(SCENE, text="x")
     with pytest.raises(ValueError, match="<text>"):
         fl.render(text="[camera]\nfov = 'wide'\n")
+
+
+def test_dual_scattering_from_python_equals_the_command_line(tmp_path):
+    # A scene whose [render] asks for dual scattering renders with it, as on the command line.
+    dual_scene = {**SCENE, "render": {**SCENE["render"], "integrator": "dual-scattering", "fiber_count": "grid"}}
+    scene = tmp_path / "d.toml"
+    scene.write_text(fl.scene_toml(dual_scene))
+    out = subprocess.run([str(cli_binary()), "render", str(scene), "--quiet", "--dual", "surface_bounce=on",
+                          "--out", str(tmp_path / "d")], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    cli = fl.read_exr(tmp_path / "d.exr")
+    image = fl.render(dual_scene, dual={"surface_bounce": "on"})
+    np.testing.assert_array_equal(image, cli)
+    assert image.max() > 0.01
+    # The keywords override the scene's entries: the path scene with integrator="dual-scattering"
+    # is the dual scene; the path tracer and other options give other images.
+    np.testing.assert_array_equal(
+        fl.render(SCENE, integrator="dual-scattering", fiber_count="grid", dual={"surface_bounce": "on"}), image)
+    assert not np.array_equal(fl.render(dual_scene, integrator="path"), image)
+    assert not np.array_equal(fl.render(dual_scene), image)
+    assert not np.array_equal(fl.render(dual_scene, fiber_count="exact", dual={"surface_bounce": "on"}), image)
+    np.testing.assert_array_equal(fl.render(dual_scene, dual={"surface_bounce": "on", "pi": True}), image)
+
+
+def test_dual_scattering_errors_raise_value_error():
+    with pytest.raises(ValueError, match="surface_bounce.*off, on, through"):
+        fl.render(SCENE, integrator="dual-scattering", dual={"surface_bounce": "maybe"})
+    with pytest.raises(ValueError, match="d_g: unknown"):
+        fl.render(SCENE, integrator="dual-scattering", dual={"d_g": 1})
+    with pytest.raises(ValueError, match="must be finite"):
+        fl.render(SCENE, integrator="dual-scattering", dual={"d_f": float("nan")})
+    with pytest.raises(ValueError, match="integrator `bdpt`"):
+        fl.render(SCENE, integrator="bdpt")
+    with pytest.raises(ValueError, match="exact, grid"):
+        fl.render(SCENE, integrator="dual-scattering", fiber_count="guess")
+    no_fibers = {k: v for k, v in SCENE.items() if k != "hair"}
+    with pytest.raises(ValueError, match="needs fibers"):
+        fl.render(no_fibers, integrator="dual-scattering")

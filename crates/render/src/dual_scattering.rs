@@ -191,6 +191,95 @@ impl Default for DualScatteringSettings {
     }
 }
 
+impl DualScatteringSettings {
+    /// The settings for fiber count `fiber_count` (`exact` or `grid`) with `KEY=VALUE` options
+    /// applied over the defaults, as the command line's `--dual` and Python's `dual=` give them:
+    /// `d_f`, `d_b`, `k_back`, `grid`, `grid_near`, `cutoff`, `bounce_cutoff` (finite, ≥ 0),
+    /// `bounce_p` (in (0, 1]), `surface_bounce` (`off`, `on`, `through`), `pi` (`on`, `off`),
+    /// `spread` (`weighted`, `literal`), `global` (`energy`, `forward-mean`). The error names
+    /// the option and what it accepts.
+    pub fn from_options<S: AsRef<str>>(fiber_count: &str, options: &[S]) -> Result<Self, String> {
+        let mut s = Self { count: FiberCount::parse(fiber_count)?, ..Self::default() };
+        for option in options {
+            let option = option.as_ref();
+            let (key, value) = option.split_once('=').ok_or_else(|| format!("dual {option}: expected KEY=VALUE"))?;
+            let number = || -> Result<f64, String> {
+                let v: f64 = value.parse().map_err(|_| format!("dual {key}: `{value}` is not a number"))?;
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(format!("dual {key} = {v} must be finite and ≥ 0"));
+                }
+                Ok(v)
+            };
+            let choice = |known: &[&str]| -> Result<usize, String> {
+                known
+                    .iter()
+                    .position(|k| *k == value)
+                    .ok_or_else(|| format!("dual {key}: `{value}` (known: {})", known.join(", ")))
+            };
+            match key {
+                "d_f" => s.forward_density = number()?,
+                "d_b" => s.backward_density = number()?,
+                "k_back" => s.back_scale = number()?,
+                "grid" => s.grid_resolution = (number()? as usize).max(1),
+                "grid_near" => s.grid_near_cells = number()?,
+                "cutoff" => s.count_cutoff = number()?,
+                "bounce_cutoff" => s.bounce_cutoff = number()?,
+                "bounce_p" => {
+                    let q = number()?;
+                    if !(q > 0.0 && q <= 1.0) {
+                        return Err(format!("dual bounce_p = {q} must be in (0, 1]"));
+                    }
+                    s.bounce_probability = q;
+                }
+                "surface_bounce" => s.surface_bounce = SurfaceBounce::parse(value).map_err(|e| format!("dual {e}"))?,
+                "pi" => s.back_pi = matches!(choice(&["on", "off", "true", "false"])?, 0 | 2),
+                "spread" => s.spread = [Spread::Weighted, Spread::Literal][choice(&["weighted", "literal"])?],
+                "global" => {
+                    s.global =
+                        [GlobalAzimuth::Energy, GlobalAzimuth::ForwardMean][choice(&["energy", "forward-mean"])?];
+                }
+                _ => {
+                    return Err(format!(
+                        "dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, global, grid, grid_near, \
+                         surface_bounce, cutoff, bounce_cutoff, bounce_p)"
+                    ));
+                }
+            }
+        }
+        Ok(s)
+    }
+}
+
+/// The integrator named `name` (`path` or `dual-scattering`) for `scene`; for dual
+/// scattering with `settings` and tables at [`RENDER_TABLE_RESOLUTION`]. The one place the
+/// command line and the Python package turn a scene file's (or a flag's) integrator name into
+/// an integrator, so both render the same image.
+pub fn integrator_named(
+    scene: &Scene,
+    name: &str,
+    settings: DualScatteringSettings,
+) -> Result<Integrator, IntegratorError> {
+    match name {
+        "path" => Ok(Integrator::Path),
+        "dual-scattering" => {
+            Ok(Integrator::DualScattering(Arc::new(DualScattering::new(scene, settings, &RENDER_TABLE_RESOLUTION)?)))
+        }
+        other => Err(IntegratorError::Unknown(other.to_string())),
+    }
+}
+
+/// Why [`integrator_named`] gives no integrator.
+#[non_exhaustive]
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum IntegratorError {
+    /// Not `path` or `dual-scattering`.
+    #[error("integrator `{0}`: unknown (known: path, dual-scattering)")]
+    Unknown(String),
+    /// Dual scattering refused the scene.
+    #[error(transparent)]
+    DualScattering(#[from] DualScatteringError),
+}
+
 /// Why dual scattering cannot render a scene.
 #[non_exhaustive]
 #[derive(Clone, Debug, Error, PartialEq)]
@@ -897,6 +986,83 @@ mod tests {
         let specular = slab(&[(0.0, 0.0)], "specular", &[]);
         let e = DualScattering::new(&specular, DualScatteringSettings::default(), &small_tables()).unwrap_err();
         assert!(e.to_string().contains("delta lobes"), "{e}");
+    }
+
+    #[test]
+    fn options_set_each_setting_and_bad_ones_name_the_key_and_the_choices() {
+        const OPTIONS: [&str; 12] = [
+            "d_f=0.25",
+            "d_b=2",
+            "k_back=1",
+            "grid=32",
+            "grid_near=0",
+            "cutoff=0",
+            "bounce_cutoff=0.5",
+            "bounce_p=0.5",
+            "surface_bounce=on",
+            "pi=off",
+            "spread=literal",
+            "global=forward-mean",
+        ];
+        let s = DualScatteringSettings::from_options("grid", &OPTIONS).unwrap();
+        let expected = DualScatteringSettings {
+            count: FiberCount::Grid,
+            forward_density: 0.25,
+            backward_density: 2.0,
+            back_scale: 1.0,
+            grid_resolution: 32,
+            grid_near_cells: 0.0,
+            count_cutoff: 0.0,
+            bounce_cutoff: 0.5,
+            bounce_probability: 0.5,
+            surface_bounce: SurfaceBounce::Unobstructed,
+            back_pi: false,
+            spread: Spread::Literal,
+            global: GlobalAzimuth::ForwardMean,
+        };
+        assert_eq!(s, expected);
+        // Each option alone changes the defaults (so none is ignored or lands on another's field).
+        let d = DualScatteringSettings::default();
+        for option in OPTIONS {
+            assert_ne!(DualScatteringSettings::from_options("exact", &[option]).unwrap(), d, "{option}");
+        }
+        assert_eq!(DualScatteringSettings::from_options::<&str>("exact", &[]).unwrap(), d);
+        assert!(DualScatteringSettings::from_options("exact", &["pi=true"]).unwrap().back_pi);
+        for (option, needles) in [
+            ("d_f", &["d_f", "KEY=VALUE"][..]),
+            ("d_f=x", &["d_f", "not a number"]),
+            ("d_b=NaN", &["d_b", "finite"]),
+            ("cutoff=-1", &["cutoff", "≥ 0"]),
+            ("bounce_p=0", &["bounce_p", "(0, 1]"]),
+            ("bounce_p=1.5", &["bounce_p", "(0, 1]"]),
+            ("surface_bounce=maybe", &["surface_bounce", "off, on, through"]),
+            ("pi=2", &["pi", "on, off"]),
+            ("spread=wide", &["spread", "weighted, literal"]),
+            ("global=mean", &["global", "energy, forward-mean"]),
+            ("d_g=1", &["d_g", "unknown", "d_f"]),
+        ] {
+            let e = DualScatteringSettings::from_options("exact", &[option]).unwrap_err();
+            assert!(needles.iter().all(|n| e.contains(n)), "{option}: {e}");
+        }
+        let e = DualScatteringSettings::from_options::<&str>("guess", &[]).unwrap_err();
+        assert!(e.contains("guess") && e.contains("exact, grid"), "{e}");
+    }
+
+    #[test]
+    fn integrators_by_name() {
+        let scene = slab(&[(0.0, 0.0)], "chiang", &[]);
+        let settings = DualScatteringSettings::default();
+        assert_eq!(integrator_named(&scene, "path", settings), Ok(Integrator::Path));
+        assert!(matches!(integrator_named(&scene, "dual-scattering", settings), Ok(Integrator::DualScattering(_))));
+        let e = integrator_named(&scene, "bdpt", settings).unwrap_err();
+        assert!(e.to_string().contains("bdpt") && e.to_string().contains("path, dual-scattering"), "{e}");
+        let camera = Camera::look_at(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 30.0, 4, 4).unwrap();
+        let empty = SceneBuilder::new(camera).build();
+        assert_eq!(
+            integrator_named(&empty, "dual-scattering", settings),
+            Err(IntegratorError::DualScattering(DualScatteringError::NoFibers))
+        );
+        assert_eq!(integrator_named(&empty, "path", settings), Ok(Integrator::Path));
     }
 
     /// Mean and standard error of `n` path samples (luminance) of rays onto the fiber at the

@@ -284,12 +284,17 @@ def _is_table_list(v: Any) -> bool:
 
 
 def render(scene=None, *, text: Optional[str] = None, spp: Optional[int] = None, seed: Optional[int] = None,
-           max_depth: Optional[int] = None, threads: int = 0, progress=None) -> np.ndarray:
-    """Path-traces a scene like ``fiberlab render`` and returns ``(H, W, 3)`` float32 linear RGB.
+           max_depth: Optional[int] = None, threads: int = 0, progress=None, integrator: Optional[str] = None,
+           fiber_count: Optional[str] = None, dual: Optional[Mapping[str, Any]] = None) -> np.ndarray:
+    """Renders a scene like ``fiberlab render`` and returns ``(H, W, 3)`` float32 linear RGB.
 
     ``scene``: a TOML file path, a dict with the scene file's structure (see
     :func:`scene_toml`), or ``None`` with ``text=None`` for the built-in default scene.
-    ``spp``, ``seed``, ``max_depth`` override the scene's. ``progress(done, total)`` is called
+    ``spp``, ``seed``, ``max_depth`` override the scene's. ``integrator`` (``"path"`` or
+    ``"dual-scattering"``) and ``fiber_count`` (``"exact"`` or ``"grid"``) override its
+    ``[render]`` entries; ``dual`` maps dual-scattering options to values, the keys and values
+    of ``fiberlab render --dual KEY=VALUE`` (e.g. ``{"d_f": 0.5, "surface_bounce": "on"}``).
+    ``progress(done, total)`` is called
     about every 50 ms with the pixel samples done (e.g. to drive tqdm); Ctrl-C raises
     KeyboardInterrupt after stopping the render. The same scene and seed give the same image
     as the command line, bit for bit.
@@ -301,7 +306,15 @@ def render(scene=None, *, text: Optional[str] = None, spp: Optional[int] = None,
         text = scene_toml(scene)
     elif scene is not None:
         path = str(scene)
-    return _native.render(path, text, spp, seed, max_depth, threads, progress)
+    options = [f"{k}={_option_text(v)}" for k, v in (dual or {}).items()]
+    return _native.render(path, text, spp, seed, max_depth, threads, progress, integrator, fiber_count, options)
+
+
+def _option_text(v: Any) -> str:
+    """A dual-scattering option value as the command line writes it (``pi=True`` → ``on``)."""
+    if isinstance(v, bool):
+        return "on" if v else "off"
+    return str(v)
 
 
 def read_exr(path) -> np.ndarray:

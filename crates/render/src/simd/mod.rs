@@ -100,35 +100,40 @@ impl Default for SimdLevel {
     }
 }
 
-/// The per-ray choice of the near and far box rows by axis (from the signs of the direction),
-/// in the forms both paths use.
+/// The per-ray choice of the near and far box rows by axis (from the signs of the direction).
+/// Rows are those of a node's quantized grid: 0–2 the children's lower corners by axis, 3–5
+/// the upper ones; the near (entry) row of axis `a` is `a` when the direction component is
+/// ≥ 0, else `3 + a`, and the far row the other one.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RowChoice {
-    /// Row of the node's quantized grid holding the near (entry) plane per axis: `axis` when
-    /// the direction component is ≥ 0, else `3 + axis`.
-    pub near: [usize; 3],
-    /// The far row per axis (`near ± 3`).
-    pub far: [usize; 3],
-    /// Byte shuffle per axis taking, from the 16 bytes that start at row `axis`, the near row's
-    /// four bytes then the far row's (rows `axis` and `3 + axis` are bytes 0–3 and 12–15).
-    shuffle: [[u8; 16]; 3],
+    /// Per axis: true when the direction component is ≥ 0.
+    positive: [bool; 3],
+    /// Per axis: the byte offsets of the near and far rows in the 48 bytes of the grid
+    /// (`8·row`, so at most 40: always eight bytes inside it; only [`RowChoice::new`] makes
+    /// them).
+    offsets: [[usize; 2]; 3],
 }
 
 impl RowChoice {
     /// The rows for a ray whose direction component on axis `a` is ≥ 0 when `positive[a]`.
     pub fn new(positive: [bool; 3]) -> Self {
-        let near = [0, 1, 2].map(|a| if positive[a] { a } else { 3 + a });
-        let far = near.map(|r| if r < 3 { r + 3 } else { r - 3 });
-        let shuffle = [0, 1, 2].map(|a| {
-            let (n, f) = if positive[a] { (0u8, 12u8) } else { (12, 0) };
-            let mut s = [0x80u8; 16];
-            for k in 0..4u8 {
-                s[usize::from(k)] = n + k;
-                s[usize::from(4 + k)] = f + k;
-            }
-            s
+        let offsets = [0, 1, 2].map(|a| {
+            let (near, far) = if positive[a] { (a, 3 + a) } else { (3 + a, a) };
+            [8 * near, 8 * far]
         });
-        Self { near, far, shuffle }
+        Self { positive, offsets }
+    }
+
+    /// The near row of `axis` (< 3).
+    #[inline(always)]
+    pub fn near(&self, axis: usize) -> usize {
+        axis + 3 * usize::from(!self.positive[axis])
+    }
+
+    /// The far row of `axis` (< 3).
+    #[inline(always)]
+    pub fn far(&self, axis: usize) -> usize {
+        axis + 3 * usize::from(self.positive[axis])
     }
 }
 
@@ -164,11 +169,11 @@ pub(crate) struct LineF32 {
 
 /// The two kernels, in one instruction set.
 pub(crate) trait Lanes: Copy {
-    /// The slab test of a node's four children: bit `k` of the mask is set when the ray's
+    /// The slab test of a node's eight children: bit `k` of the mask is set when the ray's
     /// interval meets child `k`'s box, widened by the relative `4ε` of the far distance (the
     /// caller masks unused slots); also the entry distances. `q`: the node's quantized
     /// coordinates, rows 0–2 lower and 3–5 upper corners by axis, one byte per child.
-    fn slab(self, q: &[[u8; 4]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 4]);
+    fn slab(self, q: &[[u8; 8]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 8]);
 
     /// Bit `k` (`k < n ≤ 8`) clear only when the ray's line certainly misses the infinite
     /// cylinder of segment `head(k)`: its squared distance to the axis exceeds r² by more than
@@ -183,23 +188,31 @@ pub(crate) trait Lanes: Copy {
 pub(crate) struct Portable;
 
 impl Lanes for Portable {
+    /// Two halves of four lanes, children 0–3 then 4–7, each with the operations of the AVX2
+    /// form's eight lanes in the same order.
     #[inline(always)]
-    fn slab(self, q: &[[u8; 4]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 4]) {
-        let row = |r: usize| {
-            let q = q[r];
-            Vec4::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2]), f32::from(q[3]))
-        };
-        let mut t0 = Vec4::splat(terms.t_min);
-        let mut t1 = Vec4::splat(terms.t_max);
+    fn slab(self, q: &[[u8; 8]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 8]) {
         let (step, lo, hi) = (terms.step.to_array(), terms.lo.to_array(), terms.hi.to_array());
-        for axis in 0..3 {
-            let s = Vec4::splat(step[axis]);
-            let near = row(rows.near[axis]) * s + Vec4::splat(lo[axis]);
-            let far = row(rows.far[axis]) * s + Vec4::splat(hi[axis]);
-            t0 = t0.max(near);
-            t1 = t1.min(far);
+        let mut mask = 0;
+        let mut entry = [0.0; 8];
+        for half in 0..2 {
+            let row = |r: usize| {
+                let q = &q[r][4 * half..4 * half + 4];
+                Vec4::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2]), f32::from(q[3]))
+            };
+            let mut t0 = Vec4::splat(terms.t_min);
+            let mut t1 = Vec4::splat(terms.t_max);
+            for axis in 0..3 {
+                let s = Vec4::splat(step[axis]);
+                let near = row(rows.near(axis)) * s + Vec4::splat(lo[axis]);
+                let far = row(rows.far(axis)) * s + Vec4::splat(hi[axis]);
+                t0 = t0.max(near);
+                t1 = t1.min(far);
+            }
+            mask |= t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask() << (4 * half);
+            entry[4 * half..4 * half + 4].copy_from_slice(&t0.to_array());
         }
-        (t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask(), t0.to_array())
+        (mask, entry)
     }
 
     #[inline(always)]
@@ -258,11 +271,11 @@ impl Avx2 {
 
 impl Lanes for Avx2 {
     #[inline(always)]
-    fn slab(self, q: &[[u8; 4]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 4]) {
+    fn slab(self, q: &[[u8; 8]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 8]) {
         #[cfg(target_arch = "x86_64")]
         {
             // SAFETY: as in `Avx2::run`: this CPU has AVX2.
-            unsafe { avx2::slab(q, &rows.shuffle, terms) }
+            unsafe { avx2::slab(q, &rows.offsets, terms) }
         }
         #[cfg(not(target_arch = "x86_64"))]
         Portable.slab(q, rows, terms)
@@ -399,15 +412,17 @@ mod tests {
             return;
         };
         let mut g = Lcg(11);
-        let mut hits = [0u32; 5];
+        let mut hits = [0u32; 9];
         for i in 0..100_000 {
-            // Child boxes with lower ≤ upper corner, a direction sign per axis with the step's
-            // sign matching it, plane distances around the ray's interval.
-            let mut q = [[0u8; 4]; 6];
+            // Child boxes with lower ≤ upper corner (in some nodes all of them large, so that
+            // all eight children are hit often enough), a direction sign per axis with the
+            // step's sign matching it, plane distances around the ray's interval.
+            let mut q = [[0u8; 8]; 6];
             let (lower, upper) = q.split_at_mut(3);
+            let large = i % 3 == 0;
             for (l, u) in lower.iter_mut().flatten().zip(upper.iter_mut().flatten()) {
                 let (a, b) = ((g.next() * 256.0) as u8, (g.next() * 256.0) as u8);
-                (*l, *u) = (a.min(b), a.max(b));
+                (*l, *u) = if large { (a / 8, 255 - b / 8) } else { (a.min(b), a.max(b)) };
             }
             let positive = [g.next() < 0.5, g.next() < 0.5, g.next() < 0.5];
             let rows = RowChoice::new(positive);
@@ -425,7 +440,7 @@ mod tests {
             if i % 4 == 1 {
                 // The far end just below a child's entry, within the test's relative 4ε.
                 let (_, t) = Portable.slab(&q, &rows, &terms);
-                terms.t_max = t[i / 4 % 4] * (1.0 - 3.0 * f32::EPSILON);
+                terms.t_max = t[i / 4 % 8] * (1.0 - 3.0 * f32::EPSILON);
             }
             let (ma, ta) = Portable.slab(&q, &rows, &terms);
             let (mb, tb) = k.run(|| k.slab(&q, &rows, &terms));
@@ -441,7 +456,7 @@ mod tests {
     fn portable_slab_test_is_the_interval_intersection() {
         let mut g = Lcg(13);
         for _ in 0..10_000 {
-            let mut q = [[0u8; 4]; 6];
+            let mut q = [[0u8; 8]; 6];
             for row in &mut q {
                 for c in row.iter_mut() {
                     *c = (g.next() * 256.0) as u8;
@@ -453,7 +468,7 @@ mod tests {
             let base = Vec4::new(g.next() - 0.5, g.next() - 0.5, g.next() - 0.5, 0.0) * 10.0;
             let terms = SlabTerms { step, lo: base, hi: base, t_min: g.next() - 0.5, t_max: 1.0 + g.next() * 5.0 };
             let (mask, t) = Portable.slab(&q, &rows, &terms);
-            for k in 0..4 {
+            for k in 0..8 {
                 let (mut t0, mut t1) = (f64::from(terms.t_min), f64::from(terms.t_max));
                 for a in 0..3 {
                     let plane = |row: usize| f64::from(q[row][k]) * f64::from(step[a]) + f64::from(base[a]);

@@ -173,7 +173,7 @@ impl Pending {
 /// A traversal stack that can push conditionally without a branch.
 #[derive(Default)]
 struct Stack {
-    items: Vec<Pending>,
+    items: Vec<u64>,
     len: usize,
 }
 
@@ -182,14 +182,14 @@ impl Stack {
     #[inline(always)]
     fn reserve(&mut self, n: usize) {
         if self.len + n > self.items.len() {
-            self.items.resize(2 * self.items.len() + n + 16, Pending::default());
+            self.items.resize(2 * self.items.len() + n + 16, 0);
         }
     }
 
     /// Pushes `p` when `keep` (after [`Stack::reserve`]).
     #[inline(always)]
     fn push_if(&mut self, p: Pending, keep: bool) {
-        self.items[self.len] = p;
+        self.items[self.len] = p.0;
         self.len += usize::from(keep);
     }
 
@@ -202,7 +202,7 @@ impl Stack {
     #[inline(always)]
     fn pop(&mut self) -> Option<Pending> {
         self.len = self.len.checked_sub(1)?;
-        Some(self.items[self.len])
+        Some(Pending(self.items[self.len]))
     }
 }
 
@@ -693,25 +693,21 @@ impl Bvh {
             let mut node = 0usize;
             loop {
                 let n = &self.nodes[node];
-                let (mask, t_entry) = slabs.enter(lanes, n, t_max);
-                // The hit children's (distance, child) keys onto the stack, then ordered there
-                // nearest on top (most visits hit one or two children: those take no sort);
-                // go on with the nearest.
-                let base = stack.len;
+                // The hit children's (distance, child) keys onto the stack ([`Pending`]), then
+                // ordered there nearest on top (most visits hit one or two children: those take
+                // no sort); go on with the nearest.
                 stack.reserve(WIDTH);
-                let mut bits = mask;
-                while bits != 0 {
-                    let k = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    stack.push_if(Pending::new(n.child[k], t_entry[k]), true);
+                let base = stack.len;
+                let keys: &mut [u64; WIDTH] =
+                    (&mut stack.items[base..base + WIDTH]).try_into().expect("room for a node's children");
+                let m = slabs.enter_keys(lanes, n, t_max, keys).count_ones() as usize;
+                if m == 2 {
+                    (keys[0], keys[1]) = (keys[0].max(keys[1]), keys[0].min(keys[1]));
+                } else if m > 2 {
+                    sort_farthest_first(&mut keys[..m]);
                 }
-                let pushed = &mut stack.items[base..stack.len];
-                if let [a, b] = pushed {
-                    (*a, *b) = (Pending(a.0.max(b.0)), Pending(a.0.min(b.0)));
-                } else if pushed.len() > 2 {
-                    sort_farthest_first(pushed);
-                }
-                let mut next = if mask != 0 { stack.pop() } else { None };
+                stack.len = base + m;
+                let mut next = if m != 0 { stack.pop() } else { None };
                 // Intersect leaves as they come, until the next interior node.
                 loop {
                     let p = match next.take() {
@@ -788,11 +784,11 @@ impl Bvh {
 
 /// Orders pending entries by decreasing key (insertion sort: at most [`WIDTH`] of them).
 #[inline(always)]
-fn sort_farthest_first(items: &mut [Pending]) {
+fn sort_farthest_first(items: &mut [u64]) {
     for i in 1..items.len() {
         let x = items[i];
         let mut j = i;
-        while j > 0 && items[j - 1].0 < x.0 {
+        while j > 0 && items[j - 1] < x {
             items[j] = items[j - 1];
             j -= 1;
         }
@@ -854,16 +850,27 @@ impl Slabs {
     /// ulps of the terms, which bounds the rounding of that sum.
     #[inline(always)]
     fn enter(&self, lanes: impl Lanes, n: &WideNode, t_max: f64) -> (u32, [f32; WIDTH]) {
-        // The per-axis terms for all three axes at once (lanes x, y, z; w is 0), then per axis
-        // the eight children's planes.
+        let (hit, t0) = lanes.slab(&n.q, &self.rows, &self.terms(n, t_max));
+        (hit & n.used, t0)
+    }
+
+    /// The slab test's per-axis terms of node `n` for all three axes at once (lanes x, y, z;
+    /// w is 0).
+    #[inline(always)]
+    fn terms(&self, n: &WideNode, t_max: f64) -> SlabTerms {
         let scale = Vec4::from_array(n.scale);
         let offset = Vec4::from_array(n.origin) - self.o;
         let step = scale * self.inv;
         let base = offset * self.inv;
         let widen = (Vec4::splat(self.slack) + (offset.abs() + scale * 256.0) * (4.0 * f32::EPSILON)) * self.inv_abs;
-        let terms = SlabTerms { step, lo: base - widen, hi: base + widen, t_min: self.t_min, t_max: t_max as f32 };
-        let (hit, t0) = lanes.slab(&n.q, &self.rows, &terms);
-        (hit & n.used, t0)
+        SlabTerms { step, lo: base - widen, hi: base + widen, t_min: self.t_min, t_max: t_max as f32 }
+    }
+
+    /// [`Slabs::enter`] with the hit children's [`Pending`] keys in `keys[..m]` (child order;
+    /// `m`: the number of bits of the returned mask).
+    #[inline(always)]
+    fn enter_keys(&self, lanes: impl Lanes, n: &WideNode, t_max: f64, keys: &mut [u64; WIDTH]) -> u32 {
+        lanes.slab_keys(&n.q, &self.rows, &self.terms(n, t_max), n.used, &n.child, keys)
     }
 }
 

@@ -9,10 +9,12 @@
 
 use super::{LineF32, SegmentHead, SlabTerms};
 use core::arch::x86_64::{
-    __m128i, __m256, _CMP_LE_OS, _CMP_LT_OS, _mm_loadl_epi64, _mm256_add_ps, _mm256_cmp_ps, _mm256_cvtepi32_ps,
-    _mm256_cvtepu8_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
-    _mm256_mul_ps, _mm256_or_ps, _mm256_permute2f128_ps, _mm256_set1_ps, _mm256_shuffle_ps, _mm256_sqrt_ps,
-    _mm256_storeu_ps, _mm256_sub_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps,
+    __m128i, __m256, _CMP_LE_OS, _CMP_LT_OS, _mm_loadl_epi64, _mm256_add_ps, _mm256_castps_si256, _mm256_cmp_ps,
+    _mm256_cvtepi32_ps, _mm256_cvtepu8_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_max_ps,
+    _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_permute2f128_ps, _mm256_permute2x128_si256,
+    _mm256_permutevar8x32_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_shuffle_ps, _mm256_sqrt_ps,
+    _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm256_unpackhi_epi32, _mm256_unpackhi_ps,
+    _mm256_unpacklo_epi32, _mm256_unpacklo_ps,
 };
 
 /// Runs `f` in a function compiled with AVX2 enabled (`f` and what it calls inline into it).
@@ -29,6 +31,17 @@ pub(super) fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
 #[target_feature(enable = "avx2")]
 #[inline]
 pub(super) fn slab(q: &[[u8; 8]; 6], offsets: &[[usize; 2]; 3], terms: &SlabTerms) -> (u32, [f32; 8]) {
+    let (hit, t0) = slab_lanes(q, offsets, terms);
+    let mut entry = [0.0; 8];
+    // SAFETY: `entry` is eight `f32`; no alignment requirement.
+    unsafe { _mm256_storeu_ps(entry.as_mut_ptr(), t0) };
+    (hit, entry)
+}
+
+/// [`slab`] with the entry distances in a register.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn slab_lanes(q: &[[u8; 8]; 6], offsets: &[[usize; 2]; 3], terms: &SlabTerms) -> (u32, __m256) {
     let bytes: *const u8 = q.as_flattened().as_ptr();
     let (step, lo, hi) = (terms.step.to_array(), terms.lo.to_array(), terms.hi.to_array());
     let mut t0 = _mm256_set1_ps(terms.t_min);
@@ -44,10 +57,63 @@ pub(super) fn slab(q: &[[u8; 8]; 6], offsets: &[[usize; 2]; 3], terms: &SlabTerm
         t1 = _mm256_min_ps(t1, _mm256_add_ps(_mm256_mul_ps(row(far), s), _mm256_set1_ps(hi[axis])));
     }
     let hit = _mm256_cmp_ps::<_CMP_LE_OS>(t0, _mm256_mul_ps(t1, _mm256_set1_ps(1.0 + 4.0 * f32::EPSILON)));
-    let mut entry = [0.0; 8];
-    // SAFETY: `entry` is eight `f32`; no alignment requirement.
-    unsafe { _mm256_storeu_ps(entry.as_mut_ptr(), t0) };
-    (_mm256_movemask_ps(hit) as u32, entry)
+    (_mm256_movemask_ps(hit) as u32, t0)
+}
+
+/// For each 8-bit mask, the positions of its set bits in increasing order (then zeros).
+static COMPRESS: [[u8; 8]; 256] = {
+    let mut table = [[0u8; 8]; 256];
+    let mut mask = 0;
+    while mask < 256 {
+        let (mut k, mut n) = (0, 0);
+        while k < 8 {
+            if mask >> k & 1 == 1 {
+                table[mask][n] = k as u8;
+                n += 1;
+            }
+            k += 1;
+        }
+        mask += 1;
+    }
+    table
+};
+
+/// [`slab`] and the hit children's keys, compressed to the front of `keys` in child order with
+/// one lane permutation (from [`COMPRESS`]) of the clamped distances and of the references,
+/// interleaved into 64-bit keys: no loop over the hit children.
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(super) fn slab_keys(
+    q: &[[u8; 8]; 6],
+    offsets: &[[usize; 2]; 3],
+    terms: &SlabTerms,
+    used: u32,
+    child: &[u32; 8],
+    keys: &mut [u64; 8],
+) -> u32 {
+    let (hit, t0) = slab_lanes(q, offsets, terms);
+    let mask = hit & used & 0xFF;
+    // `max(t0, 0)`: 0 for NaN and for either zero, as the portable form.
+    let t = _mm256_castps_si256(_mm256_max_ps(t0, _mm256_setzero_ps()));
+    // SAFETY: `COMPRESS[mask]` (mask < 256) is eight bytes and `child` eight `u32`; the loads
+    // have no alignment requirement.
+    let (order, refs) = unsafe {
+        (
+            _mm256_cvtepu8_epi32(_mm_loadl_epi64(COMPRESS[mask as usize].as_ptr().cast())),
+            _mm256_loadu_si256(child.as_ptr().cast()),
+        )
+    };
+    let (t, refs) = (_mm256_permutevar8x32_epi32(t, order), _mm256_permutevar8x32_epi32(refs, order));
+    // Keys 0, 1, 4, 5 and 2, 3, 6, 7 (reference in the low half), then in order.
+    let (low, high) = (_mm256_unpacklo_epi32(refs, t), _mm256_unpackhi_epi32(refs, t));
+    let first = _mm256_permute2x128_si256::<0x20>(low, high);
+    let second = _mm256_permute2x128_si256::<0x31>(low, high);
+    // SAFETY: `keys` is eight `u64`, 64 bytes: two 32-byte stores; no alignment requirement.
+    unsafe {
+        _mm256_storeu_si256(keys.as_mut_ptr().cast(), first);
+        _mm256_storeu_si256(keys.as_mut_ptr().add(4).cast(), second);
+    }
+    mask
 }
 
 /// The eight bytes in the low half of `r` as `f32` (exact).

@@ -175,6 +175,20 @@ pub(crate) trait Lanes: Copy {
     /// coordinates, rows 0–2 lower and 3–5 upper corners by axis, one byte per child.
     fn slab(self, q: &[[u8; 8]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 8]);
 
+    /// [`Lanes::slab`], then for the hit children among `used` (bit mask of the node's slots)
+    /// their traversal keys, in child order, into `keys[..m]` (`m`: the number of them; the
+    /// rest of `keys` is left unspecified); returns the hit mask. A child's key is its entry
+    /// distance, clamped below at 0 (`max(t, 0)`), as `f32` bits above its reference `child[k]`.
+    fn slab_keys(
+        self,
+        q: &[[u8; 8]; 6],
+        rows: &RowChoice,
+        terms: &SlabTerms,
+        used: u32,
+        child: &[u32; 8],
+        keys: &mut [u64; 8],
+    ) -> u32;
+
     /// Bit `k` (`k < n ≤ 8`) clear only when the ray's line certainly misses the infinite
     /// cylinder of segment `head(k)`: its squared distance to the axis exceeds r² by more than
     /// the `f32` rounding of the inputs (relative 1e-5 of the origin's distance from the
@@ -213,6 +227,31 @@ impl Lanes for Portable {
             entry[4 * half..4 * half + 4].copy_from_slice(&t0.to_array());
         }
         (mask, entry)
+    }
+
+    /// The keys one hit child at a time.
+    #[inline(always)]
+    fn slab_keys(
+        self,
+        q: &[[u8; 8]; 6],
+        rows: &RowChoice,
+        terms: &SlabTerms,
+        used: u32,
+        child: &[u32; 8],
+        keys: &mut [u64; 8],
+    ) -> u32 {
+        let (hit, t) = self.slab(q, rows, terms);
+        let mask = hit & used;
+        let (mut bits, mut m) = (mask, 0);
+        while bits != 0 {
+            let k = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            // `max` with the SSE operand order (0 when `t` is NaN or a zero of either sign).
+            let t = if t[k] > 0.0 { t[k] } else { 0.0 };
+            keys[m] = (u64::from(t.to_bits()) << 32) | u64::from(child[k]);
+            m += 1;
+        }
+        mask
     }
 
     #[inline(always)]
@@ -279,6 +318,25 @@ impl Lanes for Avx2 {
         }
         #[cfg(not(target_arch = "x86_64"))]
         Portable.slab(q, rows, terms)
+    }
+
+    #[inline(always)]
+    fn slab_keys(
+        self,
+        q: &[[u8; 8]; 6],
+        rows: &RowChoice,
+        terms: &SlabTerms,
+        used: u32,
+        child: &[u32; 8],
+        keys: &mut [u64; 8],
+    ) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: as in `Avx2::run`: this CPU has AVX2.
+            unsafe { avx2::slab_keys(q, &rows.offsets, terms, used, child, keys) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Portable.slab_keys(q, rows, terms, used, child, keys)
     }
 
     #[inline(always)]
@@ -447,8 +505,56 @@ mod tests {
             assert_eq!(ma, mb, "{q:?} {rows:?} {terms:?}");
             assert_eq!(ta.map(f32::to_bits), tb.map(f32::to_bits), "{q:?} {rows:?} {terms:?}");
             hits[ma.count_ones() as usize] += 1;
+            // The keys of the hit children among the used ones, on both levels; references
+            // with every bit pattern.
+            let used = (g.next() * 256.0) as u32 | if i % 2 == 0 { 0xFF } else { 0 };
+            let child = [0; 8].map(|_| (g.next() * 65536.0) as u32 | ((g.next() * 65536.0) as u32) << 16);
+            let (mut ka, mut kb) = ([0u64; 8], [0u64; 8]);
+            let sa = Portable.slab_keys(&q, &rows, &terms, used, &child, &mut ka);
+            let sb = k.run(|| k.slab_keys(&q, &rows, &terms, used, &child, &mut kb));
+            assert_eq!((sa, sb), (ma & used, ma & used));
+            let m = sa.count_ones() as usize;
+            assert_eq!(ka[..m], kb[..m], "{q:?} {rows:?} {terms:?} used {used:#x}");
         }
         assert!(hits.iter().all(|&h| h > 100), "every number of hit children must occur: {hits:?}");
+    }
+
+    /// The portable keys against their definition: one per hit used child, in child order,
+    /// the entry distance clamped at 0 (as `f64`: exact) above the reference.
+    #[test]
+    fn portable_slab_keys_are_the_hit_children_in_order() {
+        let mut g = Lcg(17);
+        let mut sizes = [0; 9];
+        for _ in 0..10_000 {
+            let mut q = [[0u8; 8]; 6];
+            let (lower, upper) = q.split_at_mut(3);
+            for (l, u) in lower.iter_mut().flatten().zip(upper.iter_mut().flatten()) {
+                let (a, b) = ((g.next() * 256.0) as u8, (g.next() * 256.0) as u8);
+                (*l, *u) = (a.min(b) / 2, 128 + a.max(b) / 2);
+            }
+            // Every box holds grid point 128, which the ray meets near distance `spread` on
+            // each axis: from all boxes hit (spread 0) to few.
+            let positive = [g.next() < 0.5, g.next() < 0.5, g.next() < 0.5];
+            let rows = RowChoice::new(positive);
+            let sign = |a: usize| if positive[a] { 0.01 } else { -0.01 };
+            let step = Vec4::new(sign(0), sign(1), sign(2), 0.0) * (1.0 + g.next());
+            let spread = 6.0 * g.next() * g.next();
+            let base = -step * 128.0 + Vec4::new(g.next(), g.next(), g.next(), 0.0) * spread;
+            let terms = SlabTerms { step, lo: base, hi: base, t_min: -g.next(), t_max: 0.5 + g.next() * 2.0 };
+            let used = (g.next() * 256.0) as u32 | 0x81;
+            let child = [0; 8].map(|_| (g.next() * 1e9) as u32);
+            let mut keys = [u64::MAX; 8];
+            let mask = Portable.slab_keys(&q, &rows, &terms, used, &child, &mut keys);
+            let (hit, t) = Portable.slab(&q, &rows, &terms);
+            assert_eq!(mask, hit & used);
+            let expected: Vec<u64> = (0..8)
+                .filter(|&k| mask & (1 << k) != 0)
+                .map(|k| (u64::from((f64::from(t[k]).max(0.0) as f32).to_bits()) << 32) | u64::from(child[k]))
+                .collect();
+            assert_eq!(keys[..expected.len()], expected[..]);
+            sizes[expected.len()] += 1;
+        }
+        assert!(sizes.iter().all(|&s| s > 0), "every number of keys must occur: {sizes:?}");
     }
 
     /// The portable slab test against the plain definition (interval intersection per child).

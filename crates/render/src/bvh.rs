@@ -16,6 +16,13 @@
 //! with the same instructions (two halves of four `f32` lanes, or eight AVX2 lanes where the CPU
 //! has them: [`crate::simd`]); traversal visits the hit children nearest first and hands the
 //! caller a leaf at a time.
+//!
+//! Why eight: a walk's cost is per-visit control (ordering the hit children, stack traffic),
+//! and eight children per node cut the visits by a third against four (peer scene: 25.1 → 16.7
+//! per closest-hit ray, 19.7 → 13.4 per shadow ray; 19 % fewer instructions in the render, same
+//! image). Most visits hit one or two children, so the closest-hit walk orders only the hit ones.
+//! The price is node memory: near the leaves the greedy collapse leaves nodes partly filled, so
+//! the nodes of a 4.8M-segment head take 610 MB against 468 MB for 4-wide nodes (+30 %).
 
 use crate::simd::{Lanes, Portable, RowChoice, SimdLevel, SlabTerms};
 use fiberlab_math::DVec3;

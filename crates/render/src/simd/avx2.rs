@@ -3,20 +3,19 @@
 //! which only detection makes. The arithmetic mirrors the portable form operation by
 //! operation (see the module above), so the results are the same bits.
 //!
-//! Audit: the `unsafe` blocks are unaligned loads from references whose bounds are checked
-//! where they are taken (each block states why); the arithmetic intrinsics are safe inside
-//! these `#[target_feature]` functions.
+//! Audit: the `unsafe` blocks are unaligned loads and stores within references whose bounds
+//! are checked where they are taken or fixed by construction (each block states why); the
+//! arithmetic intrinsics are safe inside these `#[target_feature]` functions.
 
 use super::{LineF32, SegmentHead, SlabTerms};
 use core::arch::x86_64::{
-    __m128, __m256, _CMP_LT_OS, _mm_cmple_ps, _mm_loadu_si128, _mm_movemask_ps, _mm_mul_ps, _mm_set1_ps,
-    _mm_shuffle_epi8, _mm_xor_ps, _mm256_add_ps, _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_cvtepi32_ps,
-    _mm256_cvtepu8_epi32, _mm256_div_ps, _mm256_extractf128_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_movemask_ps,
-    _mm256_mul_ps, _mm256_or_ps, _mm256_permute2f128_ps, _mm256_permutevar8x32_ps, _mm256_set_m128, _mm256_set1_ps,
-    _mm256_setr_epi32, _mm256_setr_ps, _mm256_shuffle_ps, _mm256_sqrt_ps, _mm256_sub_ps, _mm256_unpackhi_ps,
-    _mm256_unpacklo_ps, _mm256_xor_ps,
+    __m128i, __m256, _CMP_LE_OS, _CMP_LT_OS, _mm_loadl_epi64, _mm256_add_ps, _mm256_castps_si256, _mm256_cmp_ps,
+    _mm256_cvtepi32_ps, _mm256_cvtepu8_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_max_ps,
+    _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_permute2f128_ps, _mm256_permute2x128_si256,
+    _mm256_permutevar8x32_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_shuffle_ps, _mm256_sqrt_ps,
+    _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm256_unpackhi_epi32, _mm256_unpackhi_ps,
+    _mm256_unpacklo_epi32, _mm256_unpacklo_ps,
 };
-use glam::Vec4;
 
 /// Runs `f` in a function compiled with AVX2 enabled (`f` and what it calls inline into it).
 #[target_feature(enable = "avx2")]
@@ -25,38 +24,103 @@ pub(super) fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
-/// The slab test of a node's four children, near and far planes of one axis in one pass of
-/// eight lanes: lanes 0–3 carry the near planes, lanes 4–7 the far planes negated, so one
-/// `max` accumulates both `t0 = max(t0, near)` and `−t1 = max(−t1, −far)` (negation is exact
-/// and maps `min` to `max` lane for lane, NaN operands included).
+/// The slab test of a node's eight children, one lane each: per axis, the near and far rows'
+/// eight bytes are widened to `f32` (`vpmovzxbd` + `vcvtdq2ps`), scaled and offset, and folded
+/// into `t0 = max(t0, near)` and `t1 = min(t1, far)`, the portable form's operations in its
+/// order. `offsets`: [`super::RowChoice`]'s near and far row offsets per axis.
 #[target_feature(enable = "avx2")]
 #[inline]
-pub(super) fn slab(q: &[[u8; 4]; 6], shuffle: &[[u8; 16]; 3], terms: &SlabTerms) -> (u32, [f32; 4]) {
-    let bytes: &[u8; 24] = q.as_flattened().try_into().expect("six rows of four bytes");
-    let negate_high = _mm256_setr_ps(0.0, 0.0, 0.0, 0.0, -0.0, -0.0, -0.0, -0.0);
-    let (step, lo, hi): (__m128, __m128, __m128) = (terms.step.into(), terms.lo.into(), terms.hi.into());
-    let steps = _mm256_xor_ps(_mm256_set_m128(step, step), negate_high);
-    let offsets = _mm256_xor_ps(_mm256_set_m128(hi, lo), negate_high);
-    let mut acc = _mm256_xor_ps(_mm256_set_m128(_mm_set1_ps(terms.t_max), _mm_set1_ps(terms.t_min)), negate_high);
+pub(super) fn slab(q: &[[u8; 8]; 6], offsets: &[[usize; 2]; 3], terms: &SlabTerms) -> (u32, [f32; 8]) {
+    let (hit, t0) = slab_lanes(q, offsets, terms);
+    let mut entry = [0.0; 8];
+    // SAFETY: `entry` is eight `f32`; no alignment requirement.
+    unsafe { _mm256_storeu_ps(entry.as_mut_ptr(), t0) };
+    (hit, entry)
+}
+
+/// [`slab`] with the entry distances in a register.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn slab_lanes(q: &[[u8; 8]; 6], offsets: &[[usize; 2]; 3], terms: &SlabTerms) -> (u32, __m256) {
+    let bytes: *const u8 = q.as_flattened().as_ptr();
+    let (step, lo, hi) = (terms.step.to_array(), terms.lo.to_array(), terms.hi.to_array());
+    let mut t0 = _mm256_set1_ps(terms.t_min);
+    let mut t1 = _mm256_set1_ps(terms.t_max);
     for axis in 0..3 {
-        // SAFETY: the 16 bytes from `4·axis` lie inside the 24 of `bytes` (axis ≤ 2); the load
-        // has no alignment requirement.
-        let raw = unsafe { _mm_loadu_si128(bytes[4 * axis..4 * axis + 16].as_ptr().cast()) };
-        // SAFETY: `shuffle[axis]` is 16 bytes; no alignment requirement.
-        let control = unsafe { _mm_loadu_si128(shuffle[axis].as_ptr().cast()) };
-        let grid = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_shuffle_epi8(raw, control)));
-        let a = axis as i32;
-        let lanes = _mm256_setr_epi32(a, a, a, a, 4 + a, 4 + a, 4 + a, 4 + a);
-        let planes = _mm256_add_ps(
-            _mm256_mul_ps(grid, _mm256_permutevar8x32_ps(steps, lanes)),
-            _mm256_permutevar8x32_ps(offsets, lanes),
-        );
-        acc = _mm256_max_ps(acc, planes);
+        let [near, far] = offsets[axis];
+        debug_assert!(near <= 40 && far <= 40);
+        // SAFETY: `RowChoice::new` makes each offset `8·row` with `row < 6`, so the eight bytes
+        // from it lie inside the 48 of `q`; the load has no alignment requirement.
+        let (near, far) = unsafe { (_mm_loadl_epi64(bytes.add(near).cast()), _mm_loadl_epi64(bytes.add(far).cast())) };
+        let s = _mm256_set1_ps(step[axis]);
+        t0 = _mm256_max_ps(t0, _mm256_add_ps(_mm256_mul_ps(row(near), s), _mm256_set1_ps(lo[axis])));
+        t1 = _mm256_min_ps(t1, _mm256_add_ps(_mm256_mul_ps(row(far), s), _mm256_set1_ps(hi[axis])));
     }
-    let t0 = _mm256_castps256_ps128(acc);
-    let t1 = _mm_xor_ps(_mm256_extractf128_ps::<1>(acc), _mm_set1_ps(-0.0));
-    let hit = _mm_cmple_ps(t0, _mm_mul_ps(t1, _mm_set1_ps(1.0 + 4.0 * f32::EPSILON)));
-    (_mm_movemask_ps(hit) as u32, Vec4::from(t0).to_array())
+    let hit = _mm256_cmp_ps::<_CMP_LE_OS>(t0, _mm256_mul_ps(t1, _mm256_set1_ps(1.0 + 4.0 * f32::EPSILON)));
+    (_mm256_movemask_ps(hit) as u32, t0)
+}
+
+/// For each 8-bit mask, the positions of its set bits in increasing order (then zeros).
+static COMPRESS: [[u8; 8]; 256] = {
+    let mut table = [[0u8; 8]; 256];
+    let mut mask = 0;
+    while mask < 256 {
+        let (mut k, mut n) = (0, 0);
+        while k < 8 {
+            if mask >> k & 1 == 1 {
+                table[mask][n] = k as u8;
+                n += 1;
+            }
+            k += 1;
+        }
+        mask += 1;
+    }
+    table
+};
+
+/// [`slab`] and the hit children's keys, compressed to the front of `keys` in child order with
+/// one lane permutation (from [`COMPRESS`]) of the clamped distances and of the references,
+/// interleaved into 64-bit keys: no loop over the hit children.
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(super) fn slab_keys(
+    q: &[[u8; 8]; 6],
+    offsets: &[[usize; 2]; 3],
+    terms: &SlabTerms,
+    used: u32,
+    child: &[u32; 8],
+    keys: &mut [u64; 8],
+) -> u32 {
+    let (hit, t0) = slab_lanes(q, offsets, terms);
+    let mask = hit & used & 0xFF;
+    // `max(t0, 0)`: 0 for NaN and for either zero, as the portable form.
+    let t = _mm256_castps_si256(_mm256_max_ps(t0, _mm256_setzero_ps()));
+    // SAFETY: `COMPRESS[mask]` (mask < 256) is eight bytes and `child` eight `u32`; the loads
+    // have no alignment requirement.
+    let (order, refs) = unsafe {
+        (
+            _mm256_cvtepu8_epi32(_mm_loadl_epi64(COMPRESS[mask as usize].as_ptr().cast())),
+            _mm256_loadu_si256(child.as_ptr().cast()),
+        )
+    };
+    let (t, refs) = (_mm256_permutevar8x32_epi32(t, order), _mm256_permutevar8x32_epi32(refs, order));
+    // Keys 0, 1, 4, 5 and 2, 3, 6, 7 (reference in the low half), then in order.
+    let (low, high) = (_mm256_unpacklo_epi32(refs, t), _mm256_unpackhi_epi32(refs, t));
+    let first = _mm256_permute2x128_si256::<0x20>(low, high);
+    let second = _mm256_permute2x128_si256::<0x31>(low, high);
+    // SAFETY: `keys` is eight `u64`, 64 bytes: two 32-byte stores; no alignment requirement.
+    unsafe {
+        _mm256_storeu_si256(keys.as_mut_ptr().cast(), first);
+        _mm256_storeu_si256(keys.as_mut_ptr().add(4).cast(), second);
+    }
+    mask
+}
+
+/// The eight bytes in the low half of `r` as `f32` (exact).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn row(r: __m128i) -> __m256 {
+    _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(r))
 }
 
 /// The leaf pre-test on eight segments at once: the eight heads are loaded as rows and

@@ -100,35 +100,40 @@ impl Default for SimdLevel {
     }
 }
 
-/// The per-ray choice of the near and far box rows by axis (from the signs of the direction),
-/// in the forms both paths use.
+/// The per-ray choice of the near and far box rows by axis (from the signs of the direction).
+/// Rows are those of a node's quantized grid: 0–2 the children's lower corners by axis, 3–5
+/// the upper ones; the near (entry) row of axis `a` is `a` when the direction component is
+/// ≥ 0, else `3 + a`, and the far row the other one.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RowChoice {
-    /// Row of the node's quantized grid holding the near (entry) plane per axis: `axis` when
-    /// the direction component is ≥ 0, else `3 + axis`.
-    pub near: [usize; 3],
-    /// The far row per axis (`near ± 3`).
-    pub far: [usize; 3],
-    /// Byte shuffle per axis taking, from the 16 bytes that start at row `axis`, the near row's
-    /// four bytes then the far row's (rows `axis` and `3 + axis` are bytes 0–3 and 12–15).
-    shuffle: [[u8; 16]; 3],
+    /// Per axis: true when the direction component is ≥ 0.
+    positive: [bool; 3],
+    /// Per axis: the byte offsets of the near and far rows in the 48 bytes of the grid
+    /// (`8·row`, so at most 40: always eight bytes inside it; only [`RowChoice::new`] makes
+    /// them).
+    offsets: [[usize; 2]; 3],
 }
 
 impl RowChoice {
     /// The rows for a ray whose direction component on axis `a` is ≥ 0 when `positive[a]`.
     pub fn new(positive: [bool; 3]) -> Self {
-        let near = [0, 1, 2].map(|a| if positive[a] { a } else { 3 + a });
-        let far = near.map(|r| if r < 3 { r + 3 } else { r - 3 });
-        let shuffle = [0, 1, 2].map(|a| {
-            let (n, f) = if positive[a] { (0u8, 12u8) } else { (12, 0) };
-            let mut s = [0x80u8; 16];
-            for k in 0..4u8 {
-                s[usize::from(k)] = n + k;
-                s[usize::from(4 + k)] = f + k;
-            }
-            s
+        let offsets = [0, 1, 2].map(|a| {
+            let (near, far) = if positive[a] { (a, 3 + a) } else { (3 + a, a) };
+            [8 * near, 8 * far]
         });
-        Self { near, far, shuffle }
+        Self { positive, offsets }
+    }
+
+    /// The near row of `axis` (< 3).
+    #[inline(always)]
+    pub fn near(&self, axis: usize) -> usize {
+        axis + 3 * usize::from(!self.positive[axis])
+    }
+
+    /// The far row of `axis` (< 3).
+    #[inline(always)]
+    pub fn far(&self, axis: usize) -> usize {
+        axis + 3 * usize::from(self.positive[axis])
     }
 }
 
@@ -164,11 +169,25 @@ pub(crate) struct LineF32 {
 
 /// The two kernels, in one instruction set.
 pub(crate) trait Lanes: Copy {
-    /// The slab test of a node's four children: bit `k` of the mask is set when the ray's
+    /// The slab test of a node's eight children: bit `k` of the mask is set when the ray's
     /// interval meets child `k`'s box, widened by the relative `4ε` of the far distance (the
     /// caller masks unused slots); also the entry distances. `q`: the node's quantized
     /// coordinates, rows 0–2 lower and 3–5 upper corners by axis, one byte per child.
-    fn slab(self, q: &[[u8; 4]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 4]);
+    fn slab(self, q: &[[u8; 8]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 8]);
+
+    /// [`Lanes::slab`], then for the hit children among `used` (bit mask of the node's slots)
+    /// their traversal keys, in child order, into `keys[..m]` (`m`: the number of them; the
+    /// rest of `keys` is left unspecified); returns the hit mask. A child's key is its entry
+    /// distance, clamped below at 0 (`max(t, 0)`), as `f32` bits above its reference `child[k]`.
+    fn slab_keys(
+        self,
+        q: &[[u8; 8]; 6],
+        rows: &RowChoice,
+        terms: &SlabTerms,
+        used: u32,
+        child: &[u32; 8],
+        keys: &mut [u64; 8],
+    ) -> u32;
 
     /// Bit `k` (`k < n ≤ 8`) clear only when the ray's line certainly misses the infinite
     /// cylinder of segment `head(k)`: its squared distance to the axis exceeds r² by more than
@@ -183,23 +202,56 @@ pub(crate) trait Lanes: Copy {
 pub(crate) struct Portable;
 
 impl Lanes for Portable {
+    /// Two halves of four lanes, children 0–3 then 4–7, each with the operations of the AVX2
+    /// form's eight lanes in the same order.
     #[inline(always)]
-    fn slab(self, q: &[[u8; 4]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 4]) {
-        let row = |r: usize| {
-            let q = q[r];
-            Vec4::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2]), f32::from(q[3]))
-        };
-        let mut t0 = Vec4::splat(terms.t_min);
-        let mut t1 = Vec4::splat(terms.t_max);
+    fn slab(self, q: &[[u8; 8]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 8]) {
         let (step, lo, hi) = (terms.step.to_array(), terms.lo.to_array(), terms.hi.to_array());
-        for axis in 0..3 {
-            let s = Vec4::splat(step[axis]);
-            let near = row(rows.near[axis]) * s + Vec4::splat(lo[axis]);
-            let far = row(rows.far[axis]) * s + Vec4::splat(hi[axis]);
-            t0 = t0.max(near);
-            t1 = t1.min(far);
+        let mut mask = 0;
+        let mut entry = [0.0; 8];
+        for half in 0..2 {
+            let row = |r: usize| {
+                let q = &q[r][4 * half..4 * half + 4];
+                Vec4::new(f32::from(q[0]), f32::from(q[1]), f32::from(q[2]), f32::from(q[3]))
+            };
+            let mut t0 = Vec4::splat(terms.t_min);
+            let mut t1 = Vec4::splat(terms.t_max);
+            for axis in 0..3 {
+                let s = Vec4::splat(step[axis]);
+                let near = row(rows.near(axis)) * s + Vec4::splat(lo[axis]);
+                let far = row(rows.far(axis)) * s + Vec4::splat(hi[axis]);
+                t0 = t0.max(near);
+                t1 = t1.min(far);
+            }
+            mask |= t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask() << (4 * half);
+            entry[4 * half..4 * half + 4].copy_from_slice(&t0.to_array());
         }
-        (t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask(), t0.to_array())
+        (mask, entry)
+    }
+
+    /// The keys one hit child at a time.
+    #[inline(always)]
+    fn slab_keys(
+        self,
+        q: &[[u8; 8]; 6],
+        rows: &RowChoice,
+        terms: &SlabTerms,
+        used: u32,
+        child: &[u32; 8],
+        keys: &mut [u64; 8],
+    ) -> u32 {
+        let (hit, t) = self.slab(q, rows, terms);
+        let mask = hit & used;
+        let (mut bits, mut m) = (mask, 0);
+        while bits != 0 {
+            let k = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            // `max` with the SSE operand order (0 when `t` is NaN or a zero of either sign).
+            let t = if t[k] > 0.0 { t[k] } else { 0.0 };
+            keys[m] = (u64::from(t.to_bits()) << 32) | u64::from(child[k]);
+            m += 1;
+        }
+        mask
     }
 
     #[inline(always)]
@@ -258,14 +310,33 @@ impl Avx2 {
 
 impl Lanes for Avx2 {
     #[inline(always)]
-    fn slab(self, q: &[[u8; 4]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 4]) {
+    fn slab(self, q: &[[u8; 8]; 6], rows: &RowChoice, terms: &SlabTerms) -> (u32, [f32; 8]) {
         #[cfg(target_arch = "x86_64")]
         {
             // SAFETY: as in `Avx2::run`: this CPU has AVX2.
-            unsafe { avx2::slab(q, &rows.shuffle, terms) }
+            unsafe { avx2::slab(q, &rows.offsets, terms) }
         }
         #[cfg(not(target_arch = "x86_64"))]
         Portable.slab(q, rows, terms)
+    }
+
+    #[inline(always)]
+    fn slab_keys(
+        self,
+        q: &[[u8; 8]; 6],
+        rows: &RowChoice,
+        terms: &SlabTerms,
+        used: u32,
+        child: &[u32; 8],
+        keys: &mut [u64; 8],
+    ) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: as in `Avx2::run`: this CPU has AVX2.
+            unsafe { avx2::slab_keys(q, &rows.offsets, terms, used, child, keys) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Portable.slab_keys(q, rows, terms, used, child, keys)
     }
 
     #[inline(always)]
@@ -399,15 +470,17 @@ mod tests {
             return;
         };
         let mut g = Lcg(11);
-        let mut hits = [0u32; 5];
+        let mut hits = [0u32; 9];
         for i in 0..100_000 {
-            // Child boxes with lower ≤ upper corner, a direction sign per axis with the step's
-            // sign matching it, plane distances around the ray's interval.
-            let mut q = [[0u8; 4]; 6];
+            // Child boxes with lower ≤ upper corner (in some nodes all of them large, so that
+            // all eight children are hit often enough), a direction sign per axis with the
+            // step's sign matching it, plane distances around the ray's interval.
+            let mut q = [[0u8; 8]; 6];
             let (lower, upper) = q.split_at_mut(3);
+            let large = i % 3 == 0;
             for (l, u) in lower.iter_mut().flatten().zip(upper.iter_mut().flatten()) {
                 let (a, b) = ((g.next() * 256.0) as u8, (g.next() * 256.0) as u8);
-                (*l, *u) = (a.min(b), a.max(b));
+                (*l, *u) = if large { (a / 8, 255 - b / 8) } else { (a.min(b), a.max(b)) };
             }
             let positive = [g.next() < 0.5, g.next() < 0.5, g.next() < 0.5];
             let rows = RowChoice::new(positive);
@@ -425,15 +498,63 @@ mod tests {
             if i % 4 == 1 {
                 // The far end just below a child's entry, within the test's relative 4ε.
                 let (_, t) = Portable.slab(&q, &rows, &terms);
-                terms.t_max = t[i / 4 % 4] * (1.0 - 3.0 * f32::EPSILON);
+                terms.t_max = t[i / 4 % 8] * (1.0 - 3.0 * f32::EPSILON);
             }
             let (ma, ta) = Portable.slab(&q, &rows, &terms);
             let (mb, tb) = k.run(|| k.slab(&q, &rows, &terms));
             assert_eq!(ma, mb, "{q:?} {rows:?} {terms:?}");
             assert_eq!(ta.map(f32::to_bits), tb.map(f32::to_bits), "{q:?} {rows:?} {terms:?}");
             hits[ma.count_ones() as usize] += 1;
+            // The keys of the hit children among the used ones, on both levels; references
+            // with every bit pattern.
+            let used = (g.next() * 256.0) as u32 | if i % 2 == 0 { 0xFF } else { 0 };
+            let child = [0; 8].map(|_| (g.next() * 65536.0) as u32 | ((g.next() * 65536.0) as u32) << 16);
+            let (mut ka, mut kb) = ([0u64; 8], [0u64; 8]);
+            let sa = Portable.slab_keys(&q, &rows, &terms, used, &child, &mut ka);
+            let sb = k.run(|| k.slab_keys(&q, &rows, &terms, used, &child, &mut kb));
+            assert_eq!((sa, sb), (ma & used, ma & used));
+            let m = sa.count_ones() as usize;
+            assert_eq!(ka[..m], kb[..m], "{q:?} {rows:?} {terms:?} used {used:#x}");
         }
         assert!(hits.iter().all(|&h| h > 100), "every number of hit children must occur: {hits:?}");
+    }
+
+    /// The portable keys against their definition: one per hit used child, in child order,
+    /// the entry distance clamped at 0 (as `f64`: exact) above the reference.
+    #[test]
+    fn portable_slab_keys_are_the_hit_children_in_order() {
+        let mut g = Lcg(17);
+        let mut sizes = [0; 9];
+        for _ in 0..10_000 {
+            let mut q = [[0u8; 8]; 6];
+            let (lower, upper) = q.split_at_mut(3);
+            for (l, u) in lower.iter_mut().flatten().zip(upper.iter_mut().flatten()) {
+                let (a, b) = ((g.next() * 256.0) as u8, (g.next() * 256.0) as u8);
+                (*l, *u) = (a.min(b) / 2, 128 + a.max(b) / 2);
+            }
+            // Every box holds grid point 128, which the ray meets near distance `spread` on
+            // each axis: from all boxes hit (spread 0) to few.
+            let positive = [g.next() < 0.5, g.next() < 0.5, g.next() < 0.5];
+            let rows = RowChoice::new(positive);
+            let sign = |a: usize| if positive[a] { 0.01 } else { -0.01 };
+            let step = Vec4::new(sign(0), sign(1), sign(2), 0.0) * (1.0 + g.next());
+            let spread = 6.0 * g.next() * g.next();
+            let base = -step * 128.0 + Vec4::new(g.next(), g.next(), g.next(), 0.0) * spread;
+            let terms = SlabTerms { step, lo: base, hi: base, t_min: -g.next(), t_max: 0.5 + g.next() * 2.0 };
+            let used = (g.next() * 256.0) as u32 | 0x81;
+            let child = [0; 8].map(|_| (g.next() * 1e9) as u32);
+            let mut keys = [u64::MAX; 8];
+            let mask = Portable.slab_keys(&q, &rows, &terms, used, &child, &mut keys);
+            let (hit, t) = Portable.slab(&q, &rows, &terms);
+            assert_eq!(mask, hit & used);
+            let expected: Vec<u64> = (0..8)
+                .filter(|&k| mask & (1 << k) != 0)
+                .map(|k| (u64::from((f64::from(t[k]).max(0.0) as f32).to_bits()) << 32) | u64::from(child[k]))
+                .collect();
+            assert_eq!(keys[..expected.len()], expected[..]);
+            sizes[expected.len()] += 1;
+        }
+        assert!(sizes.iter().all(|&s| s > 0), "every number of keys must occur: {sizes:?}");
     }
 
     /// The portable slab test against the plain definition (interval intersection per child).
@@ -441,7 +562,7 @@ mod tests {
     fn portable_slab_test_is_the_interval_intersection() {
         let mut g = Lcg(13);
         for _ in 0..10_000 {
-            let mut q = [[0u8; 4]; 6];
+            let mut q = [[0u8; 8]; 6];
             for row in &mut q {
                 for c in row.iter_mut() {
                     *c = (g.next() * 256.0) as u8;
@@ -453,7 +574,7 @@ mod tests {
             let base = Vec4::new(g.next() - 0.5, g.next() - 0.5, g.next() - 0.5, 0.0) * 10.0;
             let terms = SlabTerms { step, lo: base, hi: base, t_min: g.next() - 0.5, t_max: 1.0 + g.next() * 5.0 };
             let (mask, t) = Portable.slab(&q, &rows, &terms);
-            for k in 0..4 {
+            for k in 0..8 {
                 let (mut t0, mut t1) = (f64::from(terms.t_min), f64::from(terms.t_max));
                 for a in 0..3 {
                     let plane = |row: usize| f64::from(q[row][k]) * f64::from(step[a]) + f64::from(base[a]);

@@ -1125,13 +1125,17 @@ fn collapse(binary: &[Node], root: usize, end: usize, leaf: &LeafRef<'_>, out: &
 mod tests {
     use super::*;
 
-    #[test]
-    fn parallel_build_is_correct_and_independent_of_threads() {
-        let mut state = 99u64;
-        let mut rnd = || {
+    /// Uniform numbers in [0, 1) from a 64-bit linear congruential generator seeded `state`.
+    fn uniforms(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             ((state >> 11) as f64) / (1u64 << 53) as f64
-        };
+        }
+    }
+
+    #[test]
+    fn parallel_build_is_correct_and_independent_of_threads() {
+        let mut rnd = uniforms(99u64);
         let n = 5 * PARALLEL_BUILD_MIN;
         let spheres: Vec<(DVec3, f64)> =
             (0..n).map(|_| (DVec3::new(rnd(), rnd(), rnd()) * 20.0 - 10.0, 0.02 + 0.05 * rnd())).collect();
@@ -1164,11 +1168,7 @@ mod tests {
     /// tree on one and two threads.
     #[test]
     fn clustered_build_is_correct_and_independent_of_threads() {
-        let mut state = 5u64;
-        let mut rnd = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((state >> 11) as f64) / (1u64 << 53) as f64
-        };
+        let mut rnd = uniforms(5u64);
         let spheres: Vec<(DVec3, f64)> =
             (0..3000).map(|_| (DVec3::new(rnd(), rnd(), rnd()) * 10.0 - 5.0, 0.02 + 0.3 * rnd())).collect();
         let boxes: Vec<Aabb> = spheres.iter().map(|&(c, r)| Aabb::sphere(c, r)).collect();
@@ -1257,11 +1257,7 @@ mod tests {
     /// closest and any hit against brute force on both SIMD levels.
     #[test]
     fn small_trees_of_every_width_match_brute_force() {
-        let mut state = 777u64;
-        let mut rnd = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((state >> 11) as f64) / (1u64 << 53) as f64
-        };
+        let mut rnd = uniforms(777u64);
         let mut widths = [0; WIDTH + 1];
         let mut hits = 0;
         for n in 1..=60 {
@@ -1298,11 +1294,7 @@ mod tests {
 
     #[test]
     fn finds_the_nearest_of_many_random_spheres_like_brute_force() {
-        let mut state = 12345u64;
-        let mut rnd = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((state >> 11) as f64) / (1u64 << 53) as f64
-        };
+        let mut rnd = uniforms(12345u64);
         let spheres: Vec<(DVec3, f64)> =
             (0..500).map(|_| (DVec3::new(rnd(), rnd(), rnd()) * 10.0 - 5.0, 0.05 + 0.3 * rnd())).collect();
         let bounds: Vec<Aabb> = spheres.iter().map(|&(c, r)| Aabb::sphere(c, r)).collect();
@@ -1354,11 +1346,7 @@ mod tests {
 
     #[test]
     fn small_subtrees_are_single_leaves_and_every_primitive_is_in_one() {
-        let mut state = 7u64;
-        let mut rnd = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((state >> 11) as f64) / (1u64 << 53) as f64
-        };
+        let mut rnd = uniforms(7u64);
         for n in [9, 40, 500, 5000] {
             let bounds: Vec<Aabb> =
                 (0..n).map(|_| Aabb::sphere(DVec3::new(rnd(), rnd(), rnd()) * 10.0, 0.01 + 0.3 * rnd())).collect();

@@ -92,6 +92,16 @@ fn main() {
         default_hook(info);
     }));
     let cli = Cli::parse();
+    #[cfg(fiberlab_stats)]
+    struct PrintStats;
+    #[cfg(fiberlab_stats)]
+    impl Drop for PrintStats {
+        fn drop(&mut self) {
+            fiberlab_render::bvh::stats::print();
+        }
+    }
+    #[cfg(fiberlab_stats)]
+    let _stats = PrintStats;
     let result = match &cli.command {
         Command::Check(a) => check::run(a),
         Command::Models(a) => models::run(a),

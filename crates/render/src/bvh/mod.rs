@@ -1,21 +1,34 @@
-//! Rays, axis-aligned boxes and a bounding volume hierarchy (binned SAH build).
+//! Rays, axis-aligned boxes and a bounding volume hierarchy (binned SAH build), with nodes
+//! that box their children along the world axes or, for hair, along each child's own strands.
 //!
-//! The hierarchy is generic: it is built over a slice of boxes and reports, during traversal,
-//! the indices of the boxes whose leaves the ray reaches; the caller intersects the actual
-//! primitive and shrinks the ray's `t_max`. Primitive indices are `u32`.
+//! The hierarchy is generic: it is built over build records — boxes, or segments with a reach
+//! around them ([`BuildPrim`]) — and reports, during traversal, the indices of the records whose
+//! leaves the ray reaches; the caller intersects the actual primitive and shrinks the ray's
+//! `t_max`. Primitive indices are `u32`.
 //!
-//! Build: top-down binary tree, 16 centroid bins per axis, surface-area heuristic with
-//! traversal cost 1 and intersection cost 1 (Wald 2007, "On fast construction of SAH-based
-//! bounding volume hierarchies"); leaves hold at most [`MAX_LEAF`] primitives. Large subtrees
-//! are built in parallel (rayon); the tree is the same for any thread count.
+//! Build: top-down binary tree by the surface-area heuristic with traversal cost 1 and
+//! intersection cost 1 (Wald 2007, "On fast construction of SAH-based bounding volume
+//! hierarchies"): 16 centroid bins on each of the three axes in one pass over the records (the
+//! best of the three; binning the widest axis alone cost 2 % more render instructions on the
+//! peer scene), and for nodes of at most [`SWEEP_MAX`] records the exact sweep over their
+//! order along each axis. Leaves hold at most [`MAX_LEAF`] primitives. Large subtrees are built
+//! in parallel (rayon); the tree is the same for any thread count.
 //!
 //! Layout: the binary tree is collapsed into an 8-wide tree (each node pulls up the children of
 //! its largest-area interior children until it has eight; Wald et al. 2008, "Getting rid of
-//! packets"). A node is two 64-byte cache lines holding its eight child boxes quantized to 8
-//! bits on the node's grid, rounded outward, as structure of arrays, so one ray tests all eight
-//! with the same instructions (two halves of four `f32` lanes, or eight AVX2 lanes where the CPU
-//! has them: [`crate::simd`]); traversal visits the hit children nearest first and hands the
-//! caller a leaf at a time.
+//! packets"). A node is one of two kinds, chosen per node by the surface-area heuristic
+//! ([`CollapseInput::oriented_plan`]):
+//! * axis-aligned, two 64-byte cache lines holding its eight child boxes quantized to 8 bits on
+//!   the node's grid, rounded outward, as structure of arrays, so one ray tests all eight with
+//!   the same instructions (two halves of four `f32` lanes, or eight AVX2 lanes where the CPU
+//!   has them: [`crate::simd`]);
+//! * oriented (module [`oriented`], five cache lines), where each child is boxed in its own
+//!   frame, fitted to its segments: the ray is rotated per child in the same eight lanes (Woop
+//!   et al. 2014, "Exploiting Local Orientation Similarity for Efficient Ray Traversal of Hair
+//!   and Fur"). It is made where boxing the children each in its best frame (its own or the
+//!   world's) lowers their `Σ n A` below [`ORIENTED_NODE_GAIN`] of the axis-aligned boxes'.
+//!
+//! Traversal visits the hit children nearest first and hands the caller a leaf at a time.
 //!
 //! Why eight: a walk's cost is per-visit control (ordering the hit children, stack traffic),
 //! and eight children per node cut the visits by a third against four (peer scene: 25.1 → 16.7
@@ -28,9 +41,45 @@
 //! default head 243.9 → 137.4 bytes per segment (4-wide: 204.8), 3 % fewer render
 //! instructions on the peer scene, the same image.
 
+mod oriented;
+
+/// Walk counters for measurements (`RUSTFLAGS="--cfg fiberlab_stats"`; printed at exit).
+#[cfg(fiberlab_stats)]
+#[allow(missing_docs)]
+pub mod stats {
+    use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+    pub static C: [AtomicU64; 12] = [const { AtomicU64::new(0) }; 12];
+    pub const NAMES: [&str; 12] = [
+        "closest rays",
+        "closest aabb visits",
+        "closest obb visits",
+        "closest leaves",
+        "closest candidates",
+        "closest exact hits",
+        "any rays",
+        "any aabb visits",
+        "any obb visits",
+        "any leaves",
+        "any candidates",
+        "any exact hits",
+    ];
+    #[inline(always)]
+    pub fn add(i: usize, n: u64) {
+        C[i].fetch_add(n, Relaxed);
+    }
+    pub fn print() {
+        let v: Vec<u64> = C.iter().map(|c| c.load(Relaxed)).collect();
+        for (k, n) in NAMES.iter().enumerate() {
+            let per = if k < 6 { v[0] } else { v[6] };
+            eprintln!("{n:>22}: {:>12} ({:.2} per ray)", v[k], v[k] as f64 / per.max(1) as f64);
+        }
+    }
+}
+
 use crate::simd::{Lanes, Portable, RowChoice, SimdLevel, SlabTerms};
 use fiberlab_math::DVec3;
-use glam::{Vec3, Vec4};
+use glam::{Vec3, Vec3A, Vec4};
+use oriented::{OrientedChild, OrientedNode};
 
 /// A ray `o + t·d` restricted to `t_min < t < t_max`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -96,7 +145,6 @@ const PARALLEL_BUILD_MIN: usize = 20_000;
 
 /// Most primitives in one leaf.
 pub const MAX_LEAF: usize = 8;
-const BINS: usize = 16;
 
 /// A binary build node: an outward-rounded `f32` box; interior nodes have `count == 0`, their
 /// first child follows them and `offset` is the second child; leaves list `count` primitives
@@ -129,13 +177,16 @@ struct WideNode {
 
 const _: () = assert!(std::mem::size_of::<WideNode>() == 128, "a wide node is two cache lines");
 
-/// A child reference packed in a `u32`: the top 4 bits hold the leaf size (0: interior node,
-/// [`EMPTY_SLOT`]: unused slot), the low 28 bits the node index or the leaf's first primitive.
+/// A child reference packed in a `u32`: the top 4 bits hold the leaf size (0: axis-aligned
+/// interior node, [`ORIENTED`]: oriented interior node, [`EMPTY_SLOT`]: unused slot), the low 28
+/// bits the node index (in the list of its kind) or the leaf's first primitive.
 struct ChildRef;
 
 /// Leaf-size value of an unused child slot.
 const EMPTY_SLOT: u32 = 15;
-const _: () = assert!((MAX_LEAF as u32) < EMPTY_SLOT, "leaf sizes must fit below EMPTY_SLOT");
+/// Leaf-size value of a reference to an oriented node ([`OrientedNode`]).
+const ORIENTED: u32 = 14;
+const _: () = assert!((MAX_LEAF as u32) < ORIENTED, "leaf sizes must fit below ORIENTED");
 /// The whole reference of an unused slot (leaf size [`EMPTY_SLOT`], index 0).
 const EMPTY_REF: u32 = EMPTY_SLOT << 28;
 /// Primitive offsets and node indices must fit below this.
@@ -156,6 +207,54 @@ impl ChildRef {
     #[inline(always)]
     fn index(r: u32) -> u32 {
         r & (MAX_REF - 1)
+    }
+
+    /// True for a reference to an interior node of either kind.
+    #[inline(always)]
+    fn is_node(r: u32) -> bool {
+        let c = Self::count(r);
+        c == 0 || c == ORIENTED
+    }
+
+    /// `r` with node indices moved by `nodes` (axis-aligned) or `oriented`, and leaves' first
+    /// primitives by `prims` (a subtree numbered from 0 appended behind others).
+    fn shift(r: u32, nodes: u32, oriented: u32, prims: u32) -> u32 {
+        match Self::count(r) {
+            EMPTY_SLOT => r,
+            0 => Self::pack(0, Self::index(r) + nodes),
+            ORIENTED => Self::pack(ORIENTED, Self::index(r) + oriented),
+            n => Self::pack(n, Self::index(r) + prims),
+        }
+    }
+}
+
+/// The wide nodes of a tree, of both kinds.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct WideNodes {
+    aabb: Vec<WideNode>,
+    oriented: Vec<OrientedNode>,
+}
+
+impl WideNodes {
+    /// Appends `other`, whose node references are numbered from 0 among its own nodes and whose
+    /// leaves start at primitive `prims` less than their place here; returns how a reference of
+    /// `other` is moved ([`ChildRef::shift`]'s arguments).
+    fn append(&mut self, other: WideNodes, prims: u32) -> (u32, u32, u32) {
+        let shift = (self.aabb.len() as u32, self.oriented.len() as u32, prims);
+        let moved = |c: &mut [u32; WIDTH]| *c = c.map(|r| ChildRef::shift(r, shift.0, shift.1, shift.2));
+        self.aabb.extend(other.aabb.into_iter().map(|mut n| {
+            moved(&mut n.child);
+            n
+        }));
+        self.oriented.extend(other.oriented.into_iter().map(|mut n| {
+            moved(&mut n.child);
+            n
+        }));
+        shift
+    }
+
+    fn bytes(&self) -> usize {
+        self.aabb.len() * std::mem::size_of::<WideNode>() + self.oriented.len() * std::mem::size_of::<OrientedNode>()
     }
 }
 
@@ -218,12 +317,20 @@ impl Stack {
 }
 
 /// A bounding volume hierarchy over boxes.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Bvh {
-    nodes: Vec<WideNode>,
+    nodes: WideNodes,
+    /// The root's [`ChildRef`] ([`EMPTY_REF`] for an empty tree).
+    root: u32,
     prims: Vec<u32>,
     /// The instruction set of the node tests ([`SimdLevel::best`] when built).
     simd: SimdLevel,
+}
+
+impl Default for Bvh {
+    fn default() -> Self {
+        Self { nodes: WideNodes::default(), root: EMPTY_REF, prims: Vec::new(), simd: SimdLevel::best() }
+    }
 }
 
 fn round_down(x: f64) -> f32 {
@@ -236,14 +343,17 @@ fn round_up(x: f64) -> f32 {
     if f64::from(f) < x { f.next_up() } else { f }
 }
 
-/// A primitive during the build: its outward-rounded `f32` box and the index that traversal
-/// reports for it (several boxes may share one index: pieces of one shape). The records
+/// A primitive during the build: a segment `p0 → p1` in `f32` with a reach around it (every
+/// point of the primitive lies within `reach` of the segment, the rounding of the `f32` values
+/// and of the box arithmetic included), and the index that traversal reports for it. A box is
+/// the segment from its lower to its upper corner with no reach. Its axis-aligned box is that of
+/// the two end balls; oriented boxes ([`oriented`]) follow the segment. Two SIMD lanes of four:
+/// `a` = (`p0`, reach), `b` = (`p1`, index as `f32` bits, never computed with). The records
 /// themselves are partitioned (sequential memory traffic, no indirection).
 #[derive(Clone, Copy, Debug)]
 pub struct BuildPrim {
-    min: Vec3,
-    index: u32,
-    max: Vec3,
+    a: Vec4,
+    b: Vec4,
 }
 
 impl BuildPrim {
@@ -251,36 +361,86 @@ impl BuildPrim {
     #[must_use]
     pub fn new(b: &Aabb, index: u32) -> Self {
         let round = |v: DVec3, f: fn(f64) -> f32| Vec3::new(f(v.x), f(v.y), f(v.z));
-        Self { min: round(b.min, round_down), index, max: round(b.max, round_up) }
+        Self::of(round(b.min, round_down), round(b.max, round_up), 0.0, index)
     }
 
-    fn centroid(&self) -> Vec3 {
-        0.5 * (self.min + self.max)
+    /// The record of everything within `reach` of the segment `p0 → p1`, reported as `index`.
+    /// The reach is enlarged to cover rounding the ends to `f32` and the `f32` box arithmetic
+    /// (a few ulps of the coordinates), and by a relative 10⁻⁶.
+    #[must_use]
+    pub fn segment(p0: DVec3, p1: DVec3, reach: f64, index: u32) -> Self {
+        let m = p0.abs().max_element().max(p1.abs().max_element());
+        let reach = reach * (1.0 + 1e-6) + 4.0 * f64::from(f32::EPSILON) * (m + reach);
+        Self::of(p0.as_vec3(), p1.as_vec3(), round_up(reach), index)
+    }
+
+    fn of(p0: Vec3, p1: Vec3, reach: f32, index: u32) -> Self {
+        Self { a: p0.extend(reach), b: p1.extend(f32::from_bits(index)) }
+    }
+
+    /// The index traversal reports.
+    #[inline(always)]
+    fn index(&self) -> u32 {
+        self.b.w.to_bits()
+    }
+
+    #[inline(always)]
+    fn p0(&self) -> Vec3A {
+        Vec3A::from_vec4(self.a)
+    }
+
+    #[inline(always)]
+    fn p1(&self) -> Vec3A {
+        Vec3A::from_vec4(self.b)
+    }
+
+    #[inline(always)]
+    fn reach(&self) -> f32 {
+        self.a.w
+    }
+
+    /// Lower corner of the axis-aligned box.
+    #[inline(always)]
+    fn min(&self) -> Vec3A {
+        self.p0().min(self.p1()) - Vec3A::splat(self.reach())
+    }
+
+    /// Upper corner of the axis-aligned box.
+    #[inline(always)]
+    fn max(&self) -> Vec3A {
+        self.p0().max(self.p1()) + Vec3A::splat(self.reach())
+    }
+
+    #[inline(always)]
+    fn centroid(&self) -> Vec3A {
+        0.5 * (self.p0() + self.p1())
     }
 }
 
 /// An `f32` box for the build.
 #[derive(Clone, Copy, Debug)]
 struct FBox {
-    min: Vec3,
-    max: Vec3,
+    min: Vec3A,
+    max: Vec3A,
 }
 
 impl FBox {
-    const EMPTY: Self = Self { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY };
+    const EMPTY: Self = Self { min: Vec3A::INFINITY, max: Vec3A::NEG_INFINITY };
 
-    fn grow(&mut self, min: Vec3, max: Vec3) {
+    #[inline(always)]
+    fn grow(&mut self, min: Vec3A, max: Vec3A) {
         self.min = self.min.min(min);
         self.max = self.max.max(max);
     }
 
+    #[inline(always)]
     fn union(self, o: Self) -> Self {
         Self { min: self.min.min(o.min), max: self.max.max(o.max) }
     }
 
     /// Half the surface area (0 for the empty box).
     fn half_area(&self) -> f32 {
-        let e = (self.max - self.min).max(Vec3::ZERO);
+        let e = (self.max - self.min).max(Vec3A::ZERO);
         e.x * e.y + e.y * e.z + e.z * e.x
     }
 
@@ -288,7 +448,7 @@ impl FBox {
     fn of(prims: &[BuildPrim]) -> (Self, Self) {
         let (mut b, mut c) = (Self::EMPTY, Self::EMPTY);
         for p in prims {
-            b.grow(p.min, p.max);
+            b.grow(p.min(), p.max());
             let m = p.centroid();
             c.grow(m, m);
         }
@@ -298,11 +458,156 @@ impl FBox {
 
 struct Builder {
     nodes: Vec<Node>,
-    /// Subtrees of at most this many records are leaves without a split: 2, or the cluster
-    /// size for the tree over clusters ([`Bvh::build_grouped`]).
+    /// Subtrees of at most this many records are leaves without a split: 2, or the cluster size
+    /// for the tree over clusters ([`Bvh::build_grouped`]).
     min_leaf: usize,
     /// Most records in one leaf: [`MAX_LEAF`], or the cluster size.
     max_leaf: usize,
+}
+
+/// Centroid bins per axis of the binned SAH build.
+const BINS: usize = 16;
+
+/// A split of a node's records found by binning: records whose centroid falls in a bin before
+/// `bin` along `axis` go left; the two sides' boxes and centroid boxes.
+#[derive(Clone, Copy, Debug)]
+struct Split {
+    /// `Σ n A` over both sides.
+    cost: f32,
+    axis: usize,
+    bin: usize,
+    lo: f32,
+    scale: f32,
+    sides: [(FBox, FBox); 2],
+}
+
+impl Split {
+    /// The bin of `p` along the split's axis, as the binning computed it.
+    #[inline(always)]
+    fn bin_of(&self, p: &BuildPrim) -> usize {
+        (((p.centroid()[self.axis] - self.lo) * self.scale) as usize).min(BINS - 1)
+    }
+}
+
+/// The cheapest split of `prims` (centroid box `cb`) by binned SAH along each of the three
+/// axes, in one pass over the records; `None` when the centroids do not spread or no split has
+/// records on both sides.
+fn binned_split(prims: &[BuildPrim], cb: FBox) -> Option<Split> {
+    let extent = cb.max - cb.min;
+    let spread = extent.cmpgt(Vec3A::ZERO) & extent.is_finite_mask();
+    if !spread.any() {
+        return None;
+    }
+    let scale = Vec3A::select(spread, Vec3A::splat(BINS as f32) / extent, Vec3A::ZERO);
+    let mut boxes = [[FBox::EMPTY; BINS]; 3];
+    let mut centroids = [[FBox::EMPTY; BINS]; 3];
+    let mut counts = [[0u32; BINS]; 3];
+    let last = Vec3A::splat((BINS - 1) as f32);
+    for p in prims {
+        let (min, max, c) = (p.min(), p.max(), p.centroid());
+        // As `Split::bin_of` computes it, lane by lane.
+        let k = ((c - cb.min) * scale).min(last);
+        for axis in 0..3 {
+            let k = k[axis] as usize;
+            boxes[axis][k].grow(min, max);
+            centroids[axis][k].grow(c, c);
+            counts[axis][k] += 1;
+        }
+    }
+    let mut best: Option<Split> = None;
+    for axis in (0..3).filter(|&a| spread.test(a)) {
+        let (cost, bin) = best_bin_split(&boxes[axis], &counts[axis]);
+        if bin > 0 && best.is_none_or(|b| cost < b.cost) {
+            let union = |b: &[FBox]| b.iter().fold(FBox::EMPTY, |a, &b| a.union(b));
+            let sides = [
+                (union(&boxes[axis][..bin]), union(&centroids[axis][..bin])),
+                (union(&boxes[axis][bin..]), union(&centroids[axis][bin..])),
+            ];
+            best = Some(Split { cost, axis, bin, lo: cb.min[axis], scale: scale[axis], sides });
+        }
+    }
+    best
+}
+
+/// Nodes of at most this many records are split by the exact sweep ([`sweep_split`]).
+const SWEEP_MAX: usize = 24;
+
+/// The cheapest split of a few records by the surface-area heuristic, over every split of
+/// their order along each axis (by centroid): its cost `Σ n A` and the size of the left side;
+/// `prims` are left in the order of that split. `None` when no axis orders them.
+fn sweep_split(prims: &mut [BuildPrim]) -> Option<(f32, usize)> {
+    let n = prims.len();
+    debug_assert!((2..=SWEEP_MAX).contains(&n));
+    let mut best: Option<(f32, usize, usize)> = None;
+    let mut boxes = [FBox::EMPTY; SWEEP_MAX];
+    let mut centroids = [Vec3A::ZERO; SWEEP_MAX];
+    for (k, p) in prims.iter().enumerate() {
+        boxes[k] = FBox { min: p.min(), max: p.max() };
+        centroids[k] = p.centroid();
+    }
+    // Per axis, the records' order by centroid: (centroid bits made orderable, record).
+    let mut orders = [[(0u32, 0u8); SWEEP_MAX]; 3];
+    let mut right = [0.0f32; SWEEP_MAX];
+    for (axis, order) in orders.iter_mut().enumerate() {
+        for k in 0..n {
+            order[k] = (orderable(centroids[k][axis]), k as u8);
+        }
+        order[..n].sort_unstable();
+        let mut acc = FBox::EMPTY;
+        for i in (1..n).rev() {
+            acc = acc.union(boxes[order[i].1 as usize]);
+            right[i] = acc.half_area() * (n - i) as f32;
+        }
+        let mut acc = FBox::EMPTY;
+        for i in 1..n {
+            acc = acc.union(boxes[order[i - 1].1 as usize]);
+            let cost = acc.half_area() * i as f32 + right[i];
+            if best.is_none_or(|b| cost < b.0) {
+                best = Some((cost, axis, i));
+            }
+        }
+    }
+    let (cost, axis, mid) = best?;
+    let copy: [BuildPrim; SWEEP_MAX] = std::array::from_fn(|k| prims[k.min(n - 1)]);
+    for (p, &(_, k)) in prims.iter_mut().zip(&orders[axis][..n]) {
+        *p = copy[k as usize];
+    }
+    Some((cost, mid))
+}
+
+/// The bits of `x` as an unsigned integer of the same order (for finite `x` and infinities).
+fn orderable(x: f32) -> u32 {
+    let b = x.to_bits();
+    if b >> 31 == 1 { !b } else { b | 1 << 31 }
+}
+
+/// The cheapest split between bins by the surface-area heuristic: its cost `Σ n A` and the
+/// first bin of the right side (0: no split has records on both sides).
+fn best_bin_split(bin_box: &[FBox; BINS], bin_count: &[u32; BINS]) -> (f32, usize) {
+    let mut right_area = [0.0f32; BINS];
+    let (mut acc, mut n) = (FBox::EMPTY, 0);
+    let mut right_count = [0u32; BINS];
+    for i in (1..BINS).rev() {
+        acc = acc.union(bin_box[i]);
+        n += bin_count[i];
+        right_area[i] = acc.half_area();
+        right_count[i] = n;
+    }
+    let (mut best_cost, mut best_split) = (f32::INFINITY, 0);
+    let (mut acc, mut n) = (FBox::EMPTY, 0);
+    for i in 1..BINS {
+        acc = acc.union(bin_box[i - 1]);
+        n += bin_count[i - 1];
+        if n == 0 || right_count[i] == 0 {
+            continue;
+        }
+        let cost = acc.half_area() * n as f32 + right_area[i] * right_count[i] as f32;
+        if cost < best_cost {
+            best_cost = cost;
+            best_split = i;
+        }
+    }
+    (best_cost, best_split)
 }
 
 impl Builder {
@@ -312,91 +617,56 @@ impl Builder {
     }
 
     /// Builds the subtree over `prims` (which starts at `first` in the final order), whose
-    /// box and centroid box are `bounds` and `cb`.
+    /// box and centroid box are `bounds` and `cb`: binned SAH along all three axes (traversal
+    /// cost 1, intersection cost 1 per record).
     fn build(&mut self, prims: &mut [BuildPrim], first: usize, bounds: FBox, cb: FBox) {
         let node = self.push_node(bounds);
+        let count = prims.len() as u32;
         let leaf = |nodes: &mut Vec<Node>| {
             nodes[node].offset = first as u32;
-            nodes[node].count = prims.len() as u32;
+            nodes[node].count = count;
         };
         if prims.len() <= self.min_leaf {
             return leaf(&mut self.nodes);
         }
-        let extent = cb.max - cb.min;
-        let axis = if extent.x >= extent.y && extent.x >= extent.z {
-            0
-        } else if extent.y >= extent.z {
-            1
-        } else {
-            2
-        };
-        if extent[axis] <= 0.0 || !extent[axis].is_finite() {
-            if prims.len() <= self.max_leaf {
+        if prims.len() <= SWEEP_MAX {
+            // Few records: the exact sweep (sorted along each axis) instead of bins.
+            let Some((cost, mid)) = sweep_split(prims) else {
+                if prims.len() <= self.max_leaf {
+                    return leaf(&mut self.nodes);
+                }
+                let mid = prims.len() / 2;
+                return self.split_children(node, prims, mid, first);
+            };
+            let split_cost = 1.0 + cost / bounds.half_area().max(f32::MIN_POSITIVE);
+            if split_cost >= prims.len() as f32 && prims.len() <= self.max_leaf {
                 return leaf(&mut self.nodes);
             }
-            let mid = prims.len() / 2;
             return self.split_children(node, prims, mid, first);
         }
-        // Binned SAH on the widest centroid axis.
-        let (lo, scale) = (cb.min[axis], BINS as f32 / extent[axis]);
-        let bin_of = |p: &BuildPrim| (((p.centroid()[axis] - lo) * scale) as usize).min(BINS - 1);
-        let mut bin_box = [FBox::EMPTY; BINS];
-        let mut bin_centroids = [FBox::EMPTY; BINS];
-        let mut bin_count = [0usize; BINS];
-        for p in prims.iter() {
-            let b = bin_of(p);
-            bin_box[b].grow(p.min, p.max);
-            let c = p.centroid();
-            bin_centroids[b].grow(c, c);
-            bin_count[b] += 1;
-        }
-        let mut right_area = [0.0f32; BINS];
-        let (mut acc, mut n) = (FBox::EMPTY, 0);
-        let mut right_count = [0usize; BINS];
-        for i in (1..BINS).rev() {
-            acc = acc.union(bin_box[i]);
-            n += bin_count[i];
-            right_area[i] = acc.half_area();
-            right_count[i] = n;
-        }
-        let (mut best_cost, mut best_split) = (f32::INFINITY, 0);
-        let (mut acc, mut n) = (FBox::EMPTY, 0);
-        for i in 1..BINS {
-            acc = acc.union(bin_box[i - 1]);
-            n += bin_count[i - 1];
-            if n == 0 || right_count[i] == 0 {
-                continue;
-            }
-            let cost = acc.half_area() * n as f32 + right_area[i] * right_count[i] as f32;
-            if cost < best_cost {
-                best_cost = cost;
-                best_split = i;
-            }
-        }
-        let leaf_cost = prims.len() as f32;
-        let split_cost = 1.0 + best_cost / bounds.half_area().max(f32::MIN_POSITIVE);
-        if best_split == 0 || (split_cost >= leaf_cost && prims.len() <= self.max_leaf) {
+        let Some(split) = binned_split(prims, cb) else {
+            // The centroids do not spread, or all fall in one bin: a leaf, or halves by the
+            // median centroid along the widest axis.
             if prims.len() <= self.max_leaf {
                 return leaf(&mut self.nodes);
             }
-            let mid = prims.len() / 2;
+            let (mid, axis) = (prims.len() / 2, (cb.max - cb.min).max_position());
             prims.select_nth_unstable_by(mid, |a, b| a.centroid()[axis].total_cmp(&b.centroid()[axis]));
             return self.split_children(node, prims, mid, first);
+        };
+        let split_cost = 1.0 + split.cost / bounds.half_area().max(f32::MIN_POSITIVE);
+        if split_cost >= prims.len() as f32 && prims.len() <= self.max_leaf {
+            return leaf(&mut self.nodes);
         }
         let mut mid = 0;
         for i in 0..prims.len() {
-            if bin_of(&prims[i]) < best_split {
+            if split.bin_of(&prims[i]) < split.bin {
                 prims.swap(i, mid);
                 mid += 1;
             }
         }
-        // The children's boxes are the unions of their bins' (no pass over the records).
-        let union = |boxes: &[FBox]| boxes.iter().fold(FBox::EMPTY, |a, &b| a.union(b));
-        let sides = [
-            (union(&bin_box[..best_split]), union(&bin_centroids[..best_split])),
-            (union(&bin_box[best_split..]), union(&bin_centroids[best_split..])),
-        ];
-        self.split_children_with(node, prims, mid, first, sides);
+        debug_assert!(mid > 0 && mid < prims.len(), "a split with records on both sides");
+        self.split_children_with(node, prims, mid, first, split.sides);
     }
 
     /// Splits at `mid` and builds both sides (their boxes computed here).
@@ -469,32 +739,40 @@ const NO_SLOT: Slot = (FBox::EMPTY, EMPTY_REF);
 /// [`Joint::Root`], the root's two children for [`Joint::Children`]; a leaf root is one slot).
 struct SubTree {
     bounds: FBox,
-    nodes: Vec<WideNode>,
+    nodes: WideNodes,
     prims: Vec<u32>,
     slots: [Slot; 2],
 }
 
+/// Which boxes a tree's nodes may use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Boxes {
+    /// Axis-aligned boxes only (for primitives of any shape).
+    Aligned,
+    /// Axis-aligned boxes and, where the surface-area heuristic prefers them, boxes oriented
+    /// along the primitives' segments ([`BuildPrim::segment`], module [`oriented`]).
+    Oriented,
+}
+
 impl SubTree {
     /// Builds the tree over `records` (consumed); `None` when there are none.
-    fn build(mut records: Vec<BuildPrim>, joint: Joint) -> Option<Self> {
+    fn build(mut records: Vec<BuildPrim>, joint: Joint, boxes: Boxes) -> Option<Self> {
         if records.is_empty() {
             return None;
         }
         let mut b = Builder { nodes: Vec::with_capacity(2 * records.len() / 3 + 1), min_leaf: 2, max_leaf: MAX_LEAF };
         let (bounds, cb) = FBox::of(&records);
         b.build(&mut records, 0, bounds, cb);
-        let prims = records.iter().map(|r| r.index).collect();
-        drop(records);
+        let prims = records.iter().map(BuildPrim::index).collect();
+        if boxes == Boxes::Aligned {
+            records = Vec::new();
+        }
         let binary = b.nodes;
-        let mut nodes = Vec::new();
+        let input = CollapseInput { binary: &binary, records: &records, leaf: &plain_leaf };
+        let mut nodes = WideNodes::default();
         // The slot of the binary subtree at `i` (spanning `i..end`), its wide nodes appended.
         let mut slot = |i: usize, end: usize| -> Slot {
-            let r = if binary[i].count > 0 {
-                plain_leaf(&binary[i])
-            } else {
-                nodes.reserve((end - i) / 3 + 1);
-                ChildRef::pack(0, collapse(&binary, i, end, &plain_leaf, &mut nodes))
-            };
+            let r = if binary[i].count > 0 { plain_leaf(&binary[i]) } else { collapse(&input, i, end, &mut nodes) };
             (binary[i].bounds, r)
         };
         let slots = if joint == Joint::Root || binary[0].count > 0 {
@@ -519,8 +797,14 @@ impl Bvh {
     /// wide nodes are made); traversal reports each record's index.
     #[must_use]
     pub fn build_records(records: Vec<BuildPrim>) -> Self {
+        Self::build_records_with(records, Boxes::Aligned)
+    }
+
+    /// [`Bvh::build_records`] with the nodes' boxes chosen from `boxes`.
+    #[must_use]
+    pub fn build_records_with(records: Vec<BuildPrim>, boxes: Boxes) -> Self {
         assert!(records.len() < u32::MAX as usize, "too many primitives for u32 indices");
-        SubTree::build(records, Joint::Root).map_or_else(Self::default, Self::from_one)
+        SubTree::build(records, Joint::Root, boxes).map_or_else(Self::default, Self::from_one)
     }
 
     /// Builds the hierarchy over the records that `pieces(index, out)` appends to `out` for
@@ -532,39 +816,44 @@ impl Bvh {
     /// [`CLUSTER_MAX`] items this is [`Bvh::build_records`] over all the pieces.
     #[must_use]
     pub fn build_grouped(items: Vec<BuildPrim>, pieces: impl Fn(u32, &mut Vec<BuildPrim>) + Sync) -> Self {
-        Self::build_grouped_in(items, &pieces, CLUSTER_MAX)
+        Self::build_grouped_in(items, &pieces, CLUSTER_MAX, Boxes::Aligned)
     }
 
-    /// [`Bvh::build_grouped`] with clusters of at most `cluster_max` items (≥ 2).
-    pub(crate) fn build_grouped_in(items: Vec<BuildPrim>, pieces: &Pieces<'_>, cluster_max: usize) -> Self {
+    /// [`Bvh::build_grouped`] with clusters of at most `cluster_max` items (≥ 2) and the
+    /// clusters' nodes' boxes chosen from `boxes` (the tree over clusters is axis-aligned).
+    pub(crate) fn build_grouped_in(
+        items: Vec<BuildPrim>,
+        pieces: &Pieces<'_>,
+        cluster_max: usize,
+        boxes: Boxes,
+    ) -> Self {
         assert!(cluster_max >= 2, "clusters need at least two items");
         assert!(items.len() < u32::MAX as usize, "too many primitives for u32 indices");
         if items.len() <= cluster_max {
-            let mut records = Vec::new();
+            let mut records = Vec::with_capacity(8 * items.len());
             for it in &items {
-                pieces(it.index, &mut records);
+                pieces(it.index(), &mut records);
             }
             drop(items);
-            return Self::build_records(records);
+            return Self::build_records_with(records, boxes);
         }
-        Self::build_clustered(items, pieces, cluster_max)
+        Self::build_clustered(items, pieces, cluster_max, boxes)
     }
 
-    /// A hierarchy of one subtree (its root becomes node 0).
+    /// A hierarchy of one subtree.
     fn from_one(t: SubTree) -> Self {
-        let nodes = if t.nodes.is_empty() {
-            // A single leaf: one wide node holding it.
-            let root = t.slots[0].1;
-            let leaf = Node { bounds: t.bounds, offset: 0, count: ChildRef::count(root) };
-            vec![WideNode::new(&[(&leaf, root)])]
-        } else {
-            t.nodes
-        };
-        Self { nodes, prims: t.prims, simd: SimdLevel::best() }
+        let root = t.slots[0].1;
+        if ChildRef::is_node(root) {
+            return Self { nodes: t.nodes, root, prims: t.prims, simd: SimdLevel::best() };
+        }
+        // A single leaf: one wide node holding it.
+        let leaf = Node { bounds: t.bounds, offset: 0, count: ChildRef::count(root) };
+        let nodes = WideNodes { aabb: vec![WideNode::new(&[(&leaf, root)])], oriented: Vec::new() };
+        Self { nodes, root: ChildRef::pack(0, 0), prims: t.prims, simd: SimdLevel::best() }
     }
 
     /// The clustered build of [`Bvh::build_grouped`] (more than `cluster_max` items).
-    fn build_clustered(mut items: Vec<BuildPrim>, pieces: &Pieces<'_>, cluster_max: usize) -> Self {
+    fn build_clustered(mut items: Vec<BuildPrim>, pieces: &Pieces<'_>, cluster_max: usize, boxes: Boxes) -> Self {
         use rayon::prelude::*;
         // The top tree over the items, whose leaves are the clusters (item ranges, in order).
         // It keeps the items' boxes: they hold their pieces', so they hold the clusters'.
@@ -573,9 +862,10 @@ impl Bvh {
         builder.build(&mut items, 0, bounds, cb);
         let top = builder.nodes;
         // Only the items' order is needed from here on.
-        let order: Vec<u32> = items.iter().map(|it| it.index).collect();
+        let order: Vec<u32> = items.iter().map(BuildPrim::index).collect();
         drop(items);
         let clusters: Vec<(u32, u32)> = top.iter().filter(|n| n.count > 0).map(|n| (n.offset, n.count)).collect();
+        let items_total = order.len();
         let cluster_of = |leaf: &Node| clusters.partition_point(|&(first, _)| first < leaf.offset);
         // Its wide nodes come first (the root is node 0), then each cluster's, in cluster
         // order. A first pass of its collapse decides how each cluster joins it (this does not
@@ -583,7 +873,7 @@ impl Bvh {
         let mut joints = vec![Joint::Root; clusters.len()];
         let mut top_nodes = Vec::new();
         collapse_top(&top, 0, top.len(), &cluster_of, &mut joints, None, &mut top_nodes);
-        let mut nodes = top_nodes.clone();
+        let mut nodes = WideNodes { aabb: top_nodes.clone(), oriented: Vec::new() };
         let mut prims = Vec::new();
         // Each cluster's slots, moved to their place in the whole tree.
         let mut slots = Vec::with_capacity(clusters.len());
@@ -595,11 +885,12 @@ impl Bvh {
                 .par_iter()
                 .zip(&joints[k * batch..])
                 .map(|(&(first, count), &joint)| {
-                    let mut records = Vec::new();
+                    // Room for up to 8 pieces an item: only the memory written is committed.
+                    let mut records = Vec::with_capacity(8 * count as usize);
                     for &it in &order[first as usize..(first + count) as usize] {
                         pieces(it, &mut records);
                     }
-                    SubTree::build(records, joint)
+                    SubTree::build(records, joint, boxes)
                 })
                 .collect();
             for t in subtrees {
@@ -607,27 +898,29 @@ impl Bvh {
                     slots.push([NO_SLOT; 2]);
                     continue;
                 };
-                let (node_base, prim_base) = (nodes.len() as u32, prims.len() as u32);
                 assert!(prims.len() + t.prims.len() < u32::MAX as usize, "too many primitives for u32 indices");
-                let shift = |r: u32| match ChildRef::count(r) {
-                    EMPTY_SLOT => r,
-                    0 => ChildRef::pack(0, ChildRef::index(r) + node_base),
-                    n => ChildRef::pack(n, ChildRef::index(r) + prim_base),
-                };
-                slots.push(t.slots.map(|(b, r)| (b, shift(r))));
-                nodes.extend(t.nodes.into_iter().map(|mut n| {
-                    n.child = n.child.map(shift);
-                    n
-                }));
+                let (a, o, p) = nodes.append(t.nodes, prims.len() as u32);
+                slots.push(t.slots.map(|(b, r)| (b, ChildRef::shift(r, a, o, p))));
                 prims.extend_from_slice(&t.prims);
             }
+            // The lists grow by the clusters built so far, extrapolated to all of them (a
+            // doubling vector would copy, and for a moment hold, up to twice the tree).
+            let done: usize = clusters[..((k + 1) * batch).min(clusters.len())]
+                .iter()
+                .map(|&(_, c)| c as usize)
+                .sum::<usize>()
+                .max(1);
+            let scale = |len: usize| (len as f64 * (items_total as f64 / done as f64) * 1.05) as usize;
+            nodes.aabb.reserve(scale(nodes.aabb.len()).saturating_sub(nodes.aabb.len()));
+            nodes.oriented.reserve(scale(nodes.oriented.len()).saturating_sub(nodes.oriented.len()));
+            prims.reserve(scale(prims.len()).saturating_sub(prims.len()));
         }
         drop(order);
         top_nodes.clear();
         collapse_top(&top, 0, top.len(), &cluster_of, &mut joints, Some(&slots), &mut top_nodes);
         let count = top_nodes.len();
-        nodes[..count].copy_from_slice(&top_nodes);
-        Self { nodes, prims, simd: SimdLevel::best() }
+        nodes.aabb[..count].copy_from_slice(&top_nodes);
+        Self { nodes, root: ChildRef::pack(0, 0), prims, simd: SimdLevel::best() }
     }
 
     /// The instruction set the walks use.
@@ -653,13 +946,19 @@ impl Bvh {
     /// Number of nodes.
     #[must_use]
     pub fn node_count(&self) -> usize {
-        self.nodes.len()
+        self.nodes.aabb.len() + self.nodes.oriented.len()
+    }
+
+    /// Number of oriented nodes (of [`Bvh::node_count`]).
+    #[must_use]
+    pub fn oriented_node_count(&self) -> usize {
+        self.nodes.oriented.len()
     }
 
     /// Heap bytes used by nodes and primitive indices.
     #[must_use]
     pub fn bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<WideNode>() + self.prims.len() * 4
+        self.nodes.bytes() + self.prims.len() * 4
     }
 
     /// Walks the leaves the ray reaches, nearest-first by box entry, calling
@@ -695,15 +994,18 @@ impl Bvh {
         ray: &Ray,
         mut hit: impl FnMut(&[u32], f64) -> Option<f64>,
     ) -> f64 {
-        if self.nodes.is_empty() {
+        if self.root == EMPTY_REF {
             return ray.t_max;
         }
         let slabs = Slabs::new(ray);
         with_stack(|stack| {
             let mut t_max = ray.t_max;
-            let mut node = 0usize;
+            let mut node = self.root;
+            #[cfg(fiberlab_stats)]
+            stats::add(0, 1);
             loop {
-                let n = &self.nodes[node];
+                #[cfg(fiberlab_stats)]
+                stats::add(if ChildRef::count(node) == 0 { 1 } else { 2 }, 1);
                 // The hit children's (distance, child) keys onto the stack ([`Pending`]), then
                 // ordered there nearest on top (most visits hit one or two children: those take
                 // no sort); go on with the nearest.
@@ -711,7 +1013,13 @@ impl Bvh {
                 let base = stack.len;
                 let keys: &mut [u64; WIDTH] =
                     (&mut stack.items[base..base + WIDTH]).try_into().expect("room for a node's children");
-                let m = slabs.enter_keys(lanes, n, t_max, keys).count_ones() as usize;
+                let index = ChildRef::index(node) as usize;
+                let mask = if ChildRef::count(node) == 0 {
+                    slabs.enter_keys(lanes, &self.nodes.aabb[index], t_max, keys)
+                } else {
+                    slabs.enter_oriented_keys(lanes, &self.nodes.oriented[index], t_max, keys)
+                };
+                let m = mask.count_ones() as usize;
                 if m == 2 {
                     (keys[0], keys[1]) = (keys[0].max(keys[1]), keys[0].min(keys[1]));
                 } else if m > 2 {
@@ -734,11 +1042,13 @@ impl Bvh {
                             }
                         },
                     };
-                    let (count, index) = (ChildRef::count(p.child()) as usize, ChildRef::index(p.child()) as usize);
-                    if count == 0 {
-                        node = index;
+                    if ChildRef::is_node(p.child()) {
+                        node = p.child();
                         break;
                     }
+                    let (count, index) = (ChildRef::count(p.child()) as usize, ChildRef::index(p.child()) as usize);
+                    #[cfg(fiberlab_stats)]
+                    stats::add(3, 1);
                     if let Some(t) = hit(&self.prims[index..index + count], t_max) {
                         t_max = t_max.min(t);
                     }
@@ -764,28 +1074,42 @@ impl Bvh {
     /// [`Bvh::any_leaf`] with the node tests in `lanes` (the caller has dispatched).
     #[inline(always)]
     pub(crate) fn any_leaf_in<L: Lanes>(&self, lanes: L, ray: &Ray, mut hit: impl FnMut(&[u32]) -> bool) -> bool {
-        if self.nodes.is_empty() {
+        if self.root == EMPTY_REF {
             return false;
         }
         let slabs = Slabs::new(ray);
         with_stack(|stack| {
-            let mut node = 0usize;
+            let mut node = self.root;
+            #[cfg(fiberlab_stats)]
+            stats::add(6, 1);
             loop {
-                let n = &self.nodes[node];
-                let (mask, _) = slabs.enter(lanes, n, ray.t_max);
+                #[cfg(fiberlab_stats)]
+                stats::add(if ChildRef::count(node) == 0 { 7 } else { 8 }, 1);
+                let index = ChildRef::index(node) as usize;
+                let (mask, child) = if ChildRef::count(node) == 0 {
+                    let n = &self.nodes.aabb[index];
+                    (slabs.enter(lanes, n, ray.t_max).0, &n.child)
+                } else {
+                    let n = &self.nodes.oriented[index];
+                    (slabs.enter_oriented(lanes, n, ray.t_max), &n.child)
+                };
                 let mut bits = mask;
                 while bits != 0 {
                     let k = bits.trailing_zeros() as usize;
                     bits &= bits - 1;
-                    let (count, index) = (ChildRef::count(n.child[k]) as usize, ChildRef::index(n.child[k]) as usize);
-                    if count == 0 {
-                        stack.push(Pending::new(n.child[k], 0.0));
-                    } else if hit(&self.prims[index..index + count]) {
+                    if ChildRef::is_node(child[k]) {
+                        stack.push(Pending::new(child[k], 0.0));
+                        continue;
+                    }
+                    let (count, index) = (ChildRef::count(child[k]) as usize, ChildRef::index(child[k]) as usize);
+                    #[cfg(fiberlab_stats)]
+                    stats::add(9, 1);
+                    if hit(&self.prims[index..index + count]) {
                         return true;
                     }
                 }
                 match stack.pop() {
-                    Some(p) => node = ChildRef::index(p.child()) as usize,
+                    Some(p) => node = p.child(),
                     None => return false,
                 }
             }
@@ -826,6 +1150,8 @@ fn with_stack<R>(f: impl FnOnce(&mut Stack) -> R) -> R {
 /// A ray prepared for slab tests against quantized `f32` boxes: per axis, which box row
 /// (lower or upper corner) the ray meets first, and the inverse direction.
 struct Slabs {
+    /// Direction in `f32` (oriented nodes rotate it per child).
+    d: Vec3,
     /// Origin, inverse direction and `|inv|` by axis in lanes x, y, z (w: 0).
     o: Vec4,
     inv: Vec4,
@@ -846,6 +1172,7 @@ impl Slabs {
         let d = ray.d.map(|c| if c.abs() < MIN_DIRECTION { MIN_DIRECTION.copysign(c) } else { c });
         let inv = d.recip().as_vec3();
         Self {
+            d: ray.d.as_vec3(),
             o: ray.o.as_vec3().extend(0.0),
             inv: inv.extend(0.0),
             inv_abs: inv.abs().extend(0.0),
@@ -875,6 +1202,21 @@ impl Slabs {
         let base = offset * self.inv;
         let widen = (Vec4::splat(self.slack) + (offset.abs() + scale * 256.0) * (4.0 * f32::EPSILON)) * self.inv_abs;
         SlabTerms { step, lo: base - widen, hi: base + widen, t_min: self.t_min, t_max: t_max as f32 }
+    }
+
+    /// Which of the oriented node's children the ray enters within `(t_min, t_max)` (bit
+    /// mask, unused slots cleared).
+    #[inline(always)]
+    fn enter_oriented(&self, lanes: impl Lanes, n: &OrientedNode, t_max: f64) -> u32 {
+        let terms = n.terms(self.o.truncate(), self.d, self.slack, self.t_min, t_max as f32);
+        lanes.oriented(&n.boxes, &terms).0 & n.used
+    }
+
+    /// [`Slabs::enter_oriented`] with the hit children's keys, as [`Slabs::enter_keys`].
+    #[inline(always)]
+    fn enter_oriented_keys(&self, lanes: impl Lanes, n: &OrientedNode, t_max: f64, keys: &mut [u64; WIDTH]) -> u32 {
+        let terms = n.terms(self.o.truncate(), self.d, self.slack, self.t_min, t_max as f32);
+        lanes.oriented_keys(&n.boxes, &terms, n.used, &n.child, keys)
     }
 
     /// [`Slabs::enter`] with the hit children's [`Pending`] keys in `keys[..m]` (child order;
@@ -1019,13 +1361,93 @@ fn collapse_top(
 /// Binary subtrees of at least this many nodes are collapsed in parallel.
 const PARALLEL_COLLAPSE_MIN: usize = 16_384;
 
+/// What a binary tree is collapsed from: its nodes, the build records in their final order
+/// (for oriented boxes; empty when the tree uses axis-aligned boxes only) and what a binary leaf
+/// becomes.
+struct CollapseInput<'a> {
+    binary: &'a [Node],
+    records: &'a [BuildPrim],
+    leaf: &'a LeafRef<'a>,
+}
+
+/// Children with more primitives than this are not fitted an oriented box (over a large region
+/// hair has no one direction, and the fit would cost a pass over all of them).
+const ORIENTED_FIT_MAX: usize = 64;
+
+/// An oriented node is made when boxing its children each in its own best frame lowers the
+/// children's surface-area cost `Σ nₖ Aₖ` (primitives times half area) below this fraction of
+/// their axis-aligned cost: the oriented test costs more per visit.
+const ORIENTED_NODE_GAIN: f64 = 0.85;
+
+impl CollapseInput<'_> {
+    /// The primitives (a range of `records`) under the binary subtree at `c`.
+    fn prim_range(&self, c: usize) -> std::ops::Range<usize> {
+        let b = self.binary;
+        let (mut first, mut last) = (c, c);
+        while b[first].count == 0 {
+            first += 1;
+        }
+        while b[last].count == 0 {
+            last = b[last].offset as usize;
+        }
+        b[first].offset as usize..(b[last].offset + b[last].count) as usize
+    }
+
+    /// The oriented node over the binary subtrees `slots` (node and end of each), if the
+    /// surface-area heuristic prefers one: its centre, radius and each child's frame and box
+    /// (references left unset).
+    fn oriented_plan(&self, slots: &[(usize, usize)]) -> Option<(Vec3, f32, Vec<OrientedChild>)> {
+        if self.records.is_empty() {
+            return None;
+        }
+        let ranges: Vec<std::ops::Range<usize>> = slots.iter().map(|&(c, _)| self.prim_range(c)).collect();
+        if ranges.iter().all(|r| r.len() > ORIENTED_FIT_MAX) {
+            return None;
+        }
+        let aabb = slots.iter().fold(FBox::EMPTY, |b, &(c, _)| b.union(self.binary[c].bounds));
+        let (lo, hi) = (aabb.min.as_dvec3(), aabb.max.as_dvec3());
+        let center = (0.5 * (lo + hi)).as_vec3();
+        let c = center.as_dvec3();
+        let radius = round_up((c - lo).abs().max((hi - c).abs()).length() * (1.0 + 1e-6));
+        let (mut aligned_cost, mut best_cost) = (0.0, 0.0);
+        let mut children = Vec::with_capacity(slots.len());
+        for (&(node, _), range) in slots.iter().zip(&ranges) {
+            let b = self.binary[node].bounds;
+            let (blo, bhi) = (b.min.as_dvec3() - c, b.max.as_dvec3() - c);
+            let aligned_area = oriented::half_area(blo, bhi);
+            let n = range.len() as f64;
+            let scale = f64::from(oriented::IDENTITY[0][0]);
+            let mut child =
+                OrientedChild { rows: oriented::IDENTITY, lo: blo * scale, hi: bhi * scale, child: EMPTY_REF };
+            let mut area = aligned_area;
+            if range.len() <= ORIENTED_FIT_MAX {
+                let records = &self.records[range.clone()];
+                if let Some(rows) = oriented::frame_of(records) {
+                    let rows = oriented::integer_rows(&rows);
+                    let (olo, ohi) = oriented::bounds_in(records, &rows, c);
+                    let oriented_area = oriented::scaled_half_area(&rows, olo, ohi);
+                    if oriented_area < aligned_area {
+                        child = OrientedChild { rows, lo: olo, hi: ohi, child: EMPTY_REF };
+                        area = oriented_area;
+                    }
+                }
+            }
+            aligned_cost += n * aligned_area;
+            best_cost += n * area;
+            children.push(child);
+        }
+        (best_cost < ORIENTED_NODE_GAIN * aligned_cost).then_some((center, radius, children))
+    }
+}
+
 /// Collapses the binary subtree at interior node `root`, which spans binary nodes
 /// `root..end` (a subtree's nodes are contiguous: the left child follows its parent, the right
-/// one starts at `offset`), into wide nodes appended to `out`; returns the index of its wide
-/// node. Wide nodes come out in depth-first order; large subtrees are collapsed in parallel
-/// into their own lists, then appended in that same order, so the result does not depend on
-/// the thread count. `leaf` gives the reference that a binary leaf becomes.
-fn collapse(binary: &[Node], root: usize, end: usize, leaf: &LeafRef<'_>, out: &mut Vec<WideNode>) -> u32 {
+/// one starts at `offset`), into wide nodes appended to `out`; returns the reference to its
+/// wide node (axis-aligned or oriented, [`CollapseInput::oriented_plan`]). Wide nodes come out
+/// in depth-first order; large subtrees are collapsed in parallel into their own lists, then
+/// appended in that same order, so the result does not depend on the thread count.
+fn collapse(input: &CollapseInput<'_>, root: usize, end: usize, out: &mut WideNodes) -> u32 {
+    let binary = input.binary;
     // A binary node and the end of its subtree.
     let children = |i: usize, end: usize| [(i + 1, binary[i].offset as usize), (binary[i].offset as usize, end)];
     // A child slot's reference: a leaf; an interior node whose whole subtree holds at most
@@ -1034,7 +1456,7 @@ fn collapse(binary: &[Node], root: usize, end: usize, leaf: &LeafRef<'_>, out: &
     let leaf_of = |c: usize, e: usize| -> Option<u32> {
         let b = &binary[c];
         if b.count > 0 {
-            return Some(leaf(b));
+            return Some((input.leaf)(b));
         }
         if e - c > 2 * MAX_LEAF - 1 {
             return None;
@@ -1042,7 +1464,7 @@ fn collapse(binary: &[Node], root: usize, end: usize, leaf: &LeafRef<'_>, out: &
         let leaves = binary[c..e].iter().filter(|n| n.count > 0);
         let count: u32 = leaves.clone().map(|n| n.count).sum();
         let offset = leaves.map(|n| n.offset).min()?;
-        (count as usize <= MAX_LEAF).then(|| leaf(&Node { bounds: b.bounds, offset, count }))
+        (count as usize <= MAX_LEAF).then(|| (input.leaf)(&Node { bounds: b.bounds, offset, count }))
     };
     let mut slots = [(0usize, 0usize); WIDTH];
     slots[..2].copy_from_slice(&children(root, end));
@@ -1058,14 +1480,23 @@ fn collapse(binary: &[Node], root: usize, end: usize, leaf: &LeafRef<'_>, out: &
         slots[len] = b;
         len += 1;
     }
-    let index = out.len();
-    out.push(WideNode::new(&[]));
-    let mut refs = [(&binary[0], 0u32); WIDTH];
+    // The node's kind is decided before its children are collapsed, so that it comes before
+    // them in its list.
+    let plan = input.oriented_plan(&slots[..len]);
+    let this = match plan {
+        None => {
+            out.aabb.push(WideNode::new(&[]));
+            ChildRef::pack(0, out.aabb.len() as u32 - 1)
+        }
+        Some((center, ..)) => {
+            out.oriented.push(OrientedNode::new(center, 0.0, &[], EMPTY_REF));
+            ChildRef::pack(ORIENTED, out.oriented.len() as u32 - 1)
+        }
+    };
+    let mut refs = [EMPTY_REF; WIDTH];
     if end - root < PARALLEL_COLLAPSE_MIN {
         for (r, &(c, e)) in refs.iter_mut().zip(&slots[..len]) {
-            let b = &binary[c];
-            let child = leaf_of(c, e).unwrap_or_else(|| ChildRef::pack(0, collapse(binary, c, e, leaf, out)));
-            *r = (b, child);
+            *r = leaf_of(c, e).unwrap_or_else(|| collapse(input, c, e, out));
         }
     } else {
         use rayon::prelude::*;
@@ -1074,11 +1505,11 @@ fn collapse(binary: &[Node], root: usize, end: usize, leaf: &LeafRef<'_>, out: &
         // The first interior child's subtree follows its parent, as in the sequential order:
         // it is collapsed in place, the others into their own lists at the same time.
         let first = (0..len).position(|k| leaves[k].is_none()).unwrap_or(len);
-        let mut first_ref = 0;
+        let mut first_ref = EMPTY_REF;
         let ((), subtrees) = rayon::join(
             || {
                 if let Some(&(c, e)) = slots.get(first).filter(|_| first < len) {
-                    first_ref = collapse(binary, c, e, leaf, out);
+                    first_ref = collapse(input, c, e, out);
                 }
             },
             || {
@@ -1086,39 +1517,40 @@ fn collapse(binary: &[Node], root: usize, end: usize, leaf: &LeafRef<'_>, out: &
                     .par_iter()
                     .enumerate()
                     .map(|(k, &(c, e))| {
-                        let mut v = Vec::new();
-                        if k > first && leaves[k].is_none() {
-                            collapse(binary, c, e, leaf, &mut v);
-                        }
-                        v
+                        let mut v = WideNodes::default();
+                        let r =
+                            if k > first && leaves[k].is_none() { collapse(input, c, e, &mut v) } else { EMPTY_REF };
+                        (v, r)
                     })
-                    .collect::<Vec<Vec<WideNode>>>()
+                    .collect::<Vec<(WideNodes, u32)>>()
             },
         );
-        for (k, ((r, &(c, _)), sub)) in refs.iter_mut().zip(&slots[..len]).zip(subtrees).enumerate() {
-            let b = &binary[c];
-            let child = if let Some(r) = leaves[k] {
+        for (k, (r, (sub, sub_ref))) in refs.iter_mut().zip(subtrees).enumerate().take(len) {
+            *r = if let Some(r) = leaves[k] {
                 r
             } else if k == first {
-                ChildRef::pack(0, first_ref)
+                first_ref
             } else {
-                // The subtree's wide nodes were numbered from 0: shift its interior references.
-                let base = out.len() as u32;
-                out.extend(sub.into_iter().map(|mut n| {
-                    for c in &mut n.child {
-                        if ChildRef::count(*c) == 0 {
-                            *c = ChildRef::pack(0, ChildRef::index(*c) + base);
-                        }
-                    }
-                    n
-                }));
-                ChildRef::pack(0, base)
+                // The subtree's wide nodes were numbered from 0: shift its references.
+                let (a, o, p) = out.append(sub, 0);
+                ChildRef::shift(sub_ref, a, o, p)
             };
-            *r = (b, child);
         }
     }
-    out[index] = WideNode::new(&refs[..len]);
-    index as u32
+    let index = ChildRef::index(this) as usize;
+    match plan {
+        None => {
+            let kids: Vec<(&Node, u32)> = slots[..len].iter().zip(refs).map(|(&(c, _), r)| (&binary[c], r)).collect();
+            out.aabb[index] = WideNode::new(&kids);
+        }
+        Some((center, radius, mut kids)) => {
+            for (k, r) in kids.iter_mut().zip(refs) {
+                k.child = r;
+            }
+            out.oriented[index] = OrientedNode::new(center, radius, &kids, EMPTY_REF);
+        }
+    }
+    this
 }
 
 #[cfg(test)]
@@ -1143,7 +1575,7 @@ mod tests {
         let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| Bvh::build(&bounds));
         let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap().install(|| Bvh::build(&bounds));
         assert_eq!(one.prims, two.prims);
-        assert_eq!(one.nodes.len(), two.nodes.len());
+        assert_eq!(one.node_count(), two.node_count());
         assert_eq!(one.nodes, two.nodes);
         for _ in 0..200 {
             let o = DVec3::new(rnd(), rnd(), rnd()) * 24.0 - 12.0;
@@ -1181,8 +1613,8 @@ mod tests {
         };
         let pool = |n| rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
         for cluster_max in [2, 3, 17, 500, 5000] {
-            let one = pool(1).install(|| Bvh::build_grouped_in(items(), &halves, cluster_max));
-            let two = pool(2).install(|| Bvh::build_grouped_in(items(), &halves, cluster_max));
+            let one = pool(1).install(|| Bvh::build_grouped_in(items(), &halves, cluster_max, Boxes::Aligned));
+            let two = pool(2).install(|| Bvh::build_grouped_in(items(), &halves, cluster_max, Boxes::Aligned));
             assert_eq!(one.prims, two.prims);
             assert_eq!(one.nodes, two.nodes);
             assert_eq!(two.prims.len(), 2 * spheres.len());
@@ -1246,7 +1678,7 @@ mod tests {
     /// How many wide nodes have `c` used child slots, by `c`.
     fn width_histogram(bvh: &Bvh) -> [usize; WIDTH + 1] {
         let mut h = [0; WIDTH + 1];
-        for n in &bvh.nodes {
+        for n in &bvh.nodes.aabb {
             assert_eq!(n.used, (0..WIDTH).filter(|&k| n.child[k] != EMPTY_REF).fold(0, |m, k| m | 1 << k));
             h[n.used.count_ones() as usize] += 1;
         }
@@ -1321,7 +1753,7 @@ mod tests {
     /// Primitives under the wide node `n` (each leaf's range checked to hold at most MAX_LEAF),
     /// asserting that no interior child holds MAX_LEAF or fewer: such a subtree is one leaf.
     fn primitives_under(bvh: &Bvh, n: u32, seen: &mut Vec<u32>) -> usize {
-        let node = &bvh.nodes[n as usize];
+        let node = &bvh.nodes.aabb[n as usize];
         let mut total = 0;
         for (k, &c) in node.child.iter().enumerate() {
             if node.used & (1 << k) == 0 {

@@ -7,14 +7,14 @@
 //! are checked where they are taken or fixed by construction (each block states why); the
 //! arithmetic intrinsics are safe inside these `#[target_feature]` functions.
 
-use super::{LineF32, SegmentHead, SlabTerms};
+use super::{LineF32, MIN_ROTATED_DIRECTION, OrientedBoxes, OrientedTerms, SegmentHead, SlabTerms};
 use core::arch::x86_64::{
-    __m128i, __m256, _CMP_LE_OS, _CMP_LT_OS, _mm_loadl_epi64, _mm256_add_ps, _mm256_castps_si256, _mm256_cmp_ps,
-    _mm256_cvtepi32_ps, _mm256_cvtepu8_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_max_ps,
-    _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_permute2f128_ps, _mm256_permute2x128_si256,
-    _mm256_permutevar8x32_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_shuffle_ps, _mm256_sqrt_ps,
-    _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm256_unpackhi_epi32, _mm256_unpackhi_ps,
-    _mm256_unpacklo_epi32, _mm256_unpacklo_ps,
+    __m128i, __m256, _CMP_LE_OS, _CMP_LT_OS, _mm_loadl_epi64, _mm256_add_ps, _mm256_and_ps, _mm256_andnot_ps,
+    _mm256_castps_si256, _mm256_cmp_ps, _mm256_cvtepi8_epi32, _mm256_cvtepi32_ps, _mm256_cvtepu8_epi32, _mm256_div_ps,
+    _mm256_loadu_ps, _mm256_loadu_si256, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps,
+    _mm256_permute2f128_ps, _mm256_permute2x128_si256, _mm256_permutevar8x32_epi32, _mm256_set1_ps, _mm256_setzero_ps,
+    _mm256_shuffle_ps, _mm256_sqrt_ps, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm256_unpackhi_epi32,
+    _mm256_unpackhi_ps, _mm256_unpacklo_epi32, _mm256_unpacklo_ps,
 };
 
 /// Runs `f` in a function compiled with AVX2 enabled (`f` and what it calls inline into it).
@@ -92,7 +92,14 @@ pub(super) fn slab_keys(
     keys: &mut [u64; 8],
 ) -> u32 {
     let (hit, t0) = slab_lanes(q, offsets, terms);
-    let mask = hit & used & 0xFF;
+    compress_keys(hit & used & 0xFF, t0, child, keys)
+}
+
+/// The keys of the children in `mask` (< 256), entry distances `t0`, compressed to the front
+/// of `keys` in child order ([`slab_keys`]); returns `mask`.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn compress_keys(mask: u32, t0: __m256, child: &[u32; 8], keys: &mut [u64; 8]) -> u32 {
     // `max(t0, 0)`: 0 for NaN and for either zero, as the portable form.
     let t = _mm256_castps_si256(_mm256_max_ps(t0, _mm256_setzero_ps()));
     // SAFETY: `COMPRESS[mask]` (mask < 256) is eight bytes and `child` eight `u32`; the loads
@@ -114,6 +121,63 @@ pub(super) fn slab_keys(
         _mm256_storeu_si256(keys.as_mut_ptr().add(4).cast(), second);
     }
     mask
+}
+
+/// The slab test of an oriented node's eight children, one lane each: the portable form's
+/// operations on eight lanes (`|d|` and the sign by masks, as `glam`'s `abs` and `copysign`).
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(super) fn oriented(boxes: &OrientedBoxes, terms: &OrientedTerms) -> (u32, [f32; 8]) {
+    let (hit, t0) = oriented_lanes(boxes, terms);
+    let mut entry = [0.0; 8];
+    // SAFETY: `entry` is eight `f32`; no alignment requirement.
+    unsafe { _mm256_storeu_ps(entry.as_mut_ptr(), t0) };
+    (hit, entry)
+}
+
+/// [`oriented`] and the hit used children's keys, as [`slab_keys`].
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(super) fn oriented_keys(
+    boxes: &OrientedBoxes,
+    terms: &OrientedTerms,
+    used: u32,
+    child: &[u32; 8],
+    keys: &mut [u64; 8],
+) -> u32 {
+    let (hit, t0) = oriented_lanes(boxes, terms);
+    compress_keys(hit & used & 0xFF, t0, child, keys)
+}
+
+/// [`oriented`] with the entry distances in a register.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn oriented_lanes(boxes: &OrientedBoxes, terms: &OrientedTerms) -> (u32, __m256) {
+    // SAFETY (each load): the argument is eight `f32`; no alignment requirement.
+    let load = |a: &[f32; 8]| unsafe { _mm256_loadu_ps(a.as_ptr()) };
+    // SAFETY (each load): the argument is eight bytes; no alignment requirement.
+    let ints = |a: &[i8; 8]| _mm256_cvtepi32_ps(_mm256_cvtepi8_epi32(unsafe { _mm_loadl_epi64(a.as_ptr().cast()) }));
+    let [ox, oy, oz] = terms.o.map(|x| _mm256_set1_ps(x));
+    let [dx, dy, dz] = terms.d.map(|x| _mm256_set1_ps(x));
+    let widen = _mm256_set1_ps(terms.widen);
+    let sign = _mm256_set1_ps(-0.0);
+    let mut t0 = _mm256_set1_ps(terms.t_min);
+    let mut t1 = _mm256_set1_ps(terms.t_max);
+    for row in 0..3 {
+        let [r0, r1, r2] = [0, 1, 2].map(|c| ints(&boxes.rot[row][c]));
+        let d = dot(r0, r1, r2, dx, dy, dz);
+        let o = dot(r0, r1, r2, ox, oy, oz);
+        // copysign(max(|d|, MIN), d)
+        let magnitude = _mm256_max_ps(_mm256_andnot_ps(sign, d), _mm256_set1_ps(MIN_ROTATED_DIRECTION));
+        let safe = _mm256_or_ps(_mm256_and_ps(d, sign), _mm256_andnot_ps(sign, magnitude));
+        let inv = _mm256_div_ps(_mm256_set1_ps(1.0), safe);
+        let t_lo = _mm256_mul_ps(_mm256_sub_ps(_mm256_sub_ps(load(&boxes.lo[row]), widen), o), inv);
+        let t_hi = _mm256_mul_ps(_mm256_sub_ps(_mm256_add_ps(load(&boxes.hi[row]), widen), o), inv);
+        t0 = _mm256_max_ps(t0, _mm256_min_ps(t_lo, t_hi));
+        t1 = _mm256_min_ps(t1, _mm256_max_ps(t_lo, t_hi));
+    }
+    let hit = _mm256_cmp_ps::<_CMP_LE_OS>(t0, _mm256_mul_ps(t1, _mm256_set1_ps(1.0 + 4.0 * f32::EPSILON)));
+    (_mm256_movemask_ps(hit) as u32, t0)
 }
 
 /// The eight bytes in the low half of `r` as `f32` (exact).

@@ -154,6 +154,42 @@ pub(crate) struct SlabTerms {
     pub t_max: f32,
 }
 
+/// The eight children of an oriented node as the kernel reads them (structure of arrays, one
+/// lane per child): child `k`'s frame, rows `rot[row][..][k]` of small integers (a rotation
+/// scaled by about 127 and rounded: exact as `f32`), and its box in that frame,
+/// `lo[row][k] ≤ x_row ≤ hi[row][k]` with `x = rot·p` for points `p` relative to the node's
+/// centre. An unused slot holds any finite values (the caller masks it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
+pub(crate) struct OrientedBoxes {
+    /// `rot[row][col][k]`: row `row` of child `k`'s frame.
+    pub rot: [[[i8; 8]; 3]; 3],
+    /// Lower corners in the children's frames.
+    pub lo: [[f32; 8]; 3],
+    /// Upper corners in the children's frames.
+    pub hi: [[f32; 8]; 3],
+}
+
+/// The inputs of an oriented node's test that do not depend on the child.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct OrientedTerms {
+    /// Ray origin relative to the node's centre.
+    pub o: [f32; 3],
+    /// Ray direction.
+    pub d: [f32; 3],
+    /// How far every box is widened (in the frames' scaled units): bounds the rounding of the
+    /// test.
+    pub widen: f32,
+    /// The ray's distance interval.
+    pub t_min: f32,
+    /// See `t_min`.
+    pub t_max: f32,
+}
+
+/// Smallest magnitude of a rotated direction component before its reciprocal: keeps the plane
+/// distances finite (a box is never missed because of it: the slab then spans ±1e30 and more).
+pub(crate) const MIN_ROTATED_DIRECTION: f32 = 1e-30;
+
 /// The first eight `f32` of a segment, as the leaf test reads them: axis start point `x, y, z`,
 /// unit axis `x, y, z`, length (unused by the test) and radius.
 pub(crate) type SegmentHead = [f32; 8];
@@ -184,6 +220,22 @@ pub(crate) trait Lanes: Copy {
         q: &[[u8; 8]; 6],
         rows: &RowChoice,
         terms: &SlabTerms,
+        used: u32,
+        child: &[u32; 8],
+        keys: &mut [u64; 8],
+    ) -> u32;
+
+    /// The slab test of an oriented node's eight children, each in its own frame: the ray's
+    /// origin and direction are rotated per child, and bit `k` of the mask is set when its
+    /// interval meets child `k`'s box widened by `terms.widen` on every side (within the
+    /// relative `4ε` of the far distance); also the entry distances.
+    fn oriented(self, boxes: &OrientedBoxes, terms: &OrientedTerms) -> (u32, [f32; 8]);
+
+    /// [`Lanes::oriented`], then the hit used children's keys as [`Lanes::slab_keys`] makes them.
+    fn oriented_keys(
+        self,
+        boxes: &OrientedBoxes,
+        terms: &OrientedTerms,
         used: u32,
         child: &[u32; 8],
         keys: &mut [u64; 8],
@@ -241,17 +293,53 @@ impl Lanes for Portable {
         keys: &mut [u64; 8],
     ) -> u32 {
         let (hit, t) = self.slab(q, rows, terms);
-        let mask = hit & used;
-        let (mut bits, mut m) = (mask, 0);
-        while bits != 0 {
-            let k = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
-            // `max` with the SSE operand order (0 when `t` is NaN or a zero of either sign).
-            let t = if t[k] > 0.0 { t[k] } else { 0.0 };
-            keys[m] = (u64::from(t.to_bits()) << 32) | u64::from(child[k]);
-            m += 1;
+        portable_keys(hit & used, &t, child, keys)
+    }
+
+    /// Two halves of four lanes, children 0–3 then 4–7, each with the operations of the AVX2
+    /// form's eight lanes in the same order.
+    #[inline(always)]
+    fn oriented(self, boxes: &OrientedBoxes, terms: &OrientedTerms) -> (u32, [f32; 8]) {
+        let [ox, oy, oz] = terms.o.map(Vec4::splat);
+        let [dx, dy, dz] = terms.d.map(Vec4::splat);
+        let widen = Vec4::splat(terms.widen);
+        let mut mask = 0;
+        let mut entry = [0.0; 8];
+        for half in 0..2 {
+            let lanes = |a: &[f32; 8]| Vec4::from_slice(&a[4 * half..4 * half + 4]);
+            let ints = |a: &[i8; 8]| {
+                let a = &a[4 * half..4 * half + 4];
+                Vec4::new(f32::from(a[0]), f32::from(a[1]), f32::from(a[2]), f32::from(a[3]))
+            };
+            let mut t0 = Vec4::splat(terms.t_min);
+            let mut t1 = Vec4::splat(terms.t_max);
+            for row in 0..3 {
+                let [r0, r1, r2] = [0, 1, 2].map(|c| ints(&boxes.rot[row][c]));
+                let d = r0 * dx + r1 * dy + r2 * dz;
+                let o = r0 * ox + r1 * oy + r2 * oz;
+                let inv = Vec4::ONE / d.abs().max(Vec4::splat(MIN_ROTATED_DIRECTION)).copysign(d);
+                let t_lo = (lanes(&boxes.lo[row]) - widen - o) * inv;
+                let t_hi = (lanes(&boxes.hi[row]) + widen - o) * inv;
+                t0 = t0.max(t_lo.min(t_hi));
+                t1 = t1.min(t_lo.max(t_hi));
+            }
+            mask |= t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask() << (4 * half);
+            entry[4 * half..4 * half + 4].copy_from_slice(&t0.to_array());
         }
-        mask
+        (mask, entry)
+    }
+
+    #[inline(always)]
+    fn oriented_keys(
+        self,
+        boxes: &OrientedBoxes,
+        terms: &OrientedTerms,
+        used: u32,
+        child: &[u32; 8],
+        keys: &mut [u64; 8],
+    ) -> u32 {
+        let (hit, t) = self.oriented(boxes, terms);
+        portable_keys(hit & used, &t, child, keys)
     }
 
     #[inline(always)]
@@ -267,6 +355,22 @@ impl Lanes for Portable {
         }
         mask
     }
+}
+
+/// The keys of the children in `mask` (child order) into `keys[..m]`, one hit child at a time;
+/// returns `mask`.
+#[inline(always)]
+fn portable_keys(mask: u32, t: &[f32; 8], child: &[u32; 8], keys: &mut [u64; 8]) -> u32 {
+    let (mut bits, mut m) = (mask, 0);
+    while bits != 0 {
+        let k = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        // `max` with the SSE operand order (0 when `t` is NaN or a zero of either sign).
+        let t = if t[k] > 0.0 { t[k] } else { 0.0 };
+        keys[m] = (u64::from(t.to_bits()) << 32) | u64::from(child[k]);
+        m += 1;
+    }
+    mask
 }
 
 /// The leaf pre-test on four lanes; `f`: segment start `x, y, z`, axis `x, y, z`, radius.
@@ -337,6 +441,35 @@ impl Lanes for Avx2 {
         }
         #[cfg(not(target_arch = "x86_64"))]
         Portable.slab_keys(q, rows, terms, used, child, keys)
+    }
+
+    #[inline(always)]
+    fn oriented(self, boxes: &OrientedBoxes, terms: &OrientedTerms) -> (u32, [f32; 8]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: as in `Avx2::run`: this CPU has AVX2.
+            unsafe { avx2::oriented(boxes, terms) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Portable.oriented(boxes, terms)
+    }
+
+    #[inline(always)]
+    fn oriented_keys(
+        self,
+        boxes: &OrientedBoxes,
+        terms: &OrientedTerms,
+        used: u32,
+        child: &[u32; 8],
+        keys: &mut [u64; 8],
+    ) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: as in `Avx2::run`: this CPU has AVX2.
+            unsafe { avx2::oriented_keys(boxes, terms, used, child, keys) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Portable.oriented_keys(boxes, terms, used, child, keys)
     }
 
     #[inline(always)]
@@ -517,6 +650,123 @@ mod tests {
             assert_eq!(ka[..m], kb[..m], "{q:?} {rows:?} {terms:?} used {used:#x}");
         }
         assert!(hits.iter().all(|&h| h > 100), "every number of hit children must occur: {hits:?}");
+    }
+
+    /// Random oriented nodes: integer frames (some the identity, some degenerate), boxes around
+    /// the origin's image, and rays with huge, tiny and zero direction components in a frame.
+    fn oriented_case(g: &mut Lcg, i: usize) -> (OrientedBoxes, OrientedTerms) {
+        let mut b = OrientedBoxes { rot: [[[0; 8]; 3]; 3], lo: [[0.0; 8]; 3], hi: [[0.0; 8]; 3] };
+        for k in 0..8 {
+            for row in 0..3 {
+                for col in 0..3 {
+                    b.rot[row][col][k] = match i % 5 {
+                        // The identity: rotated direction components exactly zero for axis rays.
+                        0 => 127 * i8::from(row == col),
+                        // Small integers: degenerate (even zero) rows occur.
+                        1 => (g.next() * 5.0) as i8 - 2,
+                        _ => (g.next() * 254.0) as i8 - 127,
+                    };
+                }
+                // In some nodes most boxes hold the origin's image (most children hit).
+                let huge = i % 9 == 8 && (k * 7 + i / 9) % 8 < 6 + (i / 9) % 3;
+                let (a, c) = if huge { (0.0, 2000.0) } else { ((g.next() - 0.5) * 400.0, g.next() * 200.0) };
+                (b.lo[row][k], b.hi[row][k]) = (a - c, a + c);
+            }
+        }
+        let wild = i % 7 == 6;
+        let o = if wild { [g.wild(), g.wild(), g.wild()] } else { [0; 3].map(|_| (g.next() - 0.5) * 8.0) };
+        let d = match i % 4 {
+            0 => [1.0, 0.0, 0.0],
+            1 => [0.0, -1.0, 0.0],
+            _ => (g.vec() - 0.5).normalize_or(Vec3::Z).to_array(),
+        };
+        let t_min = if wild { g.wild() } else { g.next() - 0.5 };
+        let t_max = if g.next() < 0.2 { f32::INFINITY } else { t_min.abs() + g.next() * 20.0 };
+        (b, OrientedTerms { o, d, widen: g.next() * 0.5, t_min, t_max })
+    }
+
+    #[test]
+    fn oriented_test_is_the_same_on_every_level() {
+        let Some(k) = SimdLevel::avx2().and_then(SimdLevel::avx2_token) else {
+            eprintln!("no AVX2 on this CPU: only the portable form runs");
+            return;
+        };
+        let mut g = Lcg(23);
+        let mut hits = [0u32; 9];
+        for i in 0..100_000 {
+            let (b, terms) = oriented_case(&mut g, i);
+            let (ma, ta) = Portable.oriented(&b, &terms);
+            let (mb, tb) = k.run(|| k.oriented(&b, &terms));
+            assert_eq!(ma, mb, "{b:?} {terms:?}");
+            assert_eq!(ta.map(f32::to_bits), tb.map(f32::to_bits), "{b:?} {terms:?}");
+            hits[ma.count_ones() as usize] += 1;
+            let used = (g.next() * 256.0) as u32 | if i % 2 == 0 { 0xFF } else { 0 };
+            let child = [0; 8].map(|_| (g.next() * 65536.0) as u32 | ((g.next() * 65536.0) as u32) << 16);
+            let (mut ka, mut kb) = ([0u64; 8], [0u64; 8]);
+            let sa = Portable.oriented_keys(&b, &terms, used, &child, &mut ka);
+            let sb = k.run(|| k.oriented_keys(&b, &terms, used, &child, &mut kb));
+            assert_eq!((sa, sb), (ma & used, ma & used));
+            let m = sa.count_ones() as usize;
+            assert_eq!(ka[..m], kb[..m], "{b:?} {terms:?} used {used:#x}");
+        }
+        assert!(hits.iter().all(|&h| h > 100), "every number of hit children must occur: {hits:?}");
+    }
+
+    /// The portable oriented test against the plain definition, in `f64`: per child, the ray
+    /// mapped by the child's frame, its interval in each widened slab, their intersection. The
+    /// `f32` distances may differ by the rounding of the rotated terms, which grows with the
+    /// condition of each dot product (bounded here per plane, with a factor 4 to spare); where
+    /// the two intervals' ends are further apart than that, the decision must agree.
+    #[test]
+    fn portable_oriented_test_is_the_interval_intersection() {
+        let mut g = Lcg(29);
+        let (mut checked, mut hit) = (0, 0);
+        let eps = f64::from(f32::EPSILON);
+        for i in 0..20_000 {
+            let (b, terms) = oriented_case(&mut g, i % 6);
+            let (mask, t) = Portable.oriented(&b, &terms);
+            for k in 0..8 {
+                // The interval's ends and a bound on their rounding in the `f32` form.
+                let (mut t0, mut t1) = ((f64::from(terms.t_min), 0.0), (f64::from(terms.t_max), 0.0));
+                for row in 0..3 {
+                    let r = [0, 1, 2].map(|c| f64::from(b.rot[row][c][k]));
+                    let d: f64 = (0..3).map(|c| r[c] * f64::from(terms.d[c])).sum();
+                    let o: f64 = (0..3).map(|c| r[c] * f64::from(terms.o[c])).sum();
+                    let d_abs: f64 = (0..3).map(|c| (r[c] * f64::from(terms.d[c])).abs()).sum();
+                    let o_abs: f64 = (0..3).map(|c| (r[c] * f64::from(terms.o[c])).abs()).sum();
+                    let w = f64::from(terms.widen);
+                    let d = if d.abs() < f64::from(MIN_ROTATED_DIRECTION) {
+                        f64::from(MIN_ROTATED_DIRECTION).copysign(d)
+                    } else {
+                        d
+                    };
+                    let (lo, hi) = (f64::from(b.lo[row][k]) - w, f64::from(b.hi[row][k]) + w);
+                    let (a, c) = ((lo - o) / d, (hi - o) / d);
+                    // |Δt| ≲ (|Δo| + |Δ(lo − o)| + |t| |Δd|) / |d|, each a few ulps of its terms.
+                    let err = |t: f64, plane: f64| {
+                        16.0 * eps * (o_abs + plane.abs() + w + o.abs() + t.abs() * (d_abs + d.abs())) / d.abs()
+                    };
+                    let (near, far) =
+                        if a <= c { ((a, err(a, lo)), (c, err(c, hi))) } else { ((c, err(c, hi)), (a, err(a, lo))) };
+                    if near.0 > t0.0 {
+                        t0 = near;
+                    }
+                    if far.0 < t1.0 {
+                        t1 = far;
+                    }
+                }
+                if t0.0.is_finite() && t0.1.is_finite() {
+                    assert!((f64::from(t[k]) - t0.0).abs() <= t0.1 + 1e-6, "child {k}: {} vs {t0:?}", t[k]);
+                }
+                let margin = t0.1 + t1.1 + 8.0 * eps * (t0.0.abs() + t1.0.abs());
+                if (t0.0 - t1.0).abs() > margin {
+                    assert_eq!(mask & (1 << k) != 0, t0.0 <= t1.0, "child {k}: {t0:?} {t1:?} {b:?} {terms:?}");
+                    checked += 1;
+                    hit += usize::from(t0.0 <= t1.0);
+                }
+            }
+        }
+        assert!(checked > 50_000 && hit > 5_000 && checked - hit > 5_000, "{checked} checked, {hit} hits");
     }
 
     /// The portable keys against their definition: one per hit used child, in child order,

@@ -10,9 +10,8 @@
 //! intersection cost 1 (Wald 2007, "On fast construction of SAH-based bounding volume
 //! hierarchies"): 16 centroid bins on each of the three axes in one pass over the records (the
 //! best of the three; binning the widest axis alone cost 2 % more render instructions on the
-//! peer scene), and for nodes of at most [`SWEEP_MAX`] records the exact sweep over their
-//! order along each axis. Leaves hold at most [`MAX_LEAF`] primitives. Large subtrees are built
-//! in parallel (rayon); the tree is the same for any thread count.
+//! peer scene). Leaves hold at most [`MAX_LEAF`] primitives. Large subtrees are built in
+//! parallel (rayon); the tree is the same for any thread count.
 //!
 //! Layout: the binary tree is collapsed into an 8-wide tree (each node pulls up the children of
 //! its largest-area interior children until it has eight; Wald et al. 2008, "Getting rid of
@@ -149,11 +148,23 @@ pub const MAX_LEAF: usize = 8;
 /// A binary build node: an outward-rounded `f32` box; interior nodes have `count == 0`, their
 /// first child follows them and `offset` is the second child; leaves list `count` primitives
 /// from `offset`.
+/// The box is stored as two `Vec3` (32 bytes a node; the build's arithmetic uses `Vec3A`).
 #[derive(Clone, Copy, Debug)]
 struct Node {
-    bounds: FBox,
+    min: Vec3,
     offset: u32,
+    max: Vec3,
     count: u32,
+}
+
+impl Node {
+    fn new(b: FBox, offset: u32, count: u32) -> Self {
+        Self { min: b.min.into(), offset, max: b.max.into(), count }
+    }
+
+    fn bounds(&self) -> FBox {
+        FBox { min: self.min.into(), max: self.max.into() }
+    }
 }
 
 /// Children per wide node.
@@ -529,58 +540,6 @@ fn binned_split(prims: &[BuildPrim], cb: FBox) -> Option<Split> {
     best
 }
 
-/// Nodes of at most this many records are split by the exact sweep ([`sweep_split`]).
-const SWEEP_MAX: usize = 24;
-
-/// The cheapest split of a few records by the surface-area heuristic, over every split of
-/// their order along each axis (by centroid): its cost `Σ n A` and the size of the left side;
-/// `prims` are left in the order of that split. `None` when no axis orders them.
-fn sweep_split(prims: &mut [BuildPrim]) -> Option<(f32, usize)> {
-    let n = prims.len();
-    debug_assert!((2..=SWEEP_MAX).contains(&n));
-    let mut best: Option<(f32, usize, usize)> = None;
-    let mut boxes = [FBox::EMPTY; SWEEP_MAX];
-    let mut centroids = [Vec3A::ZERO; SWEEP_MAX];
-    for (k, p) in prims.iter().enumerate() {
-        boxes[k] = FBox { min: p.min(), max: p.max() };
-        centroids[k] = p.centroid();
-    }
-    // Per axis, the records' order by centroid: (centroid bits made orderable, record).
-    let mut orders = [[(0u32, 0u8); SWEEP_MAX]; 3];
-    let mut right = [0.0f32; SWEEP_MAX];
-    for (axis, order) in orders.iter_mut().enumerate() {
-        for k in 0..n {
-            order[k] = (orderable(centroids[k][axis]), k as u8);
-        }
-        order[..n].sort_unstable();
-        let mut acc = FBox::EMPTY;
-        for i in (1..n).rev() {
-            acc = acc.union(boxes[order[i].1 as usize]);
-            right[i] = acc.half_area() * (n - i) as f32;
-        }
-        let mut acc = FBox::EMPTY;
-        for i in 1..n {
-            acc = acc.union(boxes[order[i - 1].1 as usize]);
-            let cost = acc.half_area() * i as f32 + right[i];
-            if best.is_none_or(|b| cost < b.0) {
-                best = Some((cost, axis, i));
-            }
-        }
-    }
-    let (cost, axis, mid) = best?;
-    let copy: [BuildPrim; SWEEP_MAX] = std::array::from_fn(|k| prims[k.min(n - 1)]);
-    for (p, &(_, k)) in prims.iter_mut().zip(&orders[axis][..n]) {
-        *p = copy[k as usize];
-    }
-    Some((cost, mid))
-}
-
-/// The bits of `x` as an unsigned integer of the same order (for finite `x` and infinities).
-fn orderable(x: f32) -> u32 {
-    let b = x.to_bits();
-    if b >> 31 == 1 { !b } else { b | 1 << 31 }
-}
-
 /// The cheapest split between bins by the surface-area heuristic: its cost `Σ n A` and the
 /// first bin of the right side (0: no split has records on both sides).
 fn best_bin_split(bin_box: &[FBox; BINS], bin_count: &[u32; BINS]) -> (f32, usize) {
@@ -612,7 +571,7 @@ fn best_bin_split(bin_box: &[FBox; BINS], bin_count: &[u32; BINS]) -> (f32, usiz
 
 impl Builder {
     fn push_node(&mut self, b: FBox) -> usize {
-        self.nodes.push(Node { bounds: b, offset: 0, count: 0 });
+        self.nodes.push(Node::new(b, 0, 0));
         self.nodes.len() - 1
     }
 
@@ -628,21 +587,6 @@ impl Builder {
         };
         if prims.len() <= self.min_leaf {
             return leaf(&mut self.nodes);
-        }
-        if prims.len() <= SWEEP_MAX {
-            // Few records: the exact sweep (sorted along each axis) instead of bins.
-            let Some((cost, mid)) = sweep_split(prims) else {
-                if prims.len() <= self.max_leaf {
-                    return leaf(&mut self.nodes);
-                }
-                let mid = prims.len() / 2;
-                return self.split_children(node, prims, mid, first);
-            };
-            let split_cost = 1.0 + cost / bounds.half_area().max(f32::MIN_POSITIVE);
-            if split_cost >= prims.len() as f32 && prims.len() <= self.max_leaf {
-                return leaf(&mut self.nodes);
-            }
-            return self.split_children(node, prims, mid, first);
         }
         let Some(split) = binned_split(prims, cb) else {
             // The centroids do not spread, or all fall in one bin: a leaf, or halves by the
@@ -773,7 +717,7 @@ impl SubTree {
         // The slot of the binary subtree at `i` (spanning `i..end`), its wide nodes appended.
         let mut slot = |i: usize, end: usize| -> Slot {
             let r = if binary[i].count > 0 { plain_leaf(&binary[i]) } else { collapse(&input, i, end, &mut nodes) };
-            (binary[i].bounds, r)
+            (binary[i].bounds(), r)
         };
         let slots = if joint == Joint::Root || binary[0].count > 0 {
             [slot(0, binary.len()), NO_SLOT]
@@ -847,7 +791,7 @@ impl Bvh {
             return Self { nodes: t.nodes, root, prims: t.prims, simd: SimdLevel::best() };
         }
         // A single leaf: one wide node holding it.
-        let leaf = Node { bounds: t.bounds, offset: 0, count: ChildRef::count(root) };
+        let leaf = Node::new(t.bounds, 0, ChildRef::count(root));
         let nodes = WideNodes { aabb: vec![WideNode::new(&[(&leaf, root)])], oriented: Vec::new() };
         Self { nodes, root: ChildRef::pack(0, 0), prims: t.prims, simd: SimdLevel::best() }
     }
@@ -1240,8 +1184,8 @@ impl WideNode {
         assert!(children.len() <= WIDTH, "{} children for a wide node", children.len());
         let mut n = Self { origin: [0.0; 4], scale: [0.0; 4], q: [[0; WIDTH]; 6], child: [EMPTY_REF; WIDTH], used: 0 };
         for axis in 0..3 {
-            let lo = children.iter().map(|c| clamp_finite(c.0.bounds.min[axis])).fold(f32::INFINITY, f32::min);
-            let hi = children.iter().map(|c| clamp_finite(c.0.bounds.max[axis])).fold(f32::NEG_INFINITY, f32::max);
+            let lo = children.iter().map(|c| clamp_finite(c.0.min[axis])).fold(f32::INFINITY, f32::min);
+            let hi = children.iter().map(|c| clamp_finite(c.0.max[axis])).fold(f32::NEG_INFINITY, f32::max);
             n.origin[axis] = lo;
             let mut scale = (hi - lo) / 255.0;
             while lo + 255.0 * scale < hi {
@@ -1253,7 +1197,7 @@ impl WideNode {
             n.child[k] = *child;
             n.used |= u32::from(*child != EMPTY_REF) << k;
             for axis in 0..3 {
-                let (lo, hi) = (clamp_finite(b.bounds.min[axis]), clamp_finite(b.bounds.max[axis]));
+                let (lo, hi) = (clamp_finite(b.min[axis]), clamp_finite(b.max[axis]));
                 let scale = n.scale[axis];
                 let grid = |x: f32| if scale > 0.0 { (x - n.origin[axis]) / scale } else { 0.0 };
                 n.q[axis][k] = grid(lo).floor().clamp(0.0, 255.0) as u8;
@@ -1315,7 +1259,7 @@ fn collapse_top(
     while len < WIDTH {
         // Open the node (interior or cluster) with the largest box.
         let area = |s: TopSlot| match s {
-            TopSlot::Node(i, _) => top[i].bounds.half_area(),
+            TopSlot::Node(i, _) => top[i].bounds().half_area(),
             TopSlot::Half(..) => f32::NEG_INFINITY,
         };
         let best = (0..len)
@@ -1335,11 +1279,11 @@ fn collapse_top(
     }
     let index = out.len();
     out.push(WideNode::new(&[]));
-    let mut kids = [(Node { bounds: FBox::EMPTY, offset: 0, count: 0 }, EMPTY_REF); WIDTH];
+    let mut kids = [(Node::new(FBox::EMPTY, 0, 0), EMPTY_REF); WIDTH];
     for (kid, &slot) in kids.iter_mut().zip(&open[..len]) {
         let (bounds, r) = match slot {
             TopSlot::Node(n, e) if top[n].count == 0 => {
-                (top[n].bounds, ChildRef::pack(0, collapse_top(top, n, e, cluster_of, joints, slots, out)))
+                (top[n].bounds(), ChildRef::pack(0, collapse_top(top, n, e, cluster_of, joints, slots, out)))
             }
             TopSlot::Node(n, _) => {
                 let j = cluster_of(&top[n]);
@@ -1351,7 +1295,7 @@ fn collapse_top(
                 slots.map_or(NO_SLOT, |s| s[j][side])
             }
         };
-        *kid = (Node { bounds, offset: 0, count: 0 }, r);
+        *kid = (Node::new(bounds, 0, 0), r);
     }
     let refs: Vec<(&Node, u32)> = kids[..len].iter().map(|(n, r)| (n, *r)).collect();
     out[index] = WideNode::new(&refs);
@@ -1377,7 +1321,7 @@ const ORIENTED_FIT_MAX: usize = 64;
 /// An oriented node is made when boxing its children each in its own best frame lowers the
 /// children's surface-area cost `Σ nₖ Aₖ` (primitives times half area) below this fraction of
 /// their axis-aligned cost: the oriented test costs more per visit.
-const ORIENTED_NODE_GAIN: f64 = 0.85;
+const ORIENTED_NODE_GAIN: f64 = 0.75;
 
 impl CollapseInput<'_> {
     /// The primitives (a range of `records`) under the binary subtree at `c`.
@@ -1404,7 +1348,7 @@ impl CollapseInput<'_> {
         if ranges.iter().all(|r| r.len() > ORIENTED_FIT_MAX) {
             return None;
         }
-        let aabb = slots.iter().fold(FBox::EMPTY, |b, &(c, _)| b.union(self.binary[c].bounds));
+        let aabb = slots.iter().fold(FBox::EMPTY, |b, &(c, _)| b.union(self.binary[c].bounds()));
         let (lo, hi) = (aabb.min.as_dvec3(), aabb.max.as_dvec3());
         let center = (0.5 * (lo + hi)).as_vec3();
         let c = center.as_dvec3();
@@ -1412,7 +1356,7 @@ impl CollapseInput<'_> {
         let (mut aligned_cost, mut best_cost) = (0.0, 0.0);
         let mut children = Vec::with_capacity(slots.len());
         for (&(node, _), range) in slots.iter().zip(&ranges) {
-            let b = self.binary[node].bounds;
+            let b = self.binary[node].bounds();
             let (blo, bhi) = (b.min.as_dvec3() - c, b.max.as_dvec3() - c);
             let aligned_area = oriented::half_area(blo, bhi);
             let n = range.len() as f64;
@@ -1464,16 +1408,16 @@ fn collapse(input: &CollapseInput<'_>, root: usize, end: usize, out: &mut WideNo
         let leaves = binary[c..e].iter().filter(|n| n.count > 0);
         let count: u32 = leaves.clone().map(|n| n.count).sum();
         let offset = leaves.map(|n| n.offset).min()?;
-        (count as usize <= MAX_LEAF).then(|| (input.leaf)(&Node { bounds: b.bounds, offset, count }))
+        (count as usize <= MAX_LEAF).then(|| (input.leaf)(&Node { offset, count, ..*b }))
     };
     let mut slots = [(0usize, 0usize); WIDTH];
     slots[..2].copy_from_slice(&children(root, end));
     let mut len = 2;
     while len < WIDTH {
         // Open the interior child with the largest box.
-        let best = (0..len)
-            .filter(|&i| binary[slots[i].0].count == 0)
-            .max_by(|&a, &b| binary[slots[a].0].bounds.half_area().total_cmp(&binary[slots[b].0].bounds.half_area()));
+        let best = (0..len).filter(|&i| binary[slots[i].0].count == 0).max_by(|&a, &b| {
+            binary[slots[a].0].bounds().half_area().total_cmp(&binary[slots[b].0].bounds().half_area())
+        });
         let Some(i) = best else { break };
         let [a, b] = children(slots[i].0, slots[i].1);
         slots[i] = a;

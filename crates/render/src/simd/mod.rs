@@ -1,5 +1,6 @@
-//! The two inner loops of ray tracing in explicit SIMD: the slab test of a wide BVH node and the
-//! `f32` distance-to-axis pre-test of a leaf's segments, each in a portable form (`glam`'s
+//! The inner loops of ray tracing in explicit SIMD: the slab tests of a wide BVH node (axis-aligned,
+//! and oriented: the ray rotated into each child's frame) and the `f32` distance-to-axis pre-test
+//! of a leaf's segments, each in a portable form (`glam`'s
 //! four-lane `Vec4`, SSE2 on x86-64) and, on x86-64 CPUs that have it, an AVX2 form chosen at
 //! run time. This is the one module of the crate allowed `unsafe` (ARCHITECTURE.md, "Unsafe
 //! code: one audited SIMD module").

@@ -37,7 +37,7 @@
 //! reflecting the ray off the actual cylinder normal).
 
 use crate::bvh::{Aabb, Boxes, BuildPrim, Bvh, Ray};
-use crate::simd::{Lanes, LineF32, Portable, SegmentHead, SimdLevel};
+use crate::simd::{Lanes, Portable, RayF32, SegmentHead, SimdLevel};
 use fiberlab_io::HairFile;
 use fiberlab_math::{DVec3, FiberFrame};
 use glam::Vec3;
@@ -388,11 +388,15 @@ impl CurveSet {
     fn intersect_in(&self, lanes: impl Lanes, ray: &Ray) -> Option<CurveHit> {
         let mut best: Option<CurveHit> = None;
         let quick = QuickRay::new(ray);
-        // Pieces of one segment sit side by side in the tree: skip a segment just tested.
+        // Pieces of one segment sit side by side in the tree: skip a segment just tested, and
+        // the segment of the nearest hit so far (a tube is entered once).
         let mut last = u32::MAX;
         self.bvh.traverse_leaves_in(lanes, ray, |prims, mut t_max| {
             let mut found = None;
-            for seg in self.candidates(lanes, &quick, prims, &mut last) {
+            for seg in self.candidates(lanes, &quick, prims, t_max, &mut last) {
+                if best.is_some_and(|b| b.segment == seg) {
+                    continue;
+                }
                 #[cfg(fiberlab_stats)]
                 crate::bvh::stats::add(4, 1);
                 if let Some(hit) = self.intersect_segment(seg, ray, t_max) {
@@ -422,7 +426,7 @@ impl CurveSet {
         let quick = QuickRay::new(ray);
         let mut last = u32::MAX;
         self.bvh.any_leaf_in(lanes, ray, |prims| {
-            self.candidates(lanes, &quick, prims, &mut last).any(|seg| {
+            self.candidates(lanes, &quick, prims, ray.t_max, &mut last).any(|seg| {
                 #[cfg(fiberlab_stats)]
                 crate::bvh::stats::add(10, 1);
                 let hit = self.intersect_segment(seg, ray, ray.t_max).is_some();
@@ -441,7 +445,7 @@ impl CurveSet {
         // A segment split into pieces sits in several leaves: remember the ones reported.
         let mut seen: Vec<u32> = Vec::new();
         self.bvh.traverse_leaves(ray, |prims, _| {
-            for seg in self.candidates(Portable, &quick, prims, &mut last) {
+            for seg in self.candidates(Portable, &quick, prims, ray.t_max, &mut last) {
                 if seen.contains(&seg) {
                     continue;
                 }
@@ -477,7 +481,7 @@ impl CurveSet {
         let mut seen = SEEN.take();
         seen.clear();
         let stopped = self.bvh.any_leaf_in(lanes, ray, |prims| {
-            for seg in self.candidates(lanes, &quick, prims, &mut last) {
+            for seg in self.candidates(lanes, &quick, prims, ray.t_max, &mut last) {
                 if seen.contains(&seg) {
                     continue;
                 }
@@ -501,17 +505,18 @@ impl CurveSet {
         }
     }
 
-    /// The segments of a leaf that pass the `f32` pre-test, in leaf order, skipping the
-    /// segment tested just before (`last`, updated).
+    /// The segments of a leaf that pass the `f32` pre-test for hits before `t_max`, in leaf
+    /// order, skipping the segment tested just before (`last`, updated).
     #[inline(always)]
     fn candidates<'a>(
         &'a self,
         lanes: impl Lanes,
         quick: &QuickRay,
         prims: &'a [u32],
+        t_max: f64,
         last: &mut u32,
     ) -> impl Iterator<Item = u32> + 'a {
-        let mut mask = quick.may_hit(lanes, &self.segments, prims);
+        let mut mask = quick.may_hit(lanes, &self.segments, prims, t_max);
         if prims.first() == Some(last) {
             mask &= !1;
         }
@@ -571,22 +576,23 @@ impl CurveSet {
 }
 
 /// A ray in `f32` for the conservative pre-test of a leaf's segments ([`Lanes::near_axis`]).
-struct QuickRay(LineF32);
+struct QuickRay(RayF32);
 
 impl QuickRay {
     fn new(ray: &Ray) -> Self {
-        Self(LineF32 { o: ray.o.as_vec3(), d: ray.d.as_vec3() })
+        Self(RayF32::new(ray.o, ray.d, ray.t_min, ray.t_max))
     }
 
-    /// Bit `k` clear only when the ray's line certainly misses the infinite cylinder of
-    /// segment `prims[k]` ([`Lanes::near_axis`]: all of a leaf's segments in one pass of eight
+    /// Bit `k` clear only when the ray certainly does not enter the tube of segment `prims[k]`
+    /// before `t_max` ([`Lanes::near_axis`]: all of a leaf's segments in one pass of eight
     /// lanes, or in passes of four).
     #[inline(always)]
-    fn may_hit(&self, lanes: impl Lanes, segments: &[Segment], prims: &[u32]) -> u32 {
+    fn may_hit(&self, lanes: impl Lanes, segments: &[Segment], prims: &[u32], t_max: f64) -> u32 {
         debug_assert!((1..=8).contains(&prims.len()), "a leaf holds 1 to 8 primitives");
         // A short leaf repeats its last segment; those lanes are masked off.
         let last = prims.len() - 1;
-        lanes.near_axis(&self.0, |k| segments[prims[k.min(last)] as usize].head(), prims.len())
+        let ray = RayF32 { t_max: t_max as f32, ..self.0 };
+        lanes.near_axis(&ray, |k| segments[prims[k.min(last)] as usize].head(), prims.len())
     }
 }
 

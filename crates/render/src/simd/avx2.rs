@@ -7,14 +7,15 @@
 //! are checked where they are taken or fixed by construction (each block states why); the
 //! arithmetic intrinsics are safe inside these `#[target_feature]` functions.
 
-use super::{LineF32, MIN_ROTATED_DIRECTION, OrientedBoxes, OrientedTerms, SegmentHead, SlabTerms};
+use super::{MIN_ROTATED_DIRECTION, OrientedBoxes, OrientedTerms, RayF32, SegmentHead, SlabTerms};
 use core::arch::x86_64::{
-    __m128i, __m256, _CMP_LE_OS, _CMP_LT_OS, _mm_loadl_epi64, _mm256_add_ps, _mm256_and_ps, _mm256_andnot_ps,
-    _mm256_castps_si256, _mm256_cmp_ps, _mm256_cvtepi8_epi32, _mm256_cvtepi32_ps, _mm256_cvtepu8_epi32, _mm256_div_ps,
-    _mm256_loadu_ps, _mm256_loadu_si256, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps,
-    _mm256_permute2f128_ps, _mm256_permute2x128_si256, _mm256_permutevar8x32_epi32, _mm256_set1_ps, _mm256_setzero_ps,
-    _mm256_shuffle_ps, _mm256_sqrt_ps, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm256_unpackhi_epi32,
-    _mm256_unpackhi_ps, _mm256_unpacklo_epi32, _mm256_unpacklo_ps,
+    __m128i, __m256, _CMP_GE_OS, _CMP_LE_OS, _CMP_LT_OS, _mm_loadl_epi64, _mm256_add_ps, _mm256_and_ps,
+    _mm256_andnot_ps, _mm256_castps_si256, _mm256_cmp_ps, _mm256_cvtepi8_epi32, _mm256_cvtepi32_ps,
+    _mm256_cvtepu8_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_max_ps, _mm256_min_ps,
+    _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_permute2f128_ps, _mm256_permute2x128_si256,
+    _mm256_permutevar8x32_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_shuffle_ps, _mm256_sqrt_ps,
+    _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm256_unpackhi_epi32, _mm256_unpackhi_ps,
+    _mm256_unpacklo_epi32, _mm256_unpacklo_ps,
 };
 
 /// Runs `f` in a function compiled with AVX2 enabled (`f` and what it calls inline into it).
@@ -192,7 +193,7 @@ fn row(r: __m128i) -> __m256 {
 /// operations run on eight lanes.
 #[target_feature(enable = "avx2")]
 #[inline]
-pub(super) fn near_axis(line: &LineF32, heads: &[SegmentHead; 8]) -> u32 {
+pub(super) fn near_axis(ray: &RayF32, heads: &[SegmentHead; 8]) -> u32 {
     // SAFETY (each load): `heads[k]` is eight `f32`; no alignment requirement.
     let row = |k: usize| heads[k].as_ptr();
     let r = unsafe {
@@ -207,7 +208,7 @@ pub(super) fn near_axis(line: &LineF32, heads: &[SegmentHead; 8]) -> u32 {
             _mm256_loadu_ps(row(7)),
         ]
     };
-    // 8×8 transpose (column 6, the length, is not needed).
+    // 8×8 transpose.
     let t = [
         _mm256_unpacklo_ps(r[0], r[1]),
         _mm256_unpackhi_ps(r[0], r[1]),
@@ -234,12 +235,13 @@ pub(super) fn near_axis(line: &LineF32, heads: &[SegmentHead; 8]) -> u32 {
     let ax = _mm256_permute2f128_ps::<0x20>(s[3], s[7]);
     let ay = _mm256_permute2f128_ps::<0x31>(s[0], s[4]);
     let az = _mm256_permute2f128_ps::<0x31>(s[1], s[5]);
+    let length = _mm256_permute2f128_ps::<0x31>(s[2], s[6]);
     let radius = _mm256_permute2f128_ps::<0x31>(s[3], s[7]);
 
-    let ox = _mm256_sub_ps(_mm256_set1_ps(line.o.x), px);
-    let oy = _mm256_sub_ps(_mm256_set1_ps(line.o.y), py);
-    let oz = _mm256_sub_ps(_mm256_set1_ps(line.o.z), pz);
-    let (dx, dy, dz) = (_mm256_set1_ps(line.d.x), _mm256_set1_ps(line.d.y), _mm256_set1_ps(line.d.z));
+    let ox = _mm256_sub_ps(_mm256_set1_ps(ray.o.x), px);
+    let oy = _mm256_sub_ps(_mm256_set1_ps(ray.o.y), py);
+    let oz = _mm256_sub_ps(_mm256_set1_ps(ray.o.z), pz);
+    let (dx, dy, dz) = (_mm256_set1_ps(ray.d.x), _mm256_set1_ps(ray.d.y), _mm256_set1_ps(ray.d.z));
     let d_along = dot(dx, dy, dz, ax, ay, az);
     let ux = _mm256_sub_ps(dx, _mm256_mul_ps(ax, d_along));
     let uy = _mm256_sub_ps(dy, _mm256_mul_ps(ay, d_along));
@@ -249,17 +251,41 @@ pub(super) fn near_axis(line: &LineF32, heads: &[SegmentHead; 8]) -> u32 {
     let wy = _mm256_sub_ps(oy, _mm256_mul_ps(ay, o_along));
     let wz = _mm256_sub_ps(oz, _mm256_mul_ps(az, o_along));
     let aa = dot(ux, uy, uz, ux, uy, uz);
-    let t = _mm256_div_ps(dot(wx, wy, wz, ux, uy, uz), _mm256_max_ps(aa, _mm256_set1_ps(1e-30)));
+    let aa_floor = _mm256_max_ps(aa, _mm256_set1_ps(1e-30));
+    let t = _mm256_div_ps(dot(wx, wy, wz, ux, uy, uz), aa_floor);
     let qx = _mm256_sub_ps(wx, _mm256_mul_ps(ux, t));
     let qy = _mm256_sub_ps(wy, _mm256_mul_ps(uy, t));
     let qz = _mm256_sub_ps(wz, _mm256_mul_ps(uz, t));
-    let reach = _mm256_add_ps(_mm256_set1_ps(1.0), _mm256_sqrt_ps(dot(ox, oy, oz, ox, oy, oz)));
-    let slack = _mm256_add_ps(radius, _mm256_mul_ps(reach, _mm256_set1_ps(1e-5)));
-    let near = _mm256_or_ps(
-        _mm256_cmp_ps::<_CMP_LT_OS>(dot(qx, qy, qz, qx, qy, qz), _mm256_mul_ps(slack, slack)),
-        _mm256_cmp_ps::<_CMP_LT_OS>(aa, _mm256_set1_ps(1e-12)),
+    let one = _mm256_set1_ps(1.0);
+    let reach = _mm256_add_ps(one, _mm256_sqrt_ps(dot(ox, oy, oz, ox, oy, oz)));
+    let position_error = _mm256_add_ps(_mm256_mul_ps(reach, _mm256_set1_ps(1e-5)), _mm256_set1_ps(ray.origin_error));
+    let wide = _mm256_add_ps(radius, position_error);
+    let near = _mm256_cmp_ps::<_CMP_LT_OS>(dot(qx, qy, qz, qx, qy, qz), _mm256_mul_ps(wide, wide));
+    let inverse = _mm256_div_ps(one, _mm256_sqrt_ps(aa_floor));
+    let zero = _mm256_setzero_ps();
+    let t_c = _mm256_sub_ps(zero, t);
+    let t_c_abs = _mm256_andnot_ps(_mm256_set1_ps(-0.0), t_c);
+    let error = _mm256_add_ps(
+        _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(wide, _mm256_set1_ps(1e-5)), position_error), inverse),
+        _mm256_mul_ps(t_c_abs, _mm256_set1_ps(1e-5)),
     );
-    _mm256_movemask_ps(near) as u32
+    let first = _mm256_max_ps(
+        _mm256_sub_ps(_mm256_sub_ps(t_c, _mm256_mul_ps(wide, inverse)), error),
+        _mm256_set1_ps(ray.t_min),
+    );
+    let last = _mm256_min_ps(_mm256_add_ps(t_c, error), _mm256_set1_ps(ray.t_max));
+    let s_first = _mm256_add_ps(o_along, _mm256_mul_ps(d_along, first));
+    let s_last = _mm256_add_ps(o_along, _mm256_mul_ps(d_along, last));
+    let margin = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(radius, _mm256_set1_ps(2.0)), wide), error);
+    let within = _mm256_and_ps(
+        _mm256_cmp_ps::<_CMP_LE_OS>(first, last),
+        _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_GE_OS>(_mm256_max_ps(s_first, s_last), _mm256_sub_ps(zero, margin)),
+            _mm256_cmp_ps::<_CMP_LE_OS>(_mm256_min_ps(s_first, s_last), _mm256_add_ps(length, margin)),
+        ),
+    );
+    let keep = _mm256_or_ps(_mm256_and_ps(near, within), _mm256_cmp_ps::<_CMP_LT_OS>(aa, _mm256_set1_ps(1e-12)));
+    _mm256_movemask_ps(keep) as u32
 }
 
 /// `(x·a + y·b) + z·c` lane by lane, in the portable form's order.

@@ -192,16 +192,30 @@ pub(crate) struct OrientedTerms {
 pub(crate) const MIN_ROTATED_DIRECTION: f32 = 1e-30;
 
 /// The first eight `f32` of a segment, as the leaf test reads them: axis start point `x, y, z`,
-/// unit axis `x, y, z`, length (unused by the test) and radius.
+/// unit axis `x, y, z`, length and radius.
 pub(crate) type SegmentHead = [f32; 8];
 
 /// A ray in `f32` for the leaf pre-test.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct LineF32 {
+pub(crate) struct RayF32 {
     /// Origin.
     pub o: Vec3,
     /// Unit direction.
     pub d: Vec3,
+    /// The distances a hit may have, `t_min < t < t_max`.
+    pub t_min: f32,
+    pub t_max: f32,
+    /// A bound on the distance between the origin in `f32` and the ray's own: 1e-6 of the
+    /// origin's magnitude, ten times the rounding.
+    pub origin_error: f32,
+}
+
+impl RayF32 {
+    /// The ray `o + t·d`, `t_min < t < t_max`, rounded to `f32`.
+    pub fn new(o: glam::DVec3, d: glam::DVec3, t_min: f64, t_max: f64) -> Self {
+        let o32 = o.as_vec3();
+        Self { o: o32, d: d.as_vec3(), t_min: t_min as f32, t_max: t_max as f32, origin_error: o32.length() * 1e-6 }
+    }
 }
 
 /// The two kernels, in one instruction set.
@@ -242,12 +256,16 @@ pub(crate) trait Lanes: Copy {
         keys: &mut [u64; 8],
     ) -> u32;
 
-    /// Bit `k` (`k < n ≤ 8`) clear only when the ray's line certainly misses the infinite
-    /// cylinder of segment `head(k)`: its squared distance to the axis exceeds r² by more than
-    /// the `f32` rounding of the inputs (relative 1e-5 of the origin's distance from the
-    /// segment start, far above the ~1e-7 actually incurred). `head` is also called for lanes
-    /// `n..8` (it may repeat a segment there); their bits are cleared.
-    fn near_axis(self, line: &LineF32, head: impl Fn(usize) -> SegmentHead, n: usize) -> u32;
+    /// Bit `k` (`k < n ≤ 8`) clear only when the ray certainly does not enter the tube of
+    /// segment `head(k)` within `(t_min, t_max)`: its line passes farther from the axis than
+    /// the radius, or the stretch of the ray inside the (widened) infinite cylinder lies outside
+    /// the distances, or outside the axis from `−2r` to `length + 2r` (a mitered end reaches at
+    /// most `√3·r` beyond the axis' ends). Every bound is widened by more than the `f32`
+    /// rounding of the inputs (relative 1e-5 of the origin's distance from the segment start
+    /// and of the distances, far above the ~1e-7 actually incurred; 1e-6 of the origin's
+    /// magnitude). A ray within 1e-6 of parallel to the axis always passes. `head` is also
+    /// called for lanes `n..8` (it may repeat a segment there); their bits are cleared.
+    fn near_axis(self, ray: &RayF32, head: impl Fn(usize) -> SegmentHead, n: usize) -> u32;
 }
 
 /// The portable form: four `Vec4` lanes.
@@ -344,13 +362,12 @@ impl Lanes for Portable {
     }
 
     #[inline(always)]
-    fn near_axis(self, line: &LineF32, head: impl Fn(usize) -> SegmentHead, n: usize) -> u32 {
+    fn near_axis(self, ray: &RayF32, head: impl Fn(usize) -> SegmentHead, n: usize) -> u32 {
         let mut mask = 0;
         for chunk in 0..n.div_ceil(4) {
             let h = [head(4 * chunk), head(4 * chunk + 1), head(4 * chunk + 2), head(4 * chunk + 3)];
             let gather = |i: usize| Vec4::new(h[0][i], h[1][i], h[2][i], h[3][i]);
-            let fields = [gather(0), gather(1), gather(2), gather(3), gather(4), gather(5), gather(7)];
-            let near = near_axis_lanes(line, fields);
+            let near = near_axis_lanes(ray, std::array::from_fn(gather));
             let lanes = (1u32 << (n - 4 * chunk).min(4)) - 1;
             mask |= (near & lanes) << (4 * chunk);
         }
@@ -374,12 +391,13 @@ fn portable_keys(mask: u32, t: &[f32; 8], child: &[u32; 8], keys: &mut [u64; 8])
     mask
 }
 
-/// The leaf pre-test on four lanes; `f`: segment start `x, y, z`, axis `x, y, z`, radius.
+/// The leaf pre-test on four lanes; `f`: the [`SegmentHead`] fields (segment start `x, y, z`,
+/// axis `x, y, z`, length, radius).
 #[inline(always)]
-fn near_axis_lanes(line: &LineF32, f: [Vec4; 7]) -> u32 {
-    let [px, py, pz, ax, ay, az, radius] = f;
-    let (ox, oy, oz) = (Vec4::splat(line.o.x) - px, Vec4::splat(line.o.y) - py, Vec4::splat(line.o.z) - pz);
-    let (dx, dy, dz) = (Vec4::splat(line.d.x), Vec4::splat(line.d.y), Vec4::splat(line.d.z));
+fn near_axis_lanes(ray: &RayF32, f: [Vec4; 8]) -> u32 {
+    let [px, py, pz, ax, ay, az, length, radius] = f;
+    let (ox, oy, oz) = (Vec4::splat(ray.o.x) - px, Vec4::splat(ray.o.y) - py, Vec4::splat(ray.o.z) - pz);
+    let (dx, dy, dz) = (Vec4::splat(ray.d.x), Vec4::splat(ray.d.y), Vec4::splat(ray.d.z));
     let d_along = dx * ax + dy * ay + dz * az;
     let (ux, uy, uz) = (dx - ax * d_along, dy - ay * d_along, dz - az * d_along);
     let o_along = ox * ax + oy * ay + oz * az;
@@ -388,8 +406,21 @@ fn near_axis_lanes(line: &LineF32, f: [Vec4; 7]) -> u32 {
     // The closest approach as a vector (no cancellation between large terms).
     let t = (wx * ux + wy * uy + wz * uz) / aa.max(Vec4::splat(1e-30));
     let (qx, qy, qz) = (wx - ux * t, wy - uy * t, wz - uz * t);
-    let slack = radius + (Vec4::ONE + (ox * ox + oy * oy + oz * oz).sqrt()) * 1e-5;
-    ((qx * qx + qy * qy + qz * qz).cmplt(slack * slack) | aa.cmplt(Vec4::splat(1e-12))).bitmask()
+    let position_error = (Vec4::ONE + (ox * ox + oy * oy + oz * oz).sqrt()) * 1e-5 + Vec4::splat(ray.origin_error);
+    let wide = radius + position_error;
+    let near = (qx * qx + qy * qy + qz * qz).cmplt(wide * wide);
+    // The ray is inside the widened cylinder for distances around `t_c` (the closest
+    // approach), and enters it at most `wide / √aa` before.
+    let inverse = Vec4::ONE / aa.max(Vec4::splat(1e-30)).sqrt();
+    let t_c = Vec4::ZERO - t;
+    let error = (wide * 1e-5 + position_error) * inverse + t_c.abs() * 1e-5;
+    let first = (t_c - wide * inverse - error).max(Vec4::splat(ray.t_min));
+    let last = (t_c + error).min(Vec4::splat(ray.t_max));
+    let (s_first, s_last) = (o_along + d_along * first, o_along + d_along * last);
+    let margin = radius * 2.0 + wide + error;
+    let within =
+        first.cmple(last) & s_first.max(s_last).cmpge(Vec4::ZERO - margin) & s_first.min(s_last).cmple(length + margin);
+    ((near & within) | aa.cmplt(Vec4::splat(1e-12))).bitmask()
 }
 
 /// The AVX2 form: eight lanes. A value of this type exists only on a CPU with AVX2 (it is made
@@ -474,16 +505,16 @@ impl Lanes for Avx2 {
     }
 
     #[inline(always)]
-    fn near_axis(self, line: &LineF32, head: impl Fn(usize) -> SegmentHead, n: usize) -> u32 {
+    fn near_axis(self, ray: &RayF32, head: impl Fn(usize) -> SegmentHead, n: usize) -> u32 {
         #[cfg(target_arch = "x86_64")]
         {
             let heads = [head(0), head(1), head(2), head(3), head(4), head(5), head(6), head(7)];
             // SAFETY: as in `Avx2::run`: this CPU has AVX2.
-            let near = unsafe { avx2::near_axis(line, &heads) };
+            let near = unsafe { avx2::near_axis(ray, &heads) };
             near & ((1u32 << n) - 1)
         }
         #[cfg(not(target_arch = "x86_64"))]
-        Portable.near_axis(line, head, n)
+        Portable.near_axis(ray, head, n)
     }
 }
 
@@ -512,28 +543,34 @@ mod tests {
         }
     }
 
-    /// Leaf pre-test inputs: hair-like, parallel, crossing, degenerate, huge and tiny radii.
-    fn leaf_cases(g: &mut Lcg, case: u32) -> (LineF32, [SegmentHead; 8], usize) {
+    /// Leaf pre-test inputs: hair-like, parallel, crossing, degenerate, huge and tiny radii;
+    /// segment lengths from a tenth of the radius to ten units, distance intervals from short to
+    /// unbounded, origins near and far from the world's origin.
+    fn leaf_cases(g: &mut Lcg, case: u32) -> (RayF32, [SegmentHead; 8], usize) {
         let n = 1 + (g.next() * 8.0) as usize % 8;
         let mut heads = [[0.0; 8]; 8];
-        let o = (g.vec() - 0.5) * 4.0;
+        let far = if g.next() < 0.25 { Vec3::splat(1000.0) } else { Vec3::ZERO };
+        let o = (g.vec() - 0.5) * 4.0 + far;
         let d = (g.vec() - 0.5).normalize_or(Vec3::X);
         for h in &mut heads {
             let (p, a, r) = match case {
                 // Hair: short segments around the unit sphere, radius ~0.002.
-                0 => ((g.vec() - 0.5) * 2.0, (g.vec() - 0.5).normalize_or(Vec3::Y), 0.002 * (0.5 + g.next())),
+                0 => ((g.vec() - 0.5) * 2.0 + far, (g.vec() - 0.5).normalize_or(Vec3::Y), 0.002 * (0.5 + g.next())),
                 // Parallel to the ray (the `aa` guard), or nearly.
                 1 => ((g.vec() - 0.5) * 0.01 + o, (d + (g.vec() - 0.5) * 1e-6).normalize(), 0.001),
                 // Crossing the ray's line at distances around the radius.
                 2 => {
                     let at = o + d * (g.next() * 3.0);
                     let a = d.cross(g.vec() - 0.5).normalize_or(Vec3::Z);
-                    (at + d.cross(a).normalize_or(Vec3::X) * (0.01 * (g.next() - 0.5) * 2.1), a, 0.01)
+                    let p = at + d.cross(a).normalize_or(Vec3::X) * (0.01 * (g.next() - 0.5) * 2.1);
+                    (p - a * (g.next() * 0.05), a, 0.01)
                 }
                 // Degenerate axes (zero) and radii (zero).
-                3 => {
-                    (g.vec(), if g.next() < 0.5 { Vec3::ZERO } else { Vec3::Z }, if g.next() < 0.5 { 0.0 } else { 0.1 })
-                }
+                3 => (
+                    g.vec() + far,
+                    if g.next() < 0.5 { Vec3::ZERO } else { Vec3::Z },
+                    if g.next() < 0.5 { 0.0 } else { 0.1 },
+                ),
                 // Huge and tiny magnitudes.
                 _ => (
                     Vec3::new(g.wild(), g.wild(), g.wild()),
@@ -541,39 +578,113 @@ mod tests {
                     g.wild().abs(),
                 ),
             };
-            *h = [p.x, p.y, p.z, a.x, a.y, a.z, 1.0, r];
+            let length = match (g.next() * 4.0) as u32 {
+                0 => r * 0.1,
+                1 => r * 16.0,
+                2 => g.next() * 10.0,
+                _ => {
+                    if case == 4 {
+                        g.wild().abs()
+                    } else {
+                        0.05 * g.next()
+                    }
+                }
+            };
+            *h = [p.x, p.y, p.z, a.x, a.y, a.z, length, r];
         }
-        (LineF32 { o, d }, heads, n)
+        let t_min = if g.next() < 0.5 { 0.0 } else { 1e-4 * g.next() };
+        let t_max = if g.next() < 0.3 { f32::INFINITY } else { t_min + 4.0 * g.next() };
+        let origin_error = o.length() * 1e-6;
+        (RayF32 { o, d, t_min, t_max, origin_error }, heads, n)
     }
 
-    /// The pre-test must never clear the bit of a segment whose axis line passes within the
-    /// radius of the ray's line (checked in `f64`, closest distance between the lines).
+    /// Where the ray enters the tube of `head` (the infinite cylinder cut by planes normal to
+    /// the axis at `−√3·r` and `length + √3·r`: every mitered tube lies inside), in `f64`; `None`
+    /// when it does not within `(t_min, t_max)`.
+    fn enters(ray: &RayF32, h: &SegmentHead) -> Option<f64> {
+        let (p, a) = (Vec3::new(h[0], h[1], h[2]).as_dvec3(), Vec3::new(h[3], h[4], h[5]).as_dvec3());
+        let (o, d) = (ray.o.as_dvec3(), ray.d.as_dvec3());
+        let (length, r) = (f64::from(h[6]), f64::from(h[7]));
+        let a = a.normalize_or_zero();
+        let u = d - a * d.dot(a);
+        let w = (o - p) - a * (o - p).dot(a);
+        let aa = u.length_squared();
+        if aa < 1e-20 {
+            return None;
+        }
+        let t_c = -w.dot(u) / aa;
+        let q2 = (w + u * t_c).length_squared();
+        if q2 >= r * r {
+            return None;
+        }
+        let t = t_c - ((r * r - q2) / aa).sqrt();
+        let s = (o + d * t - p).dot(a);
+        let reach = 3f64.sqrt() * r;
+        (t > f64::from(ray.t_min) && t < f64::from(ray.t_max) && s >= -reach && s <= length + reach).then_some(t)
+    }
+
+    /// The pre-test must never clear the bit of a segment whose tube the ray enters within its
+    /// distances (checked in `f64`), and must clear most of those it misses.
     #[test]
-    fn leaf_pre_test_keeps_every_near_axis() {
+    fn leaf_pre_test_keeps_every_entered_tube() {
         let mut g = Lcg(5);
-        let mut kept = 0;
-        for i in 0..20_000 {
-            let (line, heads, n) = leaf_cases(&mut g, i % 5);
+        let (mut kept, mut missed, mut cleared) = (0, 0, 0);
+        for i in 0..40_000 {
+            let (ray, heads, n) = leaf_cases(&mut g, i % 5);
             for level in SimdLevel::available() {
                 let mask = match level.avx2_token() {
-                    Some(k) => k.run(|| k.near_axis(&line, |j| heads[j], n)),
-                    None => Portable.near_axis(&line, |j| heads[j], n),
+                    Some(k) => k.run(|| k.near_axis(&ray, |j| heads[j], n)),
+                    None => Portable.near_axis(&ray, |j| heads[j], n),
                 };
                 assert_eq!(mask >> n, 0, "bits beyond the leaf");
                 for (k, h) in heads[..n].iter().enumerate() {
-                    let (p, a) = (Vec3::new(h[0], h[1], h[2]).as_dvec3(), Vec3::new(h[3], h[4], h[5]).as_dvec3());
-                    let (o, d) = (line.o.as_dvec3(), line.d.as_dvec3());
-                    let c = d.cross(a);
-                    let dist =
-                        if c.length() < 1e-9 { (p - o).cross(d).length() } else { (p - o).dot(c).abs() / c.length() };
-                    if dist < f64::from(h[7]) * 0.999 {
-                        assert_ne!(mask & (1 << k), 0, "{}: near axis dropped: {h:?} {line:?}", level.name());
+                    if enters(&ray, h).is_some() {
+                        assert_ne!(mask & (1 << k), 0, "{}: entered tube dropped: {h:?} {ray:?}", level.name());
                         kept += 1;
+                    } else if i % 5 != 1 {
+                        missed += 1;
+                        cleared += u32::from(mask & (1 << k) == 0);
                     }
                 }
             }
         }
-        assert!(kept > 1000, "too few near axes ({kept}) to be a test");
+        assert!(kept > 2000, "too few entered tubes ({kept}) to be a test");
+        assert!(f64::from(cleared) > 0.9 * f64::from(missed), "{cleared} of {missed} missed tubes cleared");
+    }
+
+    /// The pre-test clears tubes that the ray's line passes through outside the distances or
+    /// beyond the segment's ends (a segment crossed squarely, with the interval or the segment
+    /// moved away from the crossing).
+    #[test]
+    fn leaf_pre_test_clears_crossings_outside_the_interval_and_the_segment() {
+        let r = 0.01;
+        let crossing = |t_max: f32, start: f32, length: f32| {
+            let ray = RayF32 { o: Vec3::ZERO, d: Vec3::X, t_min: 0.0, t_max, origin_error: 0.0 };
+            // The axis runs along y through (1, 0, 0), from y = start to start + length.
+            let head = [1.0, start, 0.0, 0.0, 1.0, 0.0, length, r];
+            SimdLevel::available()
+                .into_iter()
+                .map(|level| match level.avx2_token() {
+                    Some(k) => k.run(|| k.near_axis(&ray, |_| head, 1)),
+                    None => Portable.near_axis(&ray, |_| head, 1),
+                })
+                .collect::<Vec<_>>()
+        };
+        for level_mask in crossing(2.0, -0.5, 1.0) {
+            assert_eq!(level_mask, 1, "a plain crossing passes");
+        }
+        for level_mask in crossing(0.9, -0.5, 1.0) {
+            assert_eq!(level_mask, 0, "a crossing beyond t_max is cleared");
+        }
+        for level_mask in crossing(2.0, 0.5, 1.0) {
+            assert_eq!(level_mask, 0, "a crossing before the segment's start is cleared");
+        }
+        for level_mask in crossing(2.0, -1.5, 1.0) {
+            assert_eq!(level_mask, 0, "a crossing after the segment's end is cleared");
+        }
+        for level_mask in crossing(2.0, 1.5 * r, 1.0) {
+            assert_eq!(level_mask, 1, "a crossing within the reach of a mitered end passes");
+        }
     }
 
     #[test]
@@ -585,10 +696,10 @@ mod tests {
         let mut g = Lcg(7);
         let (mut set, mut clear) = (0, 0);
         for i in 0..100_000 {
-            let (line, heads, n) = leaf_cases(&mut g, i % 5);
-            let a = Portable.near_axis(&line, |j| heads[j], n);
-            let b = k.run(|| k.near_axis(&line, |j| heads[j], n));
-            assert_eq!(a, b, "case {}: {heads:?} {line:?} n {n}", i % 5);
+            let (ray, heads, n) = leaf_cases(&mut g, i % 5);
+            let a = Portable.near_axis(&ray, |j| heads[j], n);
+            let b = k.run(|| k.near_axis(&ray, |j| heads[j], n));
+            assert_eq!(a, b, "case {}: {heads:?} {ray:?} n {n}", i % 5);
             set += a.count_ones();
             clear += n as u32 - a.count_ones();
         }

@@ -613,18 +613,8 @@ fn cubic_weights(basis: CubicBasis, t: f64) -> [f64; 4] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_random::Lcg;
     use proptest::prelude::*;
-
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((self.0 >> 11) as f64) / (1u64 << 53) as f64
-        }
-        fn vec(&mut self) -> DVec3 {
-            DVec3::new(self.next(), self.next(), self.next())
-        }
-    }
 
     fn random_strands(seed: u64, n: usize) -> Vec<(Vec<DVec3>, Vec<f64>)> {
         let mut g = Lcg(seed);

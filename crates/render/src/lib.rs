@@ -45,3 +45,6 @@ pub mod texture;
 pub mod toml_params;
 pub mod woven_goniophotometer;
 pub mod woven_patch;
+
+#[cfg(test)]
+mod test_random;

@@ -1501,12 +1501,10 @@ fn collapse(input: &CollapseInput<'_>, root: usize, end: usize, out: &mut WideNo
 mod tests {
     use super::*;
 
-    /// Uniform numbers in [0, 1) from a 64-bit linear congruential generator seeded `state`.
-    fn uniforms(mut state: u64) -> impl FnMut() -> f64 {
-        move || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((state >> 11) as f64) / (1u64 << 53) as f64
-        }
+    /// Uniform numbers in [0, 1) from the tests' generator seeded `state`.
+    fn uniforms(state: u64) -> impl FnMut() -> f64 {
+        let mut g = crate::test_random::Lcg(state);
+        move || g.next()
     }
 
     #[test]

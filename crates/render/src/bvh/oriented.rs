@@ -216,17 +216,7 @@ impl OrientedNode {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((self.0 >> 11) as f64) / (1u64 << 53) as f64
-        }
-        fn vec(&mut self) -> DVec3 {
-            DVec3::new(self.next(), self.next(), self.next()) - 0.5
-        }
-    }
+    use crate::test_random::Lcg;
 
     /// Parallel segments give the frame their direction; a sheet of them (spread along one
     /// direction across it) gives the second axis along the sheet.
@@ -234,7 +224,7 @@ mod tests {
     fn frame_follows_the_segments_and_the_sheet() {
         let mut g = Lcg(3);
         for _ in 0..200 {
-            let u = g.vec().normalize();
+            let u = (g.vec() - 0.5).normalize();
             let across = u.any_orthonormal_vector();
             let records: Vec<BuildPrim> = (0..40)
                 .map(|i| {
@@ -263,22 +253,24 @@ mod tests {
         for case in 0..500 {
             let records: Vec<BuildPrim> = (0..1 + case % 9)
                 .map(|i| {
-                    let p = g.vec() * 4.0;
-                    BuildPrim::segment(p, p + g.vec() * 0.5, 0.001 + 0.05 * g.next(), i as u32)
+                    let p = (g.vec() - 0.5) * 4.0;
+                    BuildPrim::segment(p, p + (g.vec() - 0.5) * 0.5, 0.001 + 0.05 * g.next(), i as u32)
                 })
                 .collect();
             let rows: IntRows = match case % 3 {
                 0 => IDENTITY,
-                1 => integer_rows(&[g.vec(), g.vec(), g.vec()].map(|v| v.normalize().as_vec3())),
+                1 => {
+                    integer_rows(&[(g.vec() - 0.5), (g.vec() - 0.5), (g.vec() - 0.5)].map(|v| v.normalize().as_vec3()))
+                }
                 _ => [0; 3].map(|_| [0; 3].map(|_| (g.next() * 7.0) as i8 - 3)),
             };
-            let center = g.vec();
+            let center = g.vec() - 0.5;
             let (lo, hi) = bounds_in(&records, &rows, center);
             let r = rows.map(|r| DVec3::new(r[0].into(), r[1].into(), r[2].into()));
             for rec in &records {
                 let (p0, p1, reach) = (rec.p0().as_dvec3(), rec.p1().as_dvec3(), f64::from(rec.reach()));
                 for _ in 0..50 {
-                    let p = p0 + (p1 - p0) * g.next() + g.vec().normalize() * reach;
+                    let p = p0 + (p1 - p0) * g.next() + (g.vec() - 0.5).normalize() * reach;
                     let x = DVec3::new(r[0].dot(p - center), r[1].dot(p - center), r[2].dot(p - center));
                     let slack = 1e-9 * (1.0 + x.abs().max_element());
                     assert!(x.cmpge(lo - slack).all() && x.cmple(hi + slack).all(), "{x:?} outside {lo:?}..{hi:?}");

@@ -294,8 +294,7 @@ impl Lanes for Portable {
                 t0 = t0.max(near);
                 t1 = t1.min(far);
             }
-            mask |= t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask() << (4 * half);
-            entry[4 * half..4 * half + 4].copy_from_slice(&t0.to_array());
+            record_half(t0, t1, half, &mut mask, &mut entry);
         }
         (mask, entry)
     }
@@ -342,8 +341,7 @@ impl Lanes for Portable {
                 t0 = t0.max(t_lo.min(t_hi));
                 t1 = t1.min(t_lo.max(t_hi));
             }
-            mask |= t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask() << (4 * half);
-            entry[4 * half..4 * half + 4].copy_from_slice(&t0.to_array());
+            record_half(t0, t1, half, &mut mask, &mut entry);
         }
         (mask, entry)
     }
@@ -373,6 +371,14 @@ impl Lanes for Portable {
         }
         mask
     }
+}
+
+/// The hit bits (`t0 ≤ t1` within the relative `4ε` of the far distance) and entry distances of
+/// lanes `4·half .. 4·half + 4`, for the portable node tests.
+#[inline(always)]
+fn record_half(t0: Vec4, t1: Vec4, half: usize, mask: &mut u32, entry: &mut [f32; 8]) {
+    *mask |= t0.cmple(t1 * (1.0 + 4.0 * f32::EPSILON)).bitmask() << (4 * half);
+    entry[4 * half..4 * half + 4].copy_from_slice(&t0.to_array());
 }
 
 /// The keys of the children in `mask` (child order) into `keys[..m]`, one hit child at a time;

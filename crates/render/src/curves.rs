@@ -82,6 +82,13 @@ impl Segment {
         self.p0 + self.axis * self.length
     }
 
+    /// How many pieces of its axis the segment is in the BVH ([`PIECE_IN_RADII`], at most
+    /// [`MAX_PIECES`]).
+    fn piece_count(&self) -> usize {
+        let k = (f64::from(self.length) / (PIECE_IN_RADII * f64::from(self.radius))).ceil();
+        k.clamp(1.0, MAX_PIECES as f64) as usize
+    }
+
     /// The fields of the leaf pre-test, in order.
     #[inline(always)]
     fn head(&self) -> SegmentHead {
@@ -277,9 +284,7 @@ impl CurveSet {
         // In the tree, each segment as pieces of its axis of at most PIECE_IN_RADII radii.
         let pieces = |i: u32, out: &mut Vec<BuildPrim>| {
             let (p0, p1, reach) = axis(i);
-            let s = &segments[i as usize];
-            let k = (f64::from(s.length) / (PIECE_IN_RADII * f64::from(s.radius))).ceil().clamp(1.0, MAX_PIECES as f64);
-            let k = k as usize;
+            let k = segments[i as usize].piece_count();
             let step = (p1 - p0) / k as f64;
             let mut a = p0;
             for j in 1..=k {
@@ -289,13 +294,7 @@ impl CurveSet {
                 a = b;
             }
         };
-        let total = (0..segments.len() as u32)
-            .map(|i| {
-                let s = &segments[i as usize];
-                (f64::from(s.length) / (PIECE_IN_RADII * f64::from(s.radius))).ceil().clamp(1.0, MAX_PIECES as f64)
-                    as usize
-            })
-            .sum();
+        let total = segments.iter().map(Segment::piece_count).sum();
         let bvh = Bvh::build_grouped_in(items, &pieces, cluster_max, Boxes::Oriented);
         Self { segments, pieces: total, bvh, strands }
     }

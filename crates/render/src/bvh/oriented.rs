@@ -13,9 +13,9 @@
 //! directions (the dominant eigenvector of `Σ dᵢ dᵢᵀ` with `dᵢ` the segment vectors, so opposite
 //! directions agree and long segments weigh more); its second axis is the principal direction
 //! of the segments' end points across the first axis (a sheet of parallel strands gets a thin
-//! box); the third completes a right-handed frame. The frame is stored in `f32`; bounds are
-//! computed with those `f32` rows taken as exact, so the box bounds the segments in the frame
-//! the traversal uses, whatever the rows' rounding.
+//! box); the third completes a right-handed frame. The frame is stored as integers (its rows
+//! scaled by 127 and rounded, [`IntRows`]); bounds are computed with those integer rows as they
+//! are, so the box bounds the segments in the frame the traversal uses, whatever the rounding.
 
 use super::BuildPrim;
 use crate::simd::{OrientedBoxes, OrientedTerms};
@@ -39,6 +39,11 @@ pub(super) const ROW_NORM_1: f32 = 221.0;
 
 /// The identity frame (the axis-aligned box of a child in an oriented node).
 pub(super) const IDENTITY: IntRows = [[127, 0, 0], [0, 127, 0], [0, 0, 127]];
+
+/// The integer rows as `f64` vectors (exact).
+fn rows_f64(rows: &IntRows) -> [DVec3; 3] {
+    rows.map(|r| DVec3::new(r[0].into(), r[1].into(), r[2].into()))
+}
 
 /// `rows` scaled and rounded to integers.
 pub(super) fn integer_rows(rows: &Rows) -> IntRows {
@@ -116,7 +121,7 @@ pub(super) fn frame_of(records: &[BuildPrim]) -> Option<Rows> {
 /// `f64` (the caller rounds it outward): per row `k`, the end points' extent along the row
 /// widened by the reach times the row's length (the extent of a ball of that radius).
 pub(super) fn bounds_in(records: &[BuildPrim], rows: &IntRows, center: DVec3) -> (DVec3, DVec3) {
-    let r = rows.map(|r| DVec3::new(r[0].into(), r[1].into(), r[2].into()));
+    let r = rows_f64(rows);
     let norm = DVec3::new(r[0].length(), r[1].length(), r[2].length());
     let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
     for rec in records {
@@ -140,9 +145,8 @@ pub(super) fn half_area(lo: DVec3, hi: DVec3) -> f64 {
 /// Half the surface area, in scene units, of the box `lo..hi` in the integer frame `rows`
 /// (each extent divided by its row's length).
 pub(super) fn scaled_half_area(rows: &IntRows, lo: DVec3, hi: DVec3) -> f64 {
-    let norm = rows.map(|r| DVec3::new(r[0].into(), r[1].into(), r[2].into()).length());
-    let e = (hi - lo).max(DVec3::ZERO) / DVec3::from(norm);
-    e.x * e.y + e.y * e.z + e.z * e.x
+    let norm = DVec3::from(rows_f64(rows).map(DVec3::length));
+    half_area(lo / norm, hi / norm)
 }
 
 /// A wide node whose children are boxed each in its own frame: the boxes as the kernel reads
@@ -259,14 +263,12 @@ mod tests {
                 .collect();
             let rows: IntRows = match case % 3 {
                 0 => IDENTITY,
-                1 => {
-                    integer_rows(&[(g.vec() - 0.5), (g.vec() - 0.5), (g.vec() - 0.5)].map(|v| v.normalize().as_vec3()))
-                }
+                1 => integer_rows(&[g.vec() - 0.5, g.vec() - 0.5, g.vec() - 0.5].map(|v| v.normalize().as_vec3())),
                 _ => [0; 3].map(|_| [0; 3].map(|_| (g.next() * 7.0) as i8 - 3)),
             };
             let center = g.vec() - 0.5;
             let (lo, hi) = bounds_in(&records, &rows, center);
-            let r = rows.map(|r| DVec3::new(r[0].into(), r[1].into(), r[2].into()));
+            let r = rows_f64(&rows);
             for rec in &records {
                 let (p0, p1, reach) = (rec.p0().as_dvec3(), rec.p1().as_dvec3(), f64::from(rec.reach()));
                 for _ in 0..50 {

@@ -1,7 +1,8 @@
 //! The inner loops of ray tracing in explicit SIMD: the slab tests of a wide BVH node (axis-aligned,
-//! and oriented: the ray rotated into each child's frame) and the `f32` distance-to-axis pre-test
-//! of a leaf's segments, each in a portable form (`glam`'s
-//! four-lane `Vec4`, SSE2 on x86-64) and, on x86-64 CPUs that have it, an AVX2 form chosen at
+//! and oriented: the ray rotated into each child's frame) and the `f32` pre-test of a leaf's
+//! segments (distance to the axis, distances along the ray, the segment's ends), each in a
+//! portable form (`glam`'s four-lane `Vec4`, SSE2 on x86-64) and, on x86-64 CPUs that have it,
+//! an AVX2 form chosen at
 //! run time. This is the one module of the crate allowed `unsafe` (ARCHITECTURE.md, "Unsafe
 //! code: one audited SIMD module").
 //!
@@ -204,6 +205,7 @@ pub(crate) struct RayF32 {
     pub d: Vec3,
     /// The distances a hit may have, `t_min < t < t_max`.
     pub t_min: f32,
+    /// See `t_min`.
     pub t_max: f32,
     /// A bound on the distance between the origin in `f32` and the ray's own: 1e-6 of the
     /// origin's magnitude, ten times the rounding.
@@ -230,6 +232,8 @@ pub(crate) trait Lanes: Copy {
     /// their traversal keys, in child order, into `keys[..m]` (`m`: the number of them; the
     /// rest of `keys` is left unspecified); returns the hit mask. A child's key is its entry
     /// distance, clamped below at 0 (`max(t, 0)`), as `f32` bits above its reference `child[k]`.
+    /// The provided form makes the keys one hit child at a time (the portable form's).
+    #[inline(always)]
     fn slab_keys(
         self,
         q: &[[u8; 8]; 6],
@@ -238,7 +242,10 @@ pub(crate) trait Lanes: Copy {
         used: u32,
         child: &[u32; 8],
         keys: &mut [u64; 8],
-    ) -> u32;
+    ) -> u32 {
+        let (hit, t) = self.slab(q, rows, terms);
+        portable_keys(hit & used, &t, child, keys)
+    }
 
     /// The slab test of an oriented node's eight children, each in its own frame: the ray's
     /// origin and direction are rotated per child, and bit `k` of the mask is set when its
@@ -247,6 +254,7 @@ pub(crate) trait Lanes: Copy {
     fn oriented(self, boxes: &OrientedBoxes, terms: &OrientedTerms) -> (u32, [f32; 8]);
 
     /// [`Lanes::oriented`], then the hit used children's keys as [`Lanes::slab_keys`] makes them.
+    #[inline(always)]
     fn oriented_keys(
         self,
         boxes: &OrientedBoxes,
@@ -254,7 +262,10 @@ pub(crate) trait Lanes: Copy {
         used: u32,
         child: &[u32; 8],
         keys: &mut [u64; 8],
-    ) -> u32;
+    ) -> u32 {
+        let (hit, t) = self.oriented(boxes, terms);
+        portable_keys(hit & used, &t, child, keys)
+    }
 
     /// Bit `k` (`k < n ≤ 8`) clear only when the ray certainly does not enter the tube of
     /// segment `head(k)` within `(t_min, t_max)`: its line passes farther from the axis than
@@ -299,21 +310,6 @@ impl Lanes for Portable {
         (mask, entry)
     }
 
-    /// The keys one hit child at a time.
-    #[inline(always)]
-    fn slab_keys(
-        self,
-        q: &[[u8; 8]; 6],
-        rows: &RowChoice,
-        terms: &SlabTerms,
-        used: u32,
-        child: &[u32; 8],
-        keys: &mut [u64; 8],
-    ) -> u32 {
-        let (hit, t) = self.slab(q, rows, terms);
-        portable_keys(hit & used, &t, child, keys)
-    }
-
     /// Two halves of four lanes, children 0–3 then 4–7, each with the operations of the AVX2
     /// form's eight lanes in the same order.
     #[inline(always)]
@@ -344,19 +340,6 @@ impl Lanes for Portable {
             record_half(t0, t1, half, &mut mask, &mut entry);
         }
         (mask, entry)
-    }
-
-    #[inline(always)]
-    fn oriented_keys(
-        self,
-        boxes: &OrientedBoxes,
-        terms: &OrientedTerms,
-        used: u32,
-        child: &[u32; 8],
-        keys: &mut [u64; 8],
-    ) -> u32 {
-        let (hit, t) = self.oriented(boxes, terms);
-        portable_keys(hit & used, &t, child, keys)
     }
 
     #[inline(always)]

@@ -439,21 +439,9 @@ impl CurveSet {
     /// Calls `each` with every tube entry along the ray within `(t_min, t_max)`, each segment
     /// once, in no particular order (the counting walk of dual scattering).
     pub fn each_entry(&self, ray: &Ray, mut each: impl FnMut(&CurveHit)) {
-        let quick = QuickRay::new(ray);
-        let mut last = u32::MAX;
-        // A segment split into pieces sits in several leaves: remember the ones reported.
-        let mut seen: Vec<u32> = Vec::new();
-        self.bvh.traverse_leaves(ray, |prims, _| {
-            for seg in self.candidates(Portable, &quick, prims, ray.t_max, &mut last) {
-                if seen.contains(&seg) {
-                    continue;
-                }
-                if let Some(hit) = self.intersect_segment(seg, ray, ray.t_max) {
-                    seen.push(seg);
-                    each(&hit);
-                }
-            }
-            None
+        self.each_entry_until(ray, |hit| {
+            each(hit);
+            false
         });
     }
 
@@ -682,6 +670,29 @@ mod tests {
             let hits = check_against_brute_force(&mut set, &rays, &format!("seed {seed}"));
             assert!(hits > 100, "too few hits ({hits}) to be a test");
         }
+    }
+
+    /// `each_entry` reports exactly the segments whose tube the ray enters (every segment tested
+    /// on its own), each once.
+    #[test]
+    fn each_entry_reports_every_entered_tube_once() {
+        let strands = random_strands(11, 300);
+        let set = CurveSet::from_polylines(strands.iter().map(|(p, r)| (p.as_slice(), r.as_slice())));
+        let mut g = Lcg(12);
+        let mut entries = 0;
+        for _ in 0..2000 {
+            let o = (g.vec() - 0.5) * 4.0;
+            let ray = Ray::new(o, ((g.vec() - 0.5) * 1.5 - o).normalize());
+            let mut reported = Vec::new();
+            set.each_entry(&ray, |hit| reported.push(hit.segment));
+            reported.sort_unstable();
+            let expected: Vec<u32> = (0..set.segment_count() as u32)
+                .filter(|&i| set.intersect_segment(i, &ray, ray.t_max).is_some())
+                .collect();
+            assert_eq!(reported, expected, "{ray:?}");
+            entries += expected.len();
+        }
+        assert!(entries > 500, "too few entries ({entries}) to be a test");
     }
 
     /// Segment sets that stress the tree and the leaf tests: many parallel strands side by

@@ -285,6 +285,16 @@ impl ScatteringFunction for Chiang {
         self.at_vertex(wo, h).eval_and_pdf(wi).0
     }
 
+    fn chord_absorption(&self) -> Option<Rgb> {
+        Some(self.sigma_a)
+    }
+
+    /// Half the standard deviation of the azimuthal logistic, `πs/(2√3)`: the lobes sit at
+    /// `Φ(p, h) = 2pγ_t − 2γ + pπ`, which moves twice as fast as γ for the R lobe.
+    fn width_feature(&self) -> f64 {
+        0.5 * std::f64::consts::PI * self.s / 3f64.sqrt()
+    }
+
     fn pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> f64 {
         self.at_vertex(wo, h).integrand_and_pdf(wi).1
     }

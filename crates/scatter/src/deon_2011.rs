@@ -620,6 +620,10 @@ impl Deon {
 }
 
 impl ScatteringFunction for Deon {
+    fn chord_absorption(&self) -> Option<Rgb> {
+        Some(self.sigma_a())
+    }
+
     fn properties(&self) -> Properties {
         Properties { reciprocal: false, energy_conserving: false, field: Field::Far, lobes: Lobes::Smooth }
     }

@@ -916,7 +916,26 @@ impl Marschner {
     }
 }
 
+impl Marschner {
+    /// The factor turning this model's σ_a into the chord convention's with the same
+    /// attenuation at normal incidence: its path length there over the chord's (2 radii).
+    fn chord_equivalent(&self) -> f64 {
+        use crate::hair::attenuation::PathLength;
+        self.params.absorption.length(1.0, 1.0) / PathLength::Chord.length(1.0, 1.0)
+    }
+}
+
 impl ScatteringFunction for Marschner {
+    /// σ_a in the chord convention: the printed path (`absorption=paper`, 4 radii at normal
+    /// incidence) makes the same attenuation with twice the chord's σ_a.
+    fn chord_absorption(&self) -> Option<Rgb> {
+        Some(self.params.sigma_a * self.chord_equivalent())
+    }
+
+    fn sigma_a_for_chord(&self, chord: Rgb) -> Rgb {
+        chord / self.chord_equivalent()
+    }
+
     fn properties(&self) -> Properties {
         Properties {
             reciprocal: true,

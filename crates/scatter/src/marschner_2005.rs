@@ -79,7 +79,9 @@
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::cosine_hemisphere;
 use crate::surface::not_texturable;
-use crate::{LobeInfo, MIN_COS, ModelError, ModelInfo, Registered, Sample, SurfaceProperties, SurfaceScattering};
+use crate::{
+    FiberHighlight, LobeInfo, MIN_COS, ModelError, ModelInfo, Registered, Sample, SurfaceProperties, SurfaceScattering,
+};
 use fiberlab_math::special::{gaussian, normal_mass, sample_truncated_normal};
 use fiberlab_math::{DVec3, Rgb, fresnel};
 use std::f64::consts::{FRAC_1_PI, FRAC_PI_2, PI, TAU};
@@ -509,7 +511,34 @@ impl Wood {
     }
 }
 
+impl FiberHighlight for Wood {
+    fn axis(&self) -> DVec3 {
+        self.u
+    }
+
+    fn refract_in(&self, w: DVec3) -> DVec3 {
+        Wood::refract_in(self, w)
+    }
+
+    fn fiber_strength(&self) -> Rgb {
+        self.k_f
+    }
+
+    /// The subsurface fiber lobe through the smooth finish (`k_d = 0`, no rough reflection).
+    fn fiber_term(&self, wi: DVec3, wo: DVec3) -> Rgb {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let fibers_only = Wood { k_d: Rgb::ZERO, ..*self };
+        fibers_only.through_finish(wi, wo)
+    }
+}
+
 impl SurfaceScattering for Wood {
+    fn fiber_highlight(&self) -> Option<&dyn FiberHighlight> {
+        Some(self)
+    }
+
     fn properties(&self) -> SurfaceProperties {
         SurfaceProperties {
             reciprocal: true,

@@ -100,7 +100,7 @@ fn json_is_keyed_by_lobe_and_a_wrong_eta_scores_worse() {
 }
 
 /// Proof by geometry, the one case the goniophotometer supports today (no medulla: with one, its
-/// tables are wrong, see README "Fur: proof by geometry"): a smooth circular fiber at θ_i = 0 against
+/// tables are wrong, see the book's "Proofs by geometry", "Fur"): a smooth circular fiber at θ_i = 0 against
 /// `yan-fur` at κ = 0 near its smooth limit (β_m = 1°; β_n = 4°, narrow against the 20° φ bins).
 /// The expected squared relative L2 error of a perfect model is the table's Monte Carlo part
 /// `mc_rel_l2²` (summed over ~50 occupied bins its relative spread is ~ 1/√50 ≈ 15 %), so R must

@@ -48,7 +48,7 @@ const MIN_MITER_COS: f64 = 0.5;
 /// boxed tightly, along the segment where its node is oriented): long thin primitives make
 /// boxes that overlap and rays enter many of them. Measured on the peer scene (segments of
 /// about 55 radii; render instructions against one piece per segment): 1.63 G at one piece,
-/// 1.36 G at 32 radii, 1.26 G at 20, 1.20 G at 16, 1.18 G at 12 (README, "Oriented boxes").
+/// 1.36 G at 32 radii, 1.26 G at 20, 1.20 G at 16, 1.18 G at 12 (the book's "Performance history", "Oriented boxes").
 const PIECE_IN_RADII: f64 = 16.0;
 /// At most this many BVH pieces per segment.
 const MAX_PIECES: usize = 8;

@@ -746,7 +746,7 @@ pub const IRAWAN_PARAMS: [ParamSpec; 12] = [
         kind: ParamKind::Text,
         unit: "path",
         default: "",
-        doc: "weave-pattern file (README: pattern files) instead of a preset; relative to the scene file or the working directory",
+        doc: "weave-pattern file (the book's irawan-2012 page, section Pattern files) instead of a preset; relative to the scene file or the working directory",
     },
     ParamSpec {
         key: "spine",

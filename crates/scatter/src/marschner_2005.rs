@@ -2,16 +2,10 @@
 //! modeling the appearance of finished wood* (SIGGRAPH 2005): the subsurface fiber highlight
 //! seen through a clear finish.
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `preset` | — | none | `none` \| `tigers-eye` \| `cats-eye` |
-//! | `eta` η | — | 1.5 | [1, 3] |
-//! | `roughness` α | — | 0 | [0, 1] |
-//! | `k_d` | — | 0.35,0.2,0.1 | [0, 1] per channel |
-//! | `k_f` | — | 0.1,0.07,0.04 | [0, 10] per channel |
-//! | `beta` β | degrees | 10 | [0.5, 45] |
-//! | `fiber_angle` | degrees | 0 | [−360, 360] |
-//! | `fiber_dip` | degrees | 0 | [−90, 90] |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model wood` prints it and the book's
+//! page `docs/book/src/models/wood.md` shows it. The formulas below write `eta` as η, `roughness`
+//! as α, `beta` as β.
 //!
 //! # Geometry
 //! A clear finish of index η lies over a matrix of aligned fibers whose unit axis, in the

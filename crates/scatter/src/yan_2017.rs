@@ -7,21 +7,10 @@
 //! cuticle of `layers` layers. Built from the hair core ([`crate::hair`]). Equation numbers of
 //! the papers are not quoted (not checked against the papers); each quantity is described.
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `eta` | — | 1.55 | (1, 4] |
-//! | `sigma_c_a` | 1/radius | (0.3,0.5,0.9 if `color` is not given) | [0, ∞) per channel, cortex absorption |
-//! | `color` | — | — | (0, 1] per channel, instead of `sigma_c_a` (see *Colour*) |
-//! | `kappa` | — | 0.5 | [0, 1) medulla radius / fiber radius |
-//! | `sigma_m_s` | 1/radius | 1 | [0, 40] medulla scattering (σ_m^s κ within the tables' range) |
-//! | `sigma_m_a` | 1/radius | 0 | [0, 10⁶] medulla absorption |
-//! | `g` | — | 0 | (−1, 1) medulla Henyey–Greenstein anisotropy |
-//! | `layers` | — | 1 | (0, 1000] cuticle interfaces (see *Cuticle layers*) |
-//! | `alpha` | degrees at the edge, radians in [`YanFurParams`] | 3 | [−20, 20] cuticle tilt, > 0 puts R toward the root |
-//! | `beta_m` | degrees | 10 | (0, 60] longitudinal standard deviation of R |
-//! | `beta_n` | degrees | 10 | (0, 60] azimuthal standard deviation of R |
-//! | `lobes` | — | r,tt,trt,tts,trts | subset of r, tt, trt, tts, trts |
-//! | `field` | — | near | `near` (value at h) or `far` (average over h, [`YanFur::eval_far`]) |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model yan-fur` prints it and the
+//! book's page `docs/book/src/models/yan-fur.md` shows it. `alpha` is given in degrees and held in
+//! radians in [`YanFurParams`].
 //!
 //! No preset: no published table of per-animal parameters has been checked here, so the
 //! defaults are documented choices (a medium medulla, moderately rough), not a fit.

@@ -158,7 +158,7 @@ fn describe(index: usize, a: &wgpu::Adapter) -> AdapterDescription {
         backend: format!("{:?}", info.backend),
         driver,
         max_buffer_bytes: limits.max_buffer_size,
-        max_storage_binding_bytes: u64::from(limits.max_storage_buffer_binding_size),
+        max_storage_binding_bytes: limits.max_storage_buffer_binding_size,
         usable: limits.max_storage_buffers_per_shader_stage >= STORAGE_BUFFERS,
     }
 }
@@ -184,6 +184,8 @@ pub struct Gpu {
     pub(crate) queue: wgpu::Queue,
     description: AdapterDescription,
     pub(crate) limits: wgpu::Limits,
+    /// The path tracer's compiled kernels, made on first use.
+    pub(crate) pipelines: std::sync::OnceLock<crate::kernels::Pipelines>,
 }
 
 impl fmt::Debug for Gpu {
@@ -253,7 +255,7 @@ impl Gpu {
         };
         let (device, queue) = block_on(adapter.request_device(&desc))
             .map_err(|e| DeviceError::Open { name: description.name.clone(), error: e.to_string() })?;
-        Ok(Self { device, queue, description, limits })
+        Ok(Self { device, queue, description, limits, pipelines: std::sync::OnceLock::new() })
     }
 
     /// The adapter this device runs on.

@@ -16,6 +16,7 @@
 //! scattering.
 
 pub mod device;
+mod kernels;
 pub mod model_probe;
 pub mod render_device;
 pub mod scene_buffers;

@@ -79,7 +79,7 @@ fn run_probe(gpu: &Gpu, entry: &str, material: &[u32], input: &[[f32; 4]]) -> Re
     let entries: Vec<wgpu::BindGroupEntry> = buffers
         .iter()
         .enumerate()
-        .filter(|(i, _)| !(entry == "probe_sampler_cases" && *i == 0) && !(entry == "probe_chiang_cases" && *i == 3))
+        .filter(|(i, _)| !(entry == "probe_sampler_cases" && *i == 0 || entry == "probe_chiang_cases" && *i == 3))
         .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
         .collect();
     let bind_group =

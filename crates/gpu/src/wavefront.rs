@@ -16,6 +16,7 @@
 //! distribution, not bit for bit: the GPU computes in `f32`).
 
 use crate::device::Gpu;
+use crate::kernels::{Kernels, Pipelines};
 use crate::scene_buffers::{SceneBuffers, Unsupported};
 use fiberlab_math::Rgb;
 use fiberlab_render::accumulation::{Accumulation, ResumeError};
@@ -25,16 +26,6 @@ use fiberlab_render::scene::Scene;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 use wgpu::util::DeviceExt;
-
-/// The WGSL source of the path tracer, in dependency order.
-pub(crate) const SHADER: [&str; 6] = [
-    include_str!("shaders/bindings.wgsl"),
-    include_str!("shaders/sampler.wgsl"),
-    include_str!("shaders/chiang.wgsl"),
-    include_str!("shaders/geometry.wgsl"),
-    include_str!("shaders/lights.wgsl"),
-    include_str!("shaders/wavefront.wgsl"),
-];
 
 /// Most samples per block (module docs).
 pub const BLOCK: u32 = 16;
@@ -137,70 +128,6 @@ fn to_bytes(words: &[u32]) -> &[u8] {
     bytemuck::cast_slice(words)
 }
 
-/// The compiled kernels.
-struct Kernels {
-    generate: wgpu::ComputePipeline,
-    extend: wgpu::ComputePipeline,
-    shade: wgpu::ComputePipeline,
-    count_shadow_rays: wgpu::ComputePipeline,
-    shadow: wgpu::ComputePipeline,
-    next_bounce: wgpu::ComputePipeline,
-    sum_jobs: wgpu::ComputePipeline,
-    query_rays: wgpu::ComputePipeline,
-}
-
-fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
-        count: None,
-    };
-    let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
-    for b in 1..=7 {
-        entries.push(entry(b, wgpu::BufferBindingType::Storage { read_only: true }));
-    }
-    for b in 8..=12 {
-        entries.push(entry(b, wgpu::BufferBindingType::Storage { read_only: false }));
-    }
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("fiberlab"), entries: &entries })
-}
-
-impl Kernels {
-    fn new(device: &wgpu::Device, layout: &wgpu::BindGroupLayout) -> Self {
-        let source = SHADER.concat();
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("fiberlab wavefront"),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("fiberlab"),
-            bind_group_layouts: &[Some(layout)],
-            immediate_size: 0,
-        });
-        let make = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
-            })
-        };
-        Self {
-            generate: make("generate"),
-            extend: make("extend"),
-            shade: make("shade"),
-            count_shadow_rays: make("count_shadow_rays"),
-            shadow: make("shadow"),
-            next_bounce: make("next_bounce"),
-            sum_jobs: make("sum_jobs"),
-            query_rays: make("query_rays"),
-        }
-    }
-}
-
 /// The buffers of one render (made once; nothing is allocated per pass).
 struct Buffers {
     params: wgpu::Buffer,
@@ -256,26 +183,25 @@ pub(crate) fn read_back(gpu: &Gpu, buffer: &wgpu::Buffer, bytes: u64) -> Result<
 }
 
 /// Kernels and buffers for one scene, made once.
-struct Prepared {
-    kernels: Kernels,
+struct Prepared<'g> {
+    kernels: &'g Kernels,
     buffers: Buffers,
     params: Params,
     max_paths: u32,
     max_jobs: u64,
 }
 
-impl Prepared {
+impl<'g> Prepared<'g> {
     fn new(
-        gpu: &Gpu,
+        gpu: &'g Gpu,
         scene: &Scene,
         settings: &RenderSettings,
         options: GpuOptions,
         pixels: u64,
     ) -> Result<Self, GpuRenderError> {
         let camera = scene.camera();
-        let (w, h) = (camera.width, camera.height);
         let sb = SceneBuffers::new(scene)?;
-        let limit = u64::from(gpu.limits.max_storage_buffer_binding_size).min(gpu.limits.max_buffer_size);
+        let limit = gpu.limits.max_storage_buffer_binding_size.min(gpu.limits.max_buffer_size);
         for (what, words) in [
             ("BVH nodes", sb.nodes.len()),
             ("BVH leaves", sb.prims.len()),
@@ -291,8 +217,28 @@ impl Prepared {
             .min(limit / BYTES_PER_PATH)
             .min(pixels.max(1) * u64::from(BLOCK)) as u32;
         let device = &gpu.device;
-        let layout = bind_group_layout(device);
-        let kernels = Kernels::new(device, &layout);
+        // Validation and out-of-memory errors become this function's error, not a panic.
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let made = Self::make(gpu, camera, settings, &sb, max_paths, pixels);
+        let failed = [crate::device::block_on(memory.pop()), crate::device::block_on(scope.pop())];
+        if let Some(e) = failed.into_iter().flatten().next() {
+            return Err(GpuRenderError::Device(e.to_string()));
+        }
+        Ok(made)
+    }
+
+    fn make(
+        gpu: &'g Gpu,
+        camera: &fiberlab_render::camera::Camera,
+        settings: &RenderSettings,
+        sb: &SceneBuffers,
+        max_paths: u32,
+        pixels: u64,
+    ) -> Self {
+        let (w, h) = (camera.width, camera.height);
+        let device = &gpu.device;
+        let Pipelines { layout, kernels } = gpu.pipelines.get_or_init(|| Pipelines::new(&gpu.device));
         let (eye, forward, right, up, tan_half) = camera.basis();
         let v3 = |v: fiberlab_math::DVec3| [v.x as f32, v.y as f32, v.z as f32];
         let seed_hash = fiberlab_math::split_mix::mix64(settings.seed ^ 0xA076_1D64_78BD_642F);
@@ -374,14 +320,11 @@ impl Prepared {
             .enumerate()
             .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
             .collect();
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("fiberlab"),
-            layout: &layout,
-            entries: &entries,
-        });
+        let bind_group =
+            device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("fiberlab"), layout, entries: &entries });
         let buffers =
             Buffers { params: params_buffer, jobs, counters, args, job_sums, readback, bind_group, paths, shadow };
-        Ok(Self { kernels, buffers, params, max_paths, max_jobs })
+        Self { kernels, buffers, params, max_paths, max_jobs }
     }
 }
 
@@ -497,10 +440,10 @@ pub fn render_continuing(
     let full = Region::full(w, h);
     let region =
         settings.region.map_or(full, |r| Region { x0: r.x0.min(w), y0: r.y0.min(h), x1: r.x1.min(w), y1: r.y1.min(h) });
-    let pixels = region.area() as u64;
+    let pixels = region.area();
     let p = Prepared::new(gpu, scene, settings, options, pixels)?;
     let (kernels, buffers, mut params, max_paths, max_jobs) =
-        (&p.kernels, &p.buffers, p.params, p.max_paths, p.max_jobs);
+        (p.kernels, &p.buffers, p.params, p.max_paths, p.max_jobs);
     let mut state = start;
     let target = settings.spp;
     let samples_total = state.samples_missing(region, target);

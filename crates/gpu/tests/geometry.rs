@@ -45,7 +45,7 @@ fn rays(rng: &mut TestRng, n: usize, reach: f64) -> Vec<Ray> {
             let o = (vec(rng) - 0.5) * 2.0 * reach;
             let target = (vec(rng) - 0.5) * reach;
             let mut r = Ray::new(o, (target - o).normalize());
-            if k % 5 == 0 {
+            if k.is_multiple_of(5) {
                 r.t_max = (target - o).length() * rng.u4()[0];
             }
             r
@@ -98,7 +98,7 @@ fn check_curves(what: &str, curves: CurveSet, rays: &[Ray]) {
     let oriented = curves.bvh().oriented_node_count();
     let scene = scene_of(curves, false);
     let queries: Vec<QueryRay> = rays.iter().map(query).collect();
-    let got = query_rays(&gpu, &scene, &queries).unwrap();
+    let got = query_rays(gpu, &scene, &queries).unwrap();
     let hits = compare(what, rays, &cpu, &got);
     eprintln!("{what}: {oriented} oriented nodes");
     assert!(hits > rays.len() / 20, "{what}: only {hits} hits");
@@ -143,11 +143,11 @@ fn adversarial_strands_match_brute_force() {
     check_curves("crossing", strands(&pts, &rad), &rays(&mut rng, 4000, 1.5));
     // Radii from 1e-4 to 0.3 in one set.
     let (mut pts, mut rad) = (Vec::new(), Vec::new());
-    for i in 0..200 {
+    for i in 0..200u32 {
         let p = (vec(&mut rng) - 0.5) * 2.0;
         let d = (vec(&mut rng) - 0.5) * 0.6;
         pts.push(vec![p, p + d, p + d * 2.0 + DVec3::Y * 0.1]);
-        let r = if i % 2 == 0 { 1e-4 } else { 0.3 * rng.u4()[0] + 1e-3 };
+        let r = if i.is_multiple_of(2) { 1e-4 } else { 0.3 * rng.u4()[0] + 1e-3 };
         rad.push(vec![r; 3]);
     }
     check_curves("radii", strands(&pts, &rad), &rays(&mut rng, 4000, 2.0));
@@ -181,7 +181,7 @@ fn mixed_scene_matches_the_cpu_scene_queries() {
             (hit, !scene.unoccluded(r))
         })
         .collect();
-    let got = query_rays(&gpu, &scene, &rays.iter().map(query).collect::<Vec<_>>()).unwrap();
+    let got = query_rays(gpu, &scene, &rays.iter().map(query).collect::<Vec<_>>()).unwrap();
     let kinds: std::collections::BTreeSet<u32> =
         got.iter().filter_map(|g| g.closest.map(|(_, p, _)| p >> 30)).collect();
     assert_eq!(kinds.len(), 3, "rays hit segments, spheres and triangles: {kinds:?}");

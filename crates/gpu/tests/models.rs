@@ -38,7 +38,7 @@ fn case(rng: &mut TestRng, k: usize) -> ChiangCase {
     let theta = |x: f64| -1.5 + 3.0 * x;
     let mut wo = direction(theta(u[0]), TAU * u[1]);
     let wi = direction(theta(u[2]), TAU * u[3]);
-    if k % 17 == 0 {
+    if k.is_multiple_of(17) {
         wo = direction(FRAC_PI_2 - 1e-3, 0.3);
     }
     let h = match k % 13 {
@@ -65,7 +65,7 @@ fn chiang_eval_pdf_and_samples_match_the_cpu() {
     let mut rng = TestRng::new(5);
     for (name, fiber) in fibers() {
         let cases: Vec<ChiangCase> = (0..4000).map(|k| case(&mut rng, k)).collect();
-        let got = model_probe::chiang(&gpu, &fiber, &cases).unwrap();
+        let got = model_probe::chiang(gpu, &fiber, &cases).unwrap();
         let (mut compared, mut sampled, mut worst) = (0, 0, 0.0f64);
         for (c, g) in cases.iter().zip(&got) {
             let (wo, wi, h) = (dvec(c.wo), dvec(c.wi), f64::from(c.h));
@@ -148,7 +148,7 @@ fn chiang_gpu_samples_follow_the_cpu_pdf() {
                     u: rng.u4().map(|x| (x as f32).min(1.0 - f32::EPSILON / 2.0)),
                 })
                 .collect();
-            let got = model_probe::chiang(&gpu, &fiber, &cases).unwrap();
+            let got = model_probe::chiang(gpu, &fiber, &cases).unwrap();
             let samples = got.iter().map(|g| (g.sample_pdf > 0.0).then(|| dvec(g.sample_wi))).collect();
             let f = GpuSamples { cpu: &fiber, samples, next: AtomicUsize::new(0) };
             // The CPU's pdf at the f32 camera direction the GPU used.
@@ -166,14 +166,14 @@ fn sampler_matches_the_cpu_to_24_bits() {
     let Some(gpu) = common::gpu() else { return };
     let mut rng = TestRng::new(3);
     for seed in [0u64, 7, u64::MAX] {
-        let cases: Vec<(u32, u32, u32, u32)> = (0..2000)
+        let cases: Vec<(u32, u32, u32, u32)> = (0..2000u32)
             .map(|k| {
                 let u = rng.u4();
-                let index = if k % 3 == 0 { (u[2] * 64.0) as u32 } else { (u[2] * 4_294_967_295.0) as u32 };
+                let index = if k.is_multiple_of(3) { (u[2] * 64.0) as u32 } else { (u[2] * 4_294_967_295.0) as u32 };
                 ((u[0] * 4096.0) as u32, (u[1] * 4096.0) as u32, index, (u[3] * 300.0) as u32)
             })
             .collect();
-        let got = model_probe::sampler(&gpu, seed, &cases).unwrap();
+        let got = model_probe::sampler(gpu, seed, &cases).unwrap();
         for (&(x, y, index, pair), g) in cases.iter().zip(&got) {
             let mut s = PixelSampler::new(x, y, seed);
             s.start(u64::from(index));

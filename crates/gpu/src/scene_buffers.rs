@@ -1,11 +1,11 @@
 //! A render scene as the GPU reads it: the BVHs of every fiber set and mesh flattened into one
-//! node buffer (render's `FlatBvh`, references shifted), segment and triangle records,
+//! node buffer (geometry's `FlatBvh`, references shifted), segment and triangle records,
 //! and a table of words for spheres, materials, lights and the light picker's emitters
 //! (layouts in the shaders' comments). What the GPU path tracer cannot render yet is refused
 //! here, with the material or light named.
 
+use fiberlab_geometry::bvh::FlatBvh;
 use fiberlab_math::Rgb;
-use fiberlab_render::bvh::FlatBvh;
 use fiberlab_render::light::Light;
 use fiberlab_render::scene::{Scene, SurfaceMaterial};
 use fiberlab_scatter::Model;

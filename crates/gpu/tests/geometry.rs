@@ -6,14 +6,14 @@
 mod common;
 
 use fiberlab_check::rng::TestRng;
+use fiberlab_geometry::CurveSet;
+use fiberlab_geometry::Ray;
+use fiberlab_geometry::TriangleMesh;
 use fiberlab_gpu::wavefront::{QueryRay, query_rays};
 use fiberlab_math::{DVec3, Rgb};
-use fiberlab_render::bvh::Ray;
+use fiberlab_procedural::generator::{HairParams, Style};
 use fiberlab_render::camera::Camera;
-use fiberlab_render::curves::CurveSet;
-use fiberlab_render::generator::{HairParams, Style};
 use fiberlab_render::scene::{Scene, SceneBuilder, SurfaceMaterial};
-use fiberlab_render::shapes::TriangleMesh;
 
 fn vec(rng: &mut TestRng) -> DVec3 {
     let u = rng.u4();
@@ -116,7 +116,7 @@ fn hair_like_strands_closest_and_any_hit_match_brute_force() {
     }
     .generate()
     .unwrap();
-    let curves = CurveSet::from_hair(&hair);
+    let curves = hair.curve_set();
     assert!(curves.bvh().oriented_node_count() > 0, "the test must cover oriented nodes");
     let mut rng = TestRng::new(1);
     check_curves("hair", curves, &rays(&mut rng, 6000, 2.5));
@@ -168,7 +168,7 @@ fn mixed_scene_matches_the_cpu_scene_queries() {
     }
     .generate()
     .unwrap();
-    let scene = scene_of(CurveSet::from_hair(&hair), true);
+    let scene = scene_of(hair.curve_set(), true);
     let mut rng = TestRng::new(4);
     let rays = rays(&mut rng, 5000, 2.5);
     let cpu: Vec<(Option<(f64, f64)>, bool)> = rays

@@ -4,17 +4,17 @@
 
 mod common;
 
+use fiberlab_geometry::CurveSet;
+use fiberlab_geometry::TriangleMesh;
 use fiberlab_gpu::{Gpu, GpuOptions};
 use fiberlab_io::LinearImage;
 use fiberlab_math::{DVec3, Rgb};
+use fiberlab_procedural::generator::{HairParams, Style};
 use fiberlab_render::accumulation::Accumulation;
 use fiberlab_render::camera::Camera;
-use fiberlab_render::curves::CurveSet;
-use fiberlab_render::generator::{HairParams, Style};
 use fiberlab_render::integrator::{self, Region, RenderSettings, merge};
 use fiberlab_render::light::Light;
 use fiberlab_render::scene::{Scene, SceneBuilder, SurfaceMaterial};
-use fiberlab_render::shapes::TriangleMesh;
 use std::sync::atomic::AtomicBool;
 
 const SIDE: u32 = 24;
@@ -30,7 +30,7 @@ fn hair(strands: usize) -> CurveSet {
     }
     .generate()
     .unwrap();
-    CurveSet::from_hair(&hair)
+    hair.curve_set()
 }
 
 fn builder() -> SceneBuilder {

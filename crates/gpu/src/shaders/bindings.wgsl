@@ -76,7 +76,7 @@ struct ShadowRay {
 /// `params.oriented_base`).
 @group(0) @binding(1) var<storage, read> nodes: array<u32>;
 @group(0) @binding(2) var<storage, read> prims: array<u32>;
-/// Tube segments, 4 × vec4 each (render's `CurveSet::segment_words`; the last word holds the
+/// Tube segments, 4 × vec4 each (geometry's `CurveSet::segment_words`; the last word holds the
 /// material instead of the strand).
 @group(0) @binding(3) var<storage, read> segments: array<vec4<f32>>;
 /// Triangles, 3 × vec4 each (corners; the first corner's w is the material).

@@ -1,6 +1,6 @@
-// Ray queries against the scene: the CPU's BVH walked as it is stored (render/src/bvh/flat.rs:
+// Ray queries against the scene: the CPU's BVH walked as it is stored (geometry/src/bvh/flat.rs:
 // 8-wide axis-aligned nodes with 8-bit quantized child boxes and 8-wide oriented nodes whose
-// children each carry their own integer frame), tube segments (render/src/curves.rs), spheres
+// children each carry their own integer frame), tube segments (geometry/src/curves.rs), spheres
 // and triangles. The box tests widen every box by twice the CPU walk's bound on its rounding
 // (a fused multiply-add is exact where the CPU rounds twice), so no box that the ray enters is
 // missed.
@@ -29,7 +29,7 @@ var<private> stack_ref: array<u32, 64>;
 var<private> stack_t: array<f32, 64>;
 
 /// Entry of the ray into tube segment `i` within (t_min, t_max): (t, h), t < 0 when none
-/// (render/src/curves.rs, `intersect_segment`).
+/// (geometry/src/curves.rs, `intersect_segment`).
 fn hit_segment(i: u32, o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> vec2<f32> {
     let s0 = segments[4u * i];
     let s1 = segments[4u * i + 1u];
@@ -185,7 +185,7 @@ fn push_aabb_children(index: u32, r: NodeRay, t_max: f32, sp0: u32, sorted: bool
     return sp;
 }
 
-/// The oriented node's test (render/src/bvh/oriented.rs): the ray rotated into each child's
+/// The oriented node's test (geometry/src/bvh/oriented.rs): the ray rotated into each child's
 /// integer frame, slabs against its box widened by the CPU's bound, doubled.
 fn push_oriented_children(index: u32, r: NodeRay, t_max: f32, sp0: u32, sorted: bool) -> u32 {
     let base = params.oriented_base + index * 80u;

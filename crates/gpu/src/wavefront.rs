@@ -618,3 +618,16 @@ fn run_chunk(
     sums.truncate(4 * jobs.len());
     Ok(Some(ChunkResult { sums, rays }))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Blocks end at 1, 2, 4, 8, 16 and then every 16, wherever they begin.
+    #[test]
+    fn blocks_are_fixed_by_the_sample_index() {
+        let ends: Vec<u32> = [0, 1, 2, 3, 4, 7, 8, 15, 16, 17, 31, 32].iter().map(|&c| block_end(c)).collect();
+        assert_eq!(ends, [1, 2, 4, 4, 8, 8, 16, 16, 32, 32, 32, 48]);
+        assert_eq!(block_end(u32::MAX - 3), u32::MAX, "saturates instead of wrapping");
+    }
+}

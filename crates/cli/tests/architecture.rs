@@ -29,6 +29,7 @@ const LAYERS: &[(&str, u32)] = &[
     ("fiberlab-procedural", 3),
     ("fiberlab-render", 4),
     ("fiberlab-compare", 5),
+    ("fiberlab-gpu", 5),
     ("fiberlab-cli", 6),
     ("fiberlab-py", 6),
 ];

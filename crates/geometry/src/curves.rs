@@ -366,6 +366,29 @@ impl CurveSet {
         self.segments.len() * std::mem::size_of::<Segment>() + self.bvh.bytes()
     }
 
+    /// The tree over the segments' pieces (its leaves list segment indices).
+    #[must_use]
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    /// The segments as 16 little-endian words each, the 64-byte record the walks read (for a
+    /// GPU): `p0` (3 × `f32` bits), unit `axis` (3), `length`, `radius`, the miter normals `n0`
+    /// (3) and `n1` (3), the curve parameters of the two ends (two `u16`, the root-side one in
+    /// the low half, in units of 1/65535) and the strand index.
+    #[must_use]
+    pub fn segment_words(&self) -> Vec<u32> {
+        let mut out = Vec::with_capacity(16 * self.segments.len());
+        for s in &self.segments {
+            let floats = [s.p0.to_array(), s.axis.to_array()].concat();
+            out.extend(floats.iter().chain(&[s.length, s.radius]).map(|x| x.to_bits()));
+            out.extend([s.n0.to_array(), s.n1.to_array()].concat().iter().map(|x| x.to_bits()));
+            out.push(u32::from(s.v[0]) | (u32::from(s.v[1]) << 16));
+            out.push(s.strand);
+        }
+        out
+    }
+
     /// Bounds of all tubes.
     #[must_use]
     pub fn bounds(&self) -> Aabb {

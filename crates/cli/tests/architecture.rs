@@ -26,8 +26,9 @@ const LAYERS: &[(&str, u32)] = &[
     ("fiberlab-gonio", 2),
     ("fiberlab-fit", 2),
     ("fiberlab-render", 3),
-    ("fiberlab-cli", 4),
+    ("fiberlab-explorer", 4),
     ("fiberlab-py", 4),
+    ("fiberlab-cli", 5),
 ];
 
 fn layer(name: &str) -> u32 {

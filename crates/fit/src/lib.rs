@@ -125,13 +125,30 @@ pub struct FreeParam {
 }
 
 /// How to run a fit.
-#[derive(Clone)]
+#[derive(Clone, Default)]
 pub struct FitOptions {
     /// Largest number of optimizer iterations.
     pub max_iters: u64,
     /// Called with the iteration number after each optimizer iteration, then with
     /// `max_iters + k` before the k-th of at most [`POLISH_ITERATIONS`] polishing steps.
     pub progress: Option<Arc<dyn Fn(u64) + Send + Sync>>,
+    /// Called with the best point so far after each optimizer iteration and each polishing
+    /// step that lowered χ² (for a live view of the convergence).
+    pub trace: Option<Trace>,
+}
+
+/// A callback of [`FitOptions::trace`].
+pub type Trace = Arc<dyn Fn(&Step) + Send + Sync>;
+
+/// The best point of a fit in progress ([`FitOptions::trace`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Step {
+    /// Optimizer iterations so far (polishing steps count on from `max_iters`).
+    pub iteration: u64,
+    /// The free numbers, named as in [`FitResult::params`].
+    pub params: Vec<(String, f64)>,
+    /// χ² there.
+    pub chi2: f64,
 }
 
 /// Why a parameter's uncertainty is undefined.
@@ -330,12 +347,22 @@ impl<M> CostFunction for Problem<'_, M> {
     }
 }
 
-/// Reports each optimizer iteration to a callback.
-struct IterationObserver(Arc<dyn Fn(u64) + Send + Sync>);
+/// Reports each optimizer iteration to the callbacks of [`FitOptions`].
+struct IterationObserver {
+    progress: Option<Arc<dyn Fn(u64) + Send + Sync>>,
+    trace: Option<Trace>,
+    names: Vec<String>,
+}
 
-impl<I: State> Observe<I> for IterationObserver {
+impl<I: State<Param = Vec<f64>, Float = f64>> Observe<I> for IterationObserver {
     fn observe_iter(&mut self, state: &I, _kv: &KV) -> Result<(), Error> {
-        (self.0)(state.get_iter());
+        if let Some(progress) = &self.progress {
+            progress(state.get_iter());
+        }
+        if let (Some(trace), Some(best)) = (&self.trace, state.get_best_param()) {
+            let params = self.names.iter().cloned().zip(best.iter().copied()).collect();
+            trace(&Step { iteration: state.get_iter(), params, chi2: state.get_best_cost() });
+        }
         Ok(())
     }
 }
@@ -349,7 +376,7 @@ pub fn fit(
     max_iters: u64,
 ) -> Result<FitResult, FitError> {
     let free: Vec<FreeParam> = free.iter().map(|(k, v)| FreeParam { key: k.clone(), start: vec![*v] }).collect();
-    fit_with(base, &free, data, &FitOptions { max_iters, progress: None })
+    fit_with(base, &free, data, &FitOptions { max_iters, ..FitOptions::default() })
 }
 
 /// A condition every trial model of a constrained fit must meet (e.g. an energy bound):
@@ -370,7 +397,7 @@ pub fn fit_constrained(
     constraint: Option<Constraint>,
 ) -> Result<FitResult, FitError> {
     let free: Vec<FreeParam> = free.iter().map(|(k, v)| FreeParam { key: k.clone(), start: vec![*v] }).collect();
-    fit_under(base, &free, data, &FitOptions { max_iters, progress: None }, constraint)
+    fit_under(base, &free, data, &FitOptions { max_iters, ..FitOptions::default() }, constraint)
 }
 
 /// Fits the `free` parameters of the model whose other parameters are `base` (validated;
@@ -625,14 +652,24 @@ fn solve<M>(
     }
     let solver = NelderMead::new(simplex).with_sd_tolerance(1e-9).map_err(|e| FitError::Optimizer(e.to_string()))?;
     let mut executor = Executor::new(problem.clone(), solver).configure(|s| s.max_iters(options.max_iters));
-    if let Some(progress) = &options.progress {
-        executor = executor.add_observer(IterationObserver(progress.clone()), ObserverMode::Always);
+    let names: Vec<String> = coordinates.iter().map(Coordinate::name).collect();
+    if options.progress.is_some() || options.trace.is_some() {
+        let observer = IterationObserver {
+            progress: options.progress.clone(),
+            trace: options.trace.clone(),
+            names: names.clone(),
+        };
+        executor = executor.add_observer(observer, ObserverMode::Always);
     }
     let res = executor.run().map_err(|e| FitError::Optimizer(e.to_string()))?;
     let iterations = res.state().get_iter();
-    let best = polish(problem, res.state().get_best_param().cloned().unwrap_or(start), |step| {
+    let best = polish(problem, res.state().get_best_param().cloned().unwrap_or(start), |step, p, cost| {
         if let Some(progress) = &options.progress {
             progress(options.max_iters + step);
+        }
+        if let (Some(trace), Some((p, chi2))) = (&options.trace, p.zip(cost)) {
+            let params = names.iter().cloned().zip(p.iter().copied()).collect();
+            trace(&Step { iteration: options.max_iters + step, params, chi2 });
         }
     });
     let m = problem.model_at(&best)?;
@@ -687,14 +724,17 @@ pub const POLISH_ITERATIONS: u64 = 20;
 /// Levenberg–Marquardt steps from the simplex's best point (Nelder–Mead crawls in many
 /// dimensions, e.g. three channels of two colours): each solves
 /// `(JᵀJ + λ·diag JᵀJ) δ = −Jᵀr` and is kept only when it lowers χ² inside the valid ranges.
-fn polish<M>(problem: &Problem<M>, mut p: Vec<f64>, progress: impl Fn(u64)) -> Vec<f64> {
+///
+/// `progress(k, improved)` is called before the k-th step with no point, and after a step that
+/// lowered χ² with the new point and its χ².
+fn polish<M>(problem: &Problem<M>, mut p: Vec<f64>, progress: impl Fn(u64, Option<&[f64]>, Option<f64>)) -> Vec<f64> {
     let chi2 = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
     let Ok(m) = problem.model_at(&p) else { return p };
     let mut r = problem.residuals(&m);
     let mut cost = chi2(&r);
     let mut lambda = 1e-3;
     for step in 0..POLISH_ITERATIONS {
-        progress(step);
+        progress(step, None, None);
         let Some(jac) = jacobian(problem, &p, &r).into_iter().collect::<Option<Vec<_>>>() else { break };
         let n = p.len();
         let jtj: Vec<Vec<f64>> =
@@ -727,6 +767,7 @@ fn polish<M>(problem: &Problem<M>, mut p: Vec<f64>, progress: impl Fn(u64)) -> V
         if !improved {
             break;
         }
+        progress(step + 1, Some(&p), Some(cost));
     }
     p
 }
@@ -1051,7 +1092,7 @@ mod tests {
         let progress: Arc<dyn Fn(u64) + Send + Sync> = Arc::new(move |_| {
             counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         });
-        let options = FitOptions { max_iters: 400, progress: Some(progress) };
+        let options = FitOptions { max_iters: 400, progress: Some(progress), ..FitOptions::default() };
         let r = fit_with(&chiang(&fixed), &free, &data, &options).unwrap();
         let names: Vec<&str> = r.params.iter().map(|(k, _)| k.as_str()).collect();
         assert_eq!(names, ["sigma_a[r]", "sigma_a[g]", "sigma_a[b]"]);
@@ -1061,6 +1102,22 @@ mod tests {
         assert_eq!(r.values, vec![("sigma_a".to_string(), r.params.iter().map(|p| p.1).collect())]);
         let calls = calls.load(std::sync::atomic::Ordering::Relaxed);
         assert!(calls > r.iterations && calls <= r.iterations + POLISH_ITERATIONS, "{calls} reports");
+        // The trace reports the best point so far: χ² never rises, and its last point is
+        // the result.
+        let steps = Arc::new(std::sync::Mutex::new(Vec::<Step>::new()));
+        let sink = steps.clone();
+        let traced = FitOptions {
+            max_iters: 400,
+            trace: Some(Arc::new(move |s: &Step| sink.lock().unwrap().push(s.clone()))),
+            ..FitOptions::default()
+        };
+        let t = fit_with(&chiang(&fixed), &free, &data, &traced).unwrap();
+        let steps = steps.lock().unwrap();
+        assert!(steps.len() as u64 >= t.iterations, "{} steps for {} iterations", steps.len(), t.iterations);
+        assert!(steps.windows(2).all(|w| w[1].chi2 <= w[0].chi2 && w[1].iteration >= w[0].iteration));
+        let last = steps.last().unwrap();
+        assert_eq!(last.params, t.params);
+        assert!((last.chi2 - t.chi2).abs() <= 1e-9 * t.chi2.max(1.0), "{} vs {}", last.chi2, t.chi2);
         let luminance: Vec<Observation> =
             data.iter().map(|o| Observation { channel: Channel::Luminance, ..*o }).collect();
         let three = [FreeParam { key: "sigma_a".into(), start: vec![0.5, 0.5, 0.5] }];
@@ -1113,7 +1170,8 @@ mod surface_tests {
             FreeParam { key: "k_d_1".into(), start: vec![0.2] },
             FreeParam { key: "albedo_1".into(), start: vec![0.5] },
         ];
-        let r = fit_surface(&sadeghi(&[]), &free, &data, &FitOptions { max_iters: 600, progress: None }).unwrap();
+        let r =
+            fit_surface(&sadeghi(&[]), &free, &data, &FitOptions { max_iters: 600, ..FitOptions::default() }).unwrap();
         let expect = [9.0, 0.4, 0.2, 0.45, 0.7];
         for (k, ((key, v), u)) in r.params.iter().zip(&r.uncertainties).enumerate() {
             let u = u.sigma().unwrap_or_else(|| panic!("{key}: {u:?}"));
@@ -1157,7 +1215,7 @@ mod surface_tests {
             &base,
             &[FreeParam { key: "beta_m".into(), start: vec![0.3] }],
             &SurfaceData::default(),
-            &FitOptions { max_iters: 1, progress: None },
+            &FitOptions { max_iters: 1, ..FitOptions::default() },
         )
         .unwrap_err()
         .to_string();

@@ -1,7 +1,7 @@
 //! The render preview's scenes, built from the chosen model and a light direction: for a
 //! fiber model a single fiber, a tress or a fur ball; for a surface model a lit sphere or a
-//! flat sample (a floor tile seen at 50°). Geometry comes from the renderer's building blocks
-//! ([`CurveSet`], [`HairParams::fur`], [`TriangleMesh::floor`]), the light is a distant light
+//! flat sample (a floor tile seen at 50°). Geometry comes from the geometry and procedural
+//! crates ([`CurveSet`], [`HairParams::fur`], [`TriangleMesh::floor`]), the light is a distant light
 //! (parallel rays from the direction the page drags) plus a dim sky.
 //!
 //! Scene units: the single fiber has radius 0.03 across a 2.4-unit view; the tress is 400
@@ -13,12 +13,11 @@ use crate::limits::{self, Limits};
 use crate::request::{Built, ModelChoice};
 use fiberlab_math::split_mix::SplitMix64;
 use fiberlab_math::{DVec3, Rgb};
+use fiberlab_geometry::{CurveSet, TriangleMesh};
+use fiberlab_procedural::generator::HairParams;
 use fiberlab_render::camera::Camera;
-use fiberlab_render::curves::CurveSet;
-use fiberlab_render::generator::HairParams;
 use fiberlab_render::light::Light;
 use fiberlab_render::scene::{Scene, SceneBuilder, SurfaceMaterial};
-use fiberlab_render::shapes::TriangleMesh;
 use fiberlab_render::surface_material::ModelMaterial;
 use serde::Deserialize;
 use std::f64::consts::TAU;
@@ -142,7 +141,7 @@ pub fn build(kind: Kind, choice: &ModelChoice, light: DVec3, size: u32) -> ApiRe
                     let hair = fur_params().generate().map_err(|e| ApiError::internal(e.to_string()))?;
                     let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::new(0.3, 0.22, 0.16)));
                     b.sphere(DVec3::ZERO, 1.0, skin, None);
-                    CurveSet::from_hair(&hair)
+                    hair.curve_set()
                 }
                 Kind::Tress => tress(),
                 _ => single_fiber(),

@@ -11,9 +11,9 @@
 use crate::error::{ApiError, ApiResult};
 use crate::limits::{self, Limits};
 use crate::request::{Built, ModelChoice};
+use fiberlab_geometry::{CurveSet, TriangleMesh};
 use fiberlab_math::split_mix::SplitMix64;
 use fiberlab_math::{DVec3, Rgb};
-use fiberlab_geometry::{CurveSet, TriangleMesh};
 use fiberlab_procedural::generator::HairParams;
 use fiberlab_render::camera::Camera;
 use fiberlab_render::light::Light;

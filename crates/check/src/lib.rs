@@ -454,8 +454,10 @@ fn mc_furnace(f: &Model, wo: DVec3, h: f64, n: usize, rng: &mut TestRng) -> (Rgb
 }
 
 /// Max relative reciprocity defect of the (h-averaged) f_s over random pairs; also returns
-/// the pairs with their two values for model-specific analysis.
-fn reciprocity(f: &Model, pairs: usize, rng: &mut TestRng) -> (f64, Vec<(DVec3, DVec3, Rgb, Rgb)>) {
+/// the pairs with their two values for model-specific analysis. `fiberlab check` calls it
+/// with `Effort::pairs / 4` pairs from `TestRng::new(0x5eed)` after the finiteness sweep; the
+/// explorer's read-out with a fresh generator.
+pub fn reciprocity(f: &Model, pairs: usize, rng: &mut TestRng) -> (f64, Vec<(DVec3, DVec3, Rgb, Rgb)>) {
     let eval_avg = |a: DVec3, b: DVec3| f.eval_far(a, b);
     let mut worst: f64 = 0.0;
     let mut samples = Vec::with_capacity(pairs);

@@ -206,6 +206,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let options = FitOptions {
         max_iters: args.iterations,
         progress: Some(std::sync::Arc::new(move |i| progress.set_position(i))),
+        ..FitOptions::default()
     };
     let (r, grid) = match &data {
         Data::Fiber(d, grid) => (fit_with(&base, &free, d, &options), *grid),

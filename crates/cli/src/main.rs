@@ -11,6 +11,7 @@ mod devices;
 mod dual_tables;
 mod eval;
 mod evaluate;
+mod explore;
 mod files;
 mod fit;
 mod hair;
@@ -85,6 +86,8 @@ enum Command {
     Compare(compare::Args),
     /// Render one scene with several models and compare each with a reference.
     Evaluate(evaluate::Args),
+    /// Serve the interactive explorer (models, plots, comparisons, fits, render preview) on localhost.
+    Explore(explore::Args),
 }
 
 fn main() {
@@ -130,6 +133,7 @@ fn main() {
         Command::Fit(a) => fit::run(a),
         Command::Compare(a) => compare::run(a),
         Command::Evaluate(a) => evaluate::run(a),
+        Command::Explore(a) => explore::run(a),
     };
     if let Err(e) = result {
         if let Some(interrupted) = e.downcast_ref::<render::Interrupted>() {

@@ -30,8 +30,9 @@ const LAYERS: &[(&str, u32)] = &[
     ("fiberlab-render", 4),
     ("fiberlab-compare", 5),
     ("fiberlab-gpu", 5),
-    ("fiberlab-cli", 6),
-    ("fiberlab-py", 6),
+    ("fiberlab-explorer", 6),
+    ("fiberlab-cli", 7),
+    ("fiberlab-py", 7),
 ];
 
 fn layer(name: &str) -> u32 {

@@ -36,13 +36,30 @@ pub struct FreeParam {
 }
 
 /// How to run a fit.
-#[derive(Clone)]
+#[derive(Clone, Default)]
 pub struct FitOptions {
     /// Largest number of optimizer iterations.
     pub max_iters: u64,
     /// Called with the iteration number after each optimizer iteration, then with
     /// `max_iters + k` before the k-th of at most [`crate::POLISH_ITERATIONS`] polishing steps.
     pub progress: Option<Arc<dyn Fn(u64) + Send + Sync>>,
+    /// Called with the best point so far after each optimizer iteration and each polishing
+    /// step that lowered χ² (for a live view of the convergence).
+    pub trace: Option<Trace>,
+}
+
+/// A callback of [`FitOptions::trace`].
+pub type Trace = Arc<dyn Fn(&Step) + Send + Sync>;
+
+/// The best point of a fit in progress ([`FitOptions::trace`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Step {
+    /// Optimizer iterations so far (polishing steps count on from `max_iters`).
+    pub iteration: u64,
+    /// The free numbers, named as in [`FitResult::params`].
+    pub params: Vec<(String, f64)>,
+    /// χ² there.
+    pub chi2: f64,
 }
 
 /// Why a parameter's uncertainty is undefined.

@@ -4,7 +4,7 @@
 //! rejects, cost "infinitely" much).
 
 use crate::observation::Observation;
-use crate::outcome::{FitError, FreeParam};
+use crate::outcome::{FitError, FreeParam, Step, Trace};
 use argmin::core::observers::Observe;
 use argmin::core::{CostFunction, Error, KV, State};
 use fiberlab_math::{DVec3, Rgb};
@@ -109,12 +109,22 @@ impl<M> CostFunction for Problem<'_, M> {
     }
 }
 
-/// Reports each optimizer iteration to a callback.
-pub(crate) struct IterationObserver(pub(crate) Arc<dyn Fn(u64) + Send + Sync>);
+/// Reports each optimizer iteration to the callbacks of [`crate::FitOptions`].
+pub(crate) struct IterationObserver {
+    pub(crate) progress: Option<Arc<dyn Fn(u64) + Send + Sync>>,
+    pub(crate) trace: Option<Trace>,
+    pub(crate) names: Vec<String>,
+}
 
-impl<I: State> Observe<I> for IterationObserver {
+impl<I: State<Param = Vec<f64>, Float = f64>> Observe<I> for IterationObserver {
     fn observe_iter(&mut self, state: &I, _kv: &KV) -> Result<(), Error> {
-        (self.0)(state.get_iter());
+        if let Some(progress) = &self.progress {
+            progress(state.get_iter());
+        }
+        if let (Some(trace), Some(best)) = (&self.trace, state.get_best_param()) {
+            let params = self.names.iter().cloned().zip(best.iter().copied()).collect();
+            trace(&Step { iteration: state.get_iter(), params, chi2: state.get_best_cost() });
+        }
         Ok(())
     }
 }

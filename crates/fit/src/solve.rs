@@ -2,7 +2,7 @@
 //! Levenberg–Marquardt steps, with the uncertainties at the optimum ([`crate::uncertainty`]).
 
 use crate::observation::{Channel, Observation};
-use crate::outcome::{AtBound, FitError, FitOptions, FitResult, FreeParam};
+use crate::outcome::{AtBound, FitError, FitOptions, FitResult, FreeParam, Step};
 use crate::problem::{Coordinate, IterationObserver, Problem, check_data, coordinates_of, fiber_residuals};
 use crate::uncertainty::{invert, on_bound, uncertainties};
 use argmin::core::observers::ObserverMode;
@@ -20,7 +20,7 @@ pub fn fit(
     max_iters: u64,
 ) -> Result<FitResult, FitError> {
     let free: Vec<FreeParam> = free.iter().map(|(k, v)| FreeParam { key: k.clone(), start: vec![*v] }).collect();
-    fit_with(base, &free, data, &FitOptions { max_iters, progress: None })
+    fit_with(base, &free, data, &FitOptions { max_iters, ..FitOptions::default() })
 }
 
 /// A condition every trial model of a constrained fit must meet (e.g. an energy bound):
@@ -41,7 +41,7 @@ pub fn fit_constrained(
     constraint: Option<Constraint>,
 ) -> Result<FitResult, FitError> {
     let free: Vec<FreeParam> = free.iter().map(|(k, v)| FreeParam { key: k.clone(), start: vec![*v] }).collect();
-    fit_under(base, &free, data, &FitOptions { max_iters, progress: None }, constraint)
+    fit_under(base, &free, data, &FitOptions { max_iters, ..FitOptions::default() }, constraint)
 }
 
 /// Fits the `free` parameters of the model whose other parameters are `base` (validated;
@@ -98,14 +98,24 @@ pub(crate) fn solve<M>(
     }
     let solver = NelderMead::new(simplex).with_sd_tolerance(1e-9).map_err(|e| FitError::Optimizer(e.to_string()))?;
     let mut executor = Executor::new(problem.clone(), solver).configure(|s| s.max_iters(options.max_iters));
-    if let Some(progress) = &options.progress {
-        executor = executor.add_observer(IterationObserver(progress.clone()), ObserverMode::Always);
+    let names: Vec<String> = coordinates.iter().map(Coordinate::name).collect();
+    if options.progress.is_some() || options.trace.is_some() {
+        let observer = IterationObserver {
+            progress: options.progress.clone(),
+            trace: options.trace.clone(),
+            names: names.clone(),
+        };
+        executor = executor.add_observer(observer, ObserverMode::Always);
     }
     let res = executor.run().map_err(|e| FitError::Optimizer(e.to_string()))?;
     let iterations = res.state().get_iter();
-    let best = polish(problem, res.state().get_best_param().cloned().unwrap_or(start), |step| {
+    let best = polish(problem, res.state().get_best_param().cloned().unwrap_or(start), |step, p, cost| {
         if let Some(progress) = &options.progress {
             progress(options.max_iters + step);
+        }
+        if let (Some(trace), Some((p, chi2))) = (&options.trace, p.zip(cost)) {
+            let params = names.iter().cloned().zip(p.iter().copied()).collect();
+            trace(&Step { iteration: options.max_iters + step, params, chi2 });
         }
     });
     let m = problem.model_at(&best)?;
@@ -160,14 +170,17 @@ pub const POLISH_ITERATIONS: u64 = 20;
 /// Levenberg–Marquardt steps from the simplex's best point (Nelder–Mead crawls in many
 /// dimensions, e.g. three channels of two colours): each solves
 /// `(JᵀJ + λ·diag JᵀJ) δ = −Jᵀr` and is kept only when it lowers χ² inside the valid ranges.
-fn polish<M>(problem: &Problem<M>, mut p: Vec<f64>, progress: impl Fn(u64)) -> Vec<f64> {
+///
+/// `progress(k, point, χ²)` is called before the k-th step with no point, and after a step that
+/// lowered χ² with the new point and its χ².
+fn polish<M>(problem: &Problem<M>, mut p: Vec<f64>, progress: impl Fn(u64, Option<&[f64]>, Option<f64>)) -> Vec<f64> {
     let chi2 = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
     let Ok(m) = problem.model_at(&p) else { return p };
     let mut r = problem.residuals(&m);
     let mut cost = chi2(&r);
     let mut lambda = 1e-3;
     for step in 0..POLISH_ITERATIONS {
-        progress(step);
+        progress(step, None, None);
         let Some(jac) = jacobian(problem, &p, &r).into_iter().collect::<Option<Vec<_>>>() else { break };
         let n = p.len();
         let jtj: Vec<Vec<f64>> =
@@ -200,6 +213,7 @@ fn polish<M>(problem: &Problem<M>, mut p: Vec<f64>, progress: impl Fn(u64)) -> V
         if !improved {
             break;
         }
+        progress(step + 1, Some(&p), Some(cost));
     }
     p
 }
@@ -436,7 +450,7 @@ mod tests {
         let progress: Arc<dyn Fn(u64) + Send + Sync> = Arc::new(move |_| {
             counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         });
-        let options = FitOptions { max_iters: 400, progress: Some(progress) };
+        let options = FitOptions { max_iters: 400, progress: Some(progress), ..FitOptions::default() };
         let r = fit_with(&chiang(&fixed), &free, &data, &options).unwrap();
         let names: Vec<&str> = r.params.iter().map(|(k, _)| k.as_str()).collect();
         assert_eq!(names, ["sigma_a[r]", "sigma_a[g]", "sigma_a[b]"]);
@@ -446,6 +460,22 @@ mod tests {
         assert_eq!(r.values, vec![("sigma_a".to_string(), r.params.iter().map(|p| p.1).collect())]);
         let calls = calls.load(std::sync::atomic::Ordering::Relaxed);
         assert!(calls > r.iterations && calls <= r.iterations + POLISH_ITERATIONS, "{calls} reports");
+        // The trace reports the best point so far: χ² never rises, and its last point is
+        // the result.
+        let steps = Arc::new(std::sync::Mutex::new(Vec::<Step>::new()));
+        let sink = steps.clone();
+        let traced = FitOptions {
+            max_iters: 400,
+            trace: Some(Arc::new(move |s: &Step| sink.lock().unwrap().push(s.clone()))),
+            ..FitOptions::default()
+        };
+        let t = fit_with(&chiang(&fixed), &free, &data, &traced).unwrap();
+        let steps = steps.lock().unwrap();
+        assert!(steps.len() as u64 >= t.iterations, "{} steps for {} iterations", steps.len(), t.iterations);
+        assert!(steps.windows(2).all(|w| w[1].chi2 <= w[0].chi2 && w[1].iteration >= w[0].iteration));
+        let last = steps.last().unwrap();
+        assert_eq!(last.params, t.params);
+        assert!((last.chi2 - t.chi2).abs() <= 1e-9 * t.chi2.max(1.0), "{} vs {}", last.chi2, t.chi2);
         let luminance: Vec<Observation> =
             data.iter().map(|o| Observation { channel: Channel::Luminance, ..*o }).collect();
         let three = [FreeParam { key: "sigma_a".into(), start: vec![0.5, 0.5, 0.5] }];

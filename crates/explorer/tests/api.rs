@@ -317,9 +317,16 @@ async fn numbers_are_the_harness_integrals() {
 /// A fiber table tabulating `model` (luminance-equal channels of the width-averaged f_s) at
 /// its bin centres for each θ_i, std 1 % of the value plus a floor.
 /// The width-averaged model averaged over the bin centred on (θ_r, φ) (degrees) of the given
-/// widths by a 12 × 12 midpoint rule weighted by cos²θ_r (finer than any comparison's).
-fn bin_average(model: &fiberlab_scatter::Model, wi: DVec3, tr: f64, p: f64, dt: f64, dp: f64) -> fiberlab_math::Rgb {
-    let n = 12;
+/// widths by an n × n midpoint rule weighted by cos²θ_r (n = 1: the value at the centre).
+fn bin_average(
+    model: &fiberlab_scatter::Model,
+    wi: DVec3,
+    tr: f64,
+    p: f64,
+    dt: f64,
+    dp: f64,
+    n: usize,
+) -> fiberlab_math::Rgb {
     let (mut sum, mut total) = (fiberlab_math::Rgb::ZERO, 0.0);
     for a in 0..n {
         let t = (tr + dt * ((a as f64 + 0.5) / n as f64 - 0.5)).to_radians();
@@ -333,7 +340,8 @@ fn bin_average(model: &fiberlab_scatter::Model, wi: DVec3, tr: f64, p: f64, dt: 
     sum / total
 }
 
-fn table_of(model: &fiberlab_scatter::Model, thetas: &[f64], nt: usize, np: usize) -> String {
+/// A table of `model`'s width-averaged values, each bin averaged by an `n × n` midpoint rule.
+fn table_of(model: &fiberlab_scatter::Model, thetas: &[f64], nt: usize, np: usize, n: usize) -> String {
     let mut out = String::from("lobe,theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b,std_r,std_g,std_b\n");
     for &t in thetas {
         let wi = direction(t.to_radians(), 0.0);
@@ -341,7 +349,7 @@ fn table_of(model: &fiberlab_scatter::Model, thetas: &[f64], nt: usize, np: usiz
             let tr = -90.0 + (i as f64 + 0.5) * 180.0 / nt as f64;
             for j in 0..np {
                 let p = -180.0 + (j as f64 + 0.5) * 360.0 / np as f64;
-                let f = bin_average(model, wi, tr, p, 180.0 / nt as f64, 360.0 / np as f64);
+                let f = bin_average(model, wi, tr, p, 180.0 / nt as f64, 360.0 / np as f64, n);
                 out.push_str(&format!(
                     "all,{t},0,{tr},{p},{},{},{},{},{},{}\n",
                     f[0],
@@ -367,7 +375,7 @@ async fn upload(app: &axum::Router, name: &str, text: &str) -> (StatusCode, Valu
 async fn tables_load_summarise_and_report_bad_lines() {
     let app = app();
     let m = fiberlab_scatter::build::<&str, &str>("kajiya-kay", &[]).unwrap();
-    let (s, v) = upload(&app, "kk.csv", &table_of(&m, &[0.0, 30.0], 6, 12)).await;
+    let (s, v) = upload(&app, "kk.csv", &table_of(&m, &[0.0, 30.0], 6, 12, 1)).await;
     assert_eq!(s, StatusCode::OK, "{v}");
     assert_eq!(v["kind"], "fiber");
     assert_eq!((v["bins_theta"].as_u64(), v["bins_phi"].as_u64()), (Some(6), Some(12)));
@@ -409,13 +417,14 @@ async fn compare_two_models_and_a_model_with_its_own_table() {
     let names: Vec<&str> = other["lobes"].as_array().unwrap().iter().map(|l| l["name"].as_str().unwrap()).collect();
     assert_eq!(names, ["all", "R", "TT", "TRT"]);
     assert!(other["lobes"][0]["rel_l2"].as_f64().unwrap() > 0.01);
-    // Against a table made from the model itself: rel. L2 is the f32 rounding of the table.
+    // Against a table of the model's own bin averages (12 × 12 nodes a bin): rel. L2 is what
+    // the comparison's 3 × 3 rule leaves, far below the table's Monte Carlo level (1 %).
     let m = fiberlab_scatter::build::<&str, &str>("goldman", &[]).unwrap();
-    let (_, t) = upload(&app, "g.csv", &table_of(&m, &[-20.0, 40.0], 10, 20)).await;
+    let (_, t) = upload(&app, "g.csv", &table_of(&m, &[-20.0, 40.0], 10, 20, 12)).await;
     let (s, c) = post(&app, "/api/compare", json!({ "model": "goldman", "theta_i": 35, "table": t["id"] })).await;
     assert_eq!(s, StatusCode::OK, "{c}");
     assert_eq!(c["incidence"]["index"], 1, "the incidence nearest θ_i");
-    assert!(c["lobes"][0]["rel_l2"].as_f64().unwrap() < 1e-6, "{}", c["lobes"]);
+    assert!(c["lobes"][0]["rel_l2"].as_f64().unwrap() < 0.01, "{}", c["lobes"]);
     assert!(c["lobes"][0]["mc_rel_l2"].as_f64().unwrap() > 0.0);
     let errors = [
         (
@@ -476,7 +485,7 @@ async fn measure_streams_progress_and_keeps_the_table() {
 async fn fit_streams_steps_and_recovers_a_known_parameter() {
     let app = app();
     let truth = fiberlab_scatter::build("kajiya-kay", &[("p", "40")]).unwrap();
-    let (_, t) = upload(&app, "kk40.csv", &table_of(&truth, &[0.0, 40.0], 18, 36)).await;
+    let (_, t) = upload(&app, "kk40.csv", &table_of(&truth, &[0.0, 40.0], 18, 36, 1)).await;
     let (s, ev) = events(
         &app,
         "/api/fit",

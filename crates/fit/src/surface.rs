@@ -206,7 +206,8 @@ mod tests {
             FreeParam { key: "k_d_1".into(), start: vec![0.2] },
             FreeParam { key: "albedo_1".into(), start: vec![0.5] },
         ];
-        let r = fit_surface(&sadeghi(&[]), &free, &data, &FitOptions { max_iters: 600, ..FitOptions::default() }).unwrap();
+        let r =
+            fit_surface(&sadeghi(&[]), &free, &data, &FitOptions { max_iters: 600, ..FitOptions::default() }).unwrap();
         let expect = [9.0, 0.4, 0.2, 0.45, 0.7];
         for (k, ((key, v), u)) in r.params.iter().zip(&r.uncertainties).enumerate() {
             let u = u.sigma().unwrap_or_else(|| panic!("{key}: {u:?}"));

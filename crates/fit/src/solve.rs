@@ -3,7 +3,7 @@
 
 use crate::observation::{Channel, Observation};
 use crate::outcome::{AtBound, FitError, FitOptions, FitResult, FreeParam, Step};
-use crate::problem::{Coordinate, IterationObserver, Problem, check_data, coordinates_of, fiber_residuals};
+use crate::problem::{Coordinate, IterationObserver, Problem, check_data, coordinates_of, fiber_residuals, jacobian};
 use crate::uncertainty::{invert, on_bound, uncertainties};
 use argmin::core::observers::ObserverMode;
 use argmin::core::{Executor, State};
@@ -141,26 +141,6 @@ pub(crate) fn solve<M>(
         residuals,
         iterations,
     })
-}
-
-/// Columns of the residuals' Jacobian by central differences (one-sided at the edge of a
-/// parameter's valid range); `None` for a coordinate the model cannot be built on either side of.
-pub(crate) fn jacobian<M>(problem: &Problem<M>, p: &[f64], r0: &[f64]) -> Vec<Option<Vec<f64>>> {
-    (0..p.len())
-        .map(|k| {
-            let step = 1e-4 * p[k].abs().max(1.0);
-            let (mut lo, mut hi) = (p.to_vec(), p.to_vec());
-            lo[k] -= step;
-            hi[k] += step;
-            let (ra, rb, width) = match (problem.model_at(&lo), problem.model_at(&hi)) {
-                (Ok(a), Ok(b)) => (problem.residuals(&a), problem.residuals(&b), 2.0 * step),
-                (Err(_), Ok(b)) => (r0.to_vec(), problem.residuals(&b), step),
-                (Ok(a), Err(_)) => (problem.residuals(&a), r0.to_vec(), step),
-                _ => return None,
-            };
-            Some(ra.iter().zip(&rb).map(|(a, b)| (b - a) / width).collect())
-        })
-        .collect()
 }
 
 /// Largest number of Levenberg–Marquardt steps after the simplex (reported to the progress

@@ -7,9 +7,11 @@ Every renderer runs in its own process (peer_mitsuba.py per variant, peer_cycles
 bsdf_bench.py); a peer that fails is reported as "not available: <reason>" with its log in
 OUT/logs/. Environment: SPP (16), REF_SPP (512), STRANDS (10000), PEERS_OUT (bench/peers/out),
 SKIP (comma list of mitsuba_llvm, mitsuba_scalar, mitsuba_cuda, cycles), CURVES (linear | bspline: the
-strands' 16 points as polylines or as uniform cubic B-spline control points), FIBERLAB_DEVICE (cpu, gpu
-or auto: where fiberlab renders). mitsuba_cuda (`cuda_ad_rgb`) runs only where a CUDA driver is found
-(`nvidia-smi` or libcuda); bench/gpu/run uses it.
+strands' 16 points as polylines or as uniform cubic B-spline control points), WIDTHS (peer: constant
+diameter 0.004 | generator: the generator's diameters, 0.002 at the root tapering to 0.001; the
+thin-strand variant, e.g. with STRANDS=50000), FIBERLAB_DEVICE (cpu, gpu or auto: where fiberlab
+renders). mitsuba_cuda (`cuda_ad_rgb`) runs only where a CUDA driver is found (`nvidia-smi` or
+libcuda); bench/gpu/run uses it.
 
 Equal error: every renderer also renders at SPP/4; with the SPP render that gives two points of
 its RMSE-versus-time curve, fitted by RMSE = k t^(-1/2) (least squares in log-log with the slope
@@ -85,6 +87,8 @@ PEER_TIMEOUT_S = 1800
 # CURVES: fiberlab's [[hair]] keys and Mitsuba's shape type per variant.
 CURVES = {"linear": ("", "linearcurve"),
           "bspline": ('basis = "bspline"\nsegments_per_curve = 8\n', "bsplinecurve")}
+# WIDTHS: the generator's diameter arguments per variant (generator: its defaults).
+WIDTHS = {"peer": ("--root-diameter", 0.004, "--tip-ratio", 1), "generator": ()}
 RENDER_LINE = re.compile(r"scene ([0-9.]+) s, render ([0-9.]+) s")
 
 
@@ -97,10 +101,14 @@ def config():
     curves = os.environ.get("CURVES", "linear")
     if curves not in CURVES:
         sys.exit(f"CURVES={curves}: must be one of {', '.join(CURVES)}")
+    widths = os.environ.get("WIDTHS", "peer")
+    if widths not in WIDTHS:
+        sys.exit(f"WIDTHS={widths}: must be one of {', '.join(WIDTHS)}")
     out = Path(os.environ.get("PEERS_OUT", HERE / "out")).resolve()
     spp = int(os.environ.get("SPP", 16))
     return {"spp": spp, "ref_spp": int(os.environ.get("REF_SPP", 512)),
             "strands": int(os.environ.get("STRANDS", 10000)), "skip": skip, "out": out, "curves": curves,
+            "widths": widths,
             "extra_spp": max(1, spp // 4)}
 
 
@@ -121,10 +129,12 @@ def run_logged(cmd, log, timeout):
 
 
 def generate_hair(cfg):
-    """The strands of the scene: STRANDS strands of 16 points, constant radius 0.002."""
+    """The strands of the scene: STRANDS strands of 16 points, of constant radius 0.002
+    (WIDTHS=peer) or of the generator's own widths (WIDTHS=generator: diameter 0.002 at the root
+    tapering to 0.001 at the tip)."""
     path = cfg["out"] / "hair.hair"
-    fiberlab("hair", "generate", "--strands", cfg["strands"], "--segments", 15,
-             "--root-diameter", 0.004, "--tip-ratio", 1, "--out", path)
+    widths = WIDTHS[cfg["widths"]]
+    fiberlab("hair", "generate", "--strands", cfg["strands"], "--segments", 15, *widths, "--out", path)
     return path
 
 
@@ -391,7 +401,7 @@ def main():
     s = load_scene(SCENE)
     spp = cfg["spp"]
     cfg["scene"] = scene = scene_for(cfg)
-    print(f"scene {scene} ({cfg['strands']} strands, curves {cfg['curves']}), {spp} spp, reference "
+    print(f"scene {scene} ({cfg['strands']} strands, curves {cfg['curves']}, widths {cfg['widths']}), {spp} spp, reference "
           f"{cfg['ref_spp']} spp, {os.cpu_count()} cores, output {cfg['out']}; {load_average()}", flush=True)
     hair = generate_hair(cfg)
     print(f"fiberlab at {spp} spp", flush=True)

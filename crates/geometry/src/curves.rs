@@ -767,9 +767,22 @@ mod tests {
                 straight(p, (g.vec() - 0.5) * 4.0, 3, r)
             })
             .collect();
-        for (what, strands) in
-            [("parallel", parallel), ("crossing", crossing), ("degenerate", degenerate), ("radii", radii)]
-        {
+        // Thin diagonal strands packed a few radii apart: eight pieces a segment, full leaves
+        // (the generator's widths on a head, scaled up).
+        let dir = DVec3::new(1.0, 0.8, 0.6).normalize();
+        let thin: Vec<_> = (0..300)
+            .map(|i| {
+                let p = DVec3::new(f64::from(i % 20), f64::from(i / 20), 0.0) * 0.0006;
+                straight(p, dir * 0.5, 4, 0.0002)
+            })
+            .collect();
+        for (what, strands) in [
+            ("parallel", parallel),
+            ("crossing", crossing),
+            ("degenerate", degenerate),
+            ("radii", radii),
+            ("thin", thin),
+        ] {
             let mut set = CurveSet::from_polylines(strands.iter().map(|(p, r)| (p.as_slice(), r.as_slice())));
             let mut rays = Vec::new();
             for k in 0..3000 {

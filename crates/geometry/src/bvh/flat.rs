@@ -106,7 +106,8 @@ mod tests {
         let records: Vec<BuildPrim> = (0..2000)
             .map(|i| {
                 let p = (g.vec() - 0.5) * 4.0;
-                BuildPrim::segment(p, p + fiberlab_math::DVec3::X * 0.3 + (g.vec() - 0.5) * 0.05, 0.01, i)
+                // Diagonal, so that boxes oriented along them pay: both node kinds occur.
+                BuildPrim::segment(p, p + fiberlab_math::DVec3::ONE * 0.2 + (g.vec() - 0.5) * 0.05, 0.01, i)
             })
             .collect();
         let bvh = Bvh::build_records_with(records, Boxes::Oriented);

@@ -16,16 +16,13 @@
 //! relative L2, what a perfect model would get), and the worst bins by |model − measured|/σ;
 //! `--out PREFIX` draws PREFIX_slices.png (the plane of incidence and the plane across it).
 //!
-//! The comparisons are `fiberlab_compare::{fiber_table, surface_table}`; this verb reads the
-//! table, prints and draws.
+//! The comparison is `fiberlab_compare::model_table::compare_model` (Python's
+//! `compare_model` makes the same call); this verb reads the table, prints and draws.
 
 use crate::model_args::ModelArgs;
 use crate::plot::{Scale, write_figure};
-use fiberlab_compare::fiber_table::compare_fiber_table;
-use fiberlab_compare::surface_table::{
-    HighlightComparison, HighlightJson, ResidualComparison, ResidualJson, SURFACE_TOLERANCES, SurfaceComparison,
-    compare_surface_table,
-};
+use fiberlab_compare::model_table::{CompareOptions, ModelComparison, compare_model};
+use fiberlab_compare::surface_table::{HighlightComparison, ResidualComparison, SURFACE_TOLERANCES, SurfaceComparison};
 use fiberlab_io::table::{TableKind, read, read_kind};
 use std::path::PathBuf;
 
@@ -66,23 +63,22 @@ pub struct Args {
 /// Runs the comparison and prints one line per (incidence, lobe), or the JSON object.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let request = args.model.request()?;
-    if read_kind(&args.table)? == TableKind::Surface {
-        let table = read(&args.table)?;
-        return match compare_surface_table(&table, &request, args.subsamples, args.viewer_first)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", args.table.display()))?
-        {
-            SurfaceComparison::Highlight(rows) => print_highlight(args, &rows),
-            SurfaceComparison::Residual(rows) => print_residual(args, &rows),
-        };
-    }
+    let kind = read_kind(&args.table)?;
     let table = read(&args.table)?;
-    let lobes = compare_fiber_table(&table, &request, args.subsamples)?;
-    if args.json {
-        let json: serde_json::Map<String, serde_json::Value> =
-            lobes.iter().map(|l| (l.lobe.clone(), serde_json::to_value(l).expect("plain numbers"))).collect();
-        println!("{}", serde_json::Value::Object(json));
-        return Ok(());
-    }
+    let options = CompareOptions { subsamples: args.subsamples, viewer_first: args.viewer_first };
+    let comparison = compare_model(&table, kind, &request, options).map_err(|e| match kind {
+        TableKind::Surface => anyhow::anyhow!("{}: {e}", args.table.display()),
+        TableKind::Fiber => e.into(),
+    })?;
+    let lobes = match comparison {
+        ModelComparison::Surface(SurfaceComparison::Highlight(rows)) => return print_highlight(args, &rows),
+        ModelComparison::Surface(SurfaceComparison::Residual(rows)) => return print_residual(args, &rows),
+        ModelComparison::Fiber(lobes) if args.json => {
+            println!("{}", serde_json::to_value(ModelComparison::Fiber(lobes))?);
+            return Ok(());
+        }
+        ModelComparison::Fiber(lobes) => lobes,
+    };
     println!(
         "{:>8} {:>8} {:<8} {:>10} {:>10} {:>22} {:>22} {:>12} {:>12}",
         "θ_i°",
@@ -126,8 +122,7 @@ fn print_highlight(args: &Args, rows: &[HighlightComparison]) -> anyhow::Result<
     let (tl, tw, ts) = SURFACE_TOLERANCES;
     let verdict = |ok: bool| if ok { "pass" } else { "FAIL" };
     if args.json {
-        let json: Vec<HighlightJson> = rows.iter().map(HighlightJson::from).collect();
-        println!("{}", serde_json::json!({ "fiber": json }));
+        println!("{}", serde_json::to_value(ModelComparison::Surface(SurfaceComparison::Highlight(rows.to_vec())))?);
     } else {
         for r in rows {
             let (pl, pw, ps) = r.passes();
@@ -182,8 +177,7 @@ fn print_highlight(args: &Args, rows: &[HighlightComparison]) -> anyhow::Result<
 /// Prints (or writes as JSON) and draws a residual comparison.
 fn print_residual(args: &Args, rows: &[ResidualComparison]) -> anyhow::Result<()> {
     if args.json {
-        let json: Vec<ResidualJson> = rows.iter().map(ResidualJson::from).collect();
-        println!("{}", serde_json::json!({ "all": json }));
+        println!("{}", serde_json::to_value(ModelComparison::Surface(SurfaceComparison::Residual(rows.to_vec())))?);
     } else {
         for r in rows {
             println!(

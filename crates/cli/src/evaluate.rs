@@ -8,7 +8,7 @@
 use crate::arg_values::{self, KeyValue, NamedRect};
 use crate::compare::{Image, load};
 use anyhow::Context;
-use fiberlab_compare::evaluation::{EvaluationRequest, ModelResult, Progress, evaluate, rgb_short};
+use fiberlab_compare::evaluation::{EvaluationRequest, Progress, evaluate, rgb_short};
 use fiberlab_io::{LinearImage, ToneMap};
 use fiberlab_render::integrator::Region;
 use fiberlab_render::scene_file::SceneFile;
@@ -152,7 +152,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
     })?;
     written?;
-    let rows: Vec<serde_json::Value> = results.iter().map(|r| metrics_json(r, reference.noise())).collect();
+    let rows = results.iter().map(|r| serde_json::to_value(r.row(reference.noise()))).collect::<Result<Vec<_>, _>>()?;
     crate::files::write_atomically(&args.out.join("metrics.json"), serde_json::to_string_pretty(&rows)?.as_bytes())?;
     let mut tiles = vec![Tile {
         name: "reference".into(),
@@ -186,23 +186,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     println!("wrote {}", args.out.display());
     Ok(())
-}
-
-/// One model's row of `metrics.json`.
-fn metrics_json(r: &ModelResult, reference_noise: f64) -> serde_json::Value {
-    serde_json::json!({
-        "model": r.entry.name,
-        "given": r.entry.given,
-        "rmse": r.metrics.rmse,
-        "rmse_noise": r.floor.rmse,
-        "rmse_excess": r.excess_rmse(),
-        "relmse": r.metrics.relmse,
-        "relmse_noise": r.floor.relmse,
-        "ssim": r.metrics.ssim,
-        "flip": r.metrics.flip,
-        "image_noise": r.render.noise(),
-        "reference_noise": reference_noise,
-    })
 }
 
 fn write(img: &LinearImage, dir: &Path, name: &str) -> anyhow::Result<()> {

@@ -137,17 +137,12 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         .with_context(|| format!("writing {}", path.display()))
 }
 
-/// Checks that `w` is a finite unit vector (|w| within 1e−3 of 1).
+/// Checks that `w` is a finite unit vector ([`fiberlab_math::frame::unit_direction`]: |w|
+/// within 1e−3 of 1) and normalizes it.
 pub fn require_unit(w: fiberlab_math::DVec3, what: &str) -> anyhow::Result<fiberlab_math::DVec3> {
-    let len = w.length();
-    anyhow::ensure!(
-        w.is_finite() && (len - 1.0).abs() <= 1e-3,
-        "{what}: expected a unit vector, got ({}, {}, {}) of length {len}",
-        w.x,
-        w.y,
-        w.z
-    );
-    Ok(w / len)
+    fiberlab_math::frame::unit_direction(w).ok_or_else(|| {
+        anyhow::anyhow!("{what}: expected a unit vector, got ({}, {}, {}) of length {}", w.x, w.y, w.z, w.length())
+    })
 }
 
 /// Reads and parses a TOML file; a syntax error names the file, line and column.

@@ -4,6 +4,7 @@
 //! also reads the data a model is built from (`measured`'s `table=PATH`).
 
 use anyhow::Context;
+pub use fiberlab_render::model_loader::AnyModel;
 use fiberlab_render::model_loader::ModelRequest;
 use fiberlab_render::toml_params::raw_pairs;
 use fiberlab_scatter::params::{RawValue, split_key_value};
@@ -63,25 +64,14 @@ impl ModelArgs {
 
     /// Builds the model from whichever registry holds its name.
     pub fn build_any(&self) -> anyhow::Result<AnyModel> {
-        Ok(match self.kind()? {
-            ModelKind::Surface => AnyModel::Surface(self.build_surface()?),
-            ModelKind::Fiber => AnyModel::Fiber(self.build()?),
-        })
+        self.kind()?; // an unknown name is reported as it is, without the context below
+        self.request()?.build_any().with_context(|| format!("model `{}`", self.model))
     }
 
     /// `name key=value …` for titles.
     pub fn label(&self) -> String {
         std::iter::once(self.model.clone()).chain(self.params.iter().cloned()).collect::<Vec<_>>().join(" ")
     }
-}
-
-/// A model of either registry, as the verbs that take both build it.
-#[derive(Clone, Debug)]
-pub enum AnyModel {
-    /// A fiber scattering function.
-    Fiber(Model),
-    /// A surface BRDF.
-    Surface(SurfaceModel),
 }
 
 /// `[params]` of a TOML file; a `model` key, if present, must match `model`.

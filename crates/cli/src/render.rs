@@ -17,8 +17,9 @@ use anyhow::Context;
 use fiberlab_io::LinearImage;
 use fiberlab_io::ToneMap;
 use fiberlab_render::accumulation::Accumulation;
-use fiberlab_render::dual_scattering::{DualScatteringSettings, Integrator, integrator_named};
+use fiberlab_render::dual_scattering::Integrator;
 use fiberlab_render::integrator::{Progress, Region, RenderSettings};
+use fiberlab_render::render_request::RenderOptions;
 use fiberlab_render::scene_file::SceneFile;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -208,17 +209,18 @@ impl<'a> Config<'a> {
         Ok(Self { args, pixels, time_limit: args.time_limit.map(Duration::from_secs_f64), out, resume })
     }
 
-    /// The render settings: the scene's, overridden by the flags (the deadline is set when the
-    /// render starts).
-    fn settings(&self, scene: RenderSettings, region: Option<Region>) -> RenderSettings {
+    /// What the flags ask of the scene: the one render request the library validates (the
+    /// seed of a `--resume` file unless `--seed` is given).
+    fn options(&self) -> RenderOptions {
         let a = self.args;
-        RenderSettings {
-            spp: a.spp.unwrap_or(scene.spp),
-            seed: a.seed.or(self.resume.as_ref().map(|r| r.seed)).unwrap_or(scene.seed),
-            max_depth: a.max_depth.unwrap_or(scene.max_depth),
+        RenderOptions {
+            spp: a.spp,
+            seed: a.seed.or(self.resume.as_ref().map(|r| r.seed)),
+            max_depth: a.max_depth,
             threads: a.threads,
-            region,
-            ..scene
+            integrator: a.integrator.clone(),
+            fiber_count: a.fiber_count.clone(),
+            dual: a.dual.clone(),
         }
     }
 }
@@ -298,7 +300,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             Accumulation::from_image(&r.image, w, h).with_context(context)?
         }
     };
-    let settings = config.settings(file.sampling(), region);
+    let request = config.options().validate(&file).map_err(|e| anyhow::anyhow!("--{e}"))?;
+    let settings = RenderSettings { region, ..request.settings.clone() };
     if let Some(r) = &config.resume {
         let (_, most) = start.count_range(region.unwrap_or(Region::full(w, h)));
         anyhow::ensure!(
@@ -308,12 +311,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             settings.spp
         );
     }
-    let integrator = args.integrator.clone().unwrap_or_else(|| file.render_settings().integrator.clone());
-    let count = args.fiber_count.clone().unwrap_or_else(|| file.render_settings().fiber_count.clone());
-    let dual = DualScatteringSettings::from_options(&count, &args.dual).map_err(|e| anyhow::anyhow!("--{e}"))?;
     let (scene, _) = file.build()?;
     let t = Instant::now();
-    let integrator = integrator_named(&scene, &integrator, dual)?;
+    let integrator = request.settings_for(&scene)?.integrator;
     if let Integrator::DualScattering(d) = &integrator {
         eprintln!(
             "dual scattering: tables in {:.2} s, fibers counted {}",

@@ -158,6 +158,52 @@ impl ModelResult {
     pub fn excess_rmse(&self) -> f64 {
         excess(self.metrics.rmse, self.floor.rmse)
     }
+
+    /// Its row of `metrics.json` (`fiberlab evaluate`; Python's `evaluate` returns the same),
+    /// beside the reference's noise.
+    #[must_use]
+    pub fn row(&self, reference_noise: f64) -> MetricsRow {
+        MetricsRow {
+            model: self.entry.name.clone(),
+            given: self.entry.given.clone(),
+            rmse: self.metrics.rmse,
+            rmse_noise: self.floor.rmse,
+            rmse_excess: self.excess_rmse(),
+            relmse: self.metrics.relmse,
+            relmse_noise: self.floor.relmse,
+            ssim: self.metrics.ssim,
+            flip: self.metrics.flip,
+            image_noise: self.render.noise(),
+            reference_noise,
+        }
+    }
+}
+
+/// One model's metrics against the reference, with the noise beside each.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MetricsRow {
+    /// The model's name.
+    pub model: String,
+    /// How it got the scene's hair.
+    pub given: String,
+    /// RMSE against the reference.
+    pub rmse: f64,
+    /// The RMSE noise alone gives.
+    pub rmse_noise: f64,
+    /// The RMSE beyond the noise.
+    pub rmse_excess: f64,
+    /// Relative MSE against the reference.
+    pub relmse: f64,
+    /// The relative MSE noise alone gives.
+    pub relmse_noise: f64,
+    /// SSIM of the sRGB-encoded luminance.
+    pub ssim: f64,
+    /// Mean ꟻLIP error.
+    pub flip: f64,
+    /// The model render's own noise.
+    pub image_noise: f64,
+    /// The reference's noise.
+    pub reference_noise: f64,
 }
 
 /// What the evaluation reports as it goes.

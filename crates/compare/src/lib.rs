@@ -7,6 +7,7 @@
 //!   width-averaged through the one width average of the scattering crate);
 //! * [`surface_table`]: a surface model against a measured surface table (a fiber highlight
 //!   against the single-fiber class, or a residual against every path);
+//! * [`model_table`]: either comparison with a table, as `compare-model` and Python make it;
 //! * [`evaluation`]: the colour-matched evaluation of hair models in renders against a
 //!   reference, with noise floors and the constrained Kajiya–Kay fit.
 //!
@@ -17,6 +18,7 @@
 pub mod evaluation;
 pub mod fiber_table;
 pub mod maps;
+pub mod model_table;
 pub mod surface_table;
 
 use thiserror::Error;

@@ -274,10 +274,13 @@ pub struct ResidualComparison {
     pub mc_rel_l2: f64,
     /// The worst bins: (θ_o°, φ_o°, measured, model, (model − measured)/σ).
     pub worst: Vec<(f64, f64, f64, f64, f64)>,
-    /// Slices through the plane of incidence and across it: (label, points of (signed θ_o°,
-    /// measured, std, model)).
-    pub slices: Vec<(String, Vec<(f64, f64, f64, f64)>)>,
+    /// Slices through the plane of incidence and across it.
+    pub slices: Vec<ResidualSlice>,
 }
+
+/// A slice of a residual comparison: its label and its points (signed θ_o°, measured, std,
+/// model).
+pub type ResidualSlice = (String, Vec<(f64, f64, f64, f64)>);
 
 /// The JSON of one residual incidence (degrees).
 #[derive(Serialize)]

@@ -7,6 +7,19 @@
 use glam::DVec3;
 use std::f64::consts::{PI, TAU};
 
+/// Largest deviation from 1 of the length of a direction given as input (a CSV row, a NumPy
+/// array) that is accepted — the direction is then normalized ([`unit_direction`]).
+pub const UNIT_TOLERANCE: f64 = 1e-3;
+
+/// The rule for directions given as input, the same on the command line and in Python: `w`
+/// normalized when it is finite with length within [`UNIT_TOLERANCE`] of 1, `None` otherwise.
+#[must_use]
+#[inline]
+pub fn unit_direction(w: DVec3) -> Option<DVec3> {
+    let len = w.length();
+    (w.is_finite() && (len - 1.0).abs() <= UNIT_TOLERANCE).then(|| w / len)
+}
+
 /// Sine of the inclination θ from the normal plane (`ω.x`), clamped to [−1, 1].
 #[must_use]
 #[inline]

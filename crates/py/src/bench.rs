@@ -1,7 +1,7 @@
 //! `fiberlab._native._bench_rust`: the reference times of the throughput benchmark
 //! (`crates/py/bench/eval_throughput.py`).
 
-use crate::{PyModel, Quantity, SampleOutputs, check_inputs, eval_loop, sample_loop, slice};
+use crate::{AnyModel, PyModel, Quantity, SampleOutputs, check_inputs, eval_loop, sample_loop, slice};
 use numpy::PyReadonlyArray1;
 use numpy::PyReadonlyArray2;
 use pyo3::exceptions::PyValueError;
@@ -41,14 +41,22 @@ pub(crate) fn _bench_rust(
         match quantity {
             Some(q) => {
                 let mut out = vec![0.0; q.width() * n];
-                assert!(eval_loop(&model.model, wi, wo, h, q, &mut out), "checked");
+                let valid = match &model.model {
+                    AnyModel::Fiber(m) => eval_loop(m, wi, wo, h, q, &mut out),
+                    AnyModel::Surface(m) => eval_loop(m, wi, wo, h, q, &mut out),
+                };
+                assert!(valid, "checked");
                 std::hint::black_box(out);
             }
             None => {
                 let (mut wi, mut weight, mut pdf, mut lobe) =
                     (vec![0.0; 3 * n], vec![0.0; 3 * n], vec![0.0; n], vec![0; n]);
                 let out = SampleOutputs { wi: &mut wi, weight: &mut weight, pdf: &mut pdf, lobe: &mut lobe };
-                assert!(sample_loop(&model.model, wo, u, h, out), "checked");
+                let valid = match &model.model {
+                    AnyModel::Fiber(m) => sample_loop(m, wo, u, h, out),
+                    AnyModel::Surface(m) => sample_loop(m, wo, u, h, out),
+                };
+                assert!(valid, "checked");
                 std::hint::black_box((wi, weight, pdf, lobe));
             }
         }

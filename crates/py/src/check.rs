@@ -1,7 +1,7 @@
 //! `fiberlab._native.check`: the validation harness of `fiberlab check` (`fiberlab_check`)
 //! for one model.
 
-use crate::PyModel;
+use crate::{AnyModel, PyModel};
 use fiberlab_check::{Effort, check_model};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -26,7 +26,10 @@ pub(crate) fn check<'py>(
         samples: samples.unwrap_or(d.samples),
         pairs: pairs.unwrap_or(d.pairs),
     };
-    let rows = py.detach(|| check_model(label, &model.model, &effort));
+    let rows = py.detach(|| match &model.model {
+        AnyModel::Fiber(m) => check_model(label, m, &effort),
+        AnyModel::Surface(m) => fiberlab_check::surface::check_surface_model(label, m, &effort),
+    });
     let list = PyList::empty(py);
     for r in rows {
         let d = PyDict::new(py);

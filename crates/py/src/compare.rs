@@ -7,7 +7,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-fn image(name: &str, a: &PyReadonlyArray3<'_, f64>) -> PyResult<Image> {
+pub(crate) fn image(name: &str, a: &PyReadonlyArray3<'_, f64>) -> PyResult<Image> {
     let shape = a.shape();
     if shape[2] != 3 {
         return Err(PyValueError::new_err(format!("{name}: expected shape (H, W, 3), got {shape:?}")));

@@ -17,11 +17,14 @@ mod check;
 mod compare;
 mod fit;
 mod hair;
+mod interrupt;
 mod measure;
+mod model_comparison;
 
-use fiberlab_math::DVec3;
+use fiberlab_math::{DVec3, Rgb};
+use fiberlab_render::model_loader::{AnyModel, ModelRequest};
 use fiberlab_scatter::params::{ParamKind, RawValue};
-use fiberlab_scatter::{Field, Lobes, Model, ScatteringFunction};
+use fiberlab_scatter::{Field, Lobes, Model, Sample, ScatteringFunction, SurfaceModel, SurfaceScattering};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -30,9 +33,7 @@ use rayon::prelude::*;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-/// Largest deviation of a direction's length from 1 that is accepted (then normalized), as
-/// on the command line.
-const UNIT_TOLERANCE: f64 = 1e-3;
+use fiberlab_math::frame::{UNIT_TOLERANCE, unit_direction};
 
 /// A Python value as a parameter value of any edge ([`RawValue`]): str → text, bool →
 /// boolean, int/float → number, list/tuple → list.
@@ -67,20 +68,74 @@ pub(crate) fn raw_value(key: &str, value: &Bound<'_, PyAny>) -> PyResult<RawValu
 type Samples<'py> =
     (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i32>>);
 
-/// A scattering model of the registry, built from its name and parameters.
+/// A scattering model of either registry (fiber or surface), built from its name and
+/// parameters.
 #[pyclass(name = "Model", module = "fiberlab._native", frozen)]
 pub(crate) struct PyModel {
-    model: Model,
+    pub(crate) model: AnyModel,
+    /// What it was built from (for the calls that rebuild it, e.g. per lobe).
+    pub(crate) request: ModelRequest,
     name: String,
     given: Vec<(String, String)>,
+}
+
+/// What the loops need of a model of either registry. A fiber model reads `h` and its
+/// cosine is the light direction's from the normal plane (fiber frame, x = tangent); a
+/// surface model ignores `h` and its cosine is |cos θ_i| from the normal (local frame,
+/// z = normal), the factor of its sample weights.
+pub(crate) trait Scatterer: Sync {
+    /// f_s (fiber) or f_r (surface), sr⁻¹.
+    fn f(&self, wi: DVec3, wo: DVec3, h: f64) -> Rgb;
+    /// The density of `draw`, sr⁻¹.
+    fn density(&self, wi: DVec3, wo: DVec3, h: f64) -> f64;
+    /// One importance sample of ω_i.
+    fn draw(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample>;
+    /// The cosine that turns `f` into what multiplies incident radiance.
+    fn cos_light(&self, wi: DVec3) -> f64;
+}
+
+impl Scatterer for Model {
+    #[inline]
+    fn f(&self, wi: DVec3, wo: DVec3, h: f64) -> Rgb {
+        self.eval(wi, wo, h)
+    }
+    #[inline]
+    fn density(&self, wi: DVec3, wo: DVec3, h: f64) -> f64 {
+        self.pdf(wi, wo, h)
+    }
+    #[inline]
+    fn draw(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<Sample> {
+        self.sample(wo, h, u)
+    }
+    #[inline]
+    fn cos_light(&self, wi: DVec3) -> f64 {
+        fiberlab_math::frame::cos_theta(wi)
+    }
+}
+
+impl Scatterer for SurfaceModel {
+    #[inline]
+    fn f(&self, wi: DVec3, wo: DVec3, _h: f64) -> Rgb {
+        self.eval(wi, wo)
+    }
+    #[inline]
+    fn density(&self, wi: DVec3, wo: DVec3, _h: f64) -> f64 {
+        self.pdf(wi, wo)
+    }
+    #[inline]
+    fn draw(&self, wo: DVec3, _h: f64, u: [f64; 4]) -> Option<Sample> {
+        self.sample(wo, u)
+    }
+    #[inline]
+    fn cos_light(&self, wi: DVec3) -> f64 {
+        wi.z.abs()
+    }
 }
 
 /// Checks direction `k` of a flat `(N, 3)` array; returns it normalized.
 #[inline]
 pub(crate) fn direction(v: &[f64], k: usize) -> Option<DVec3> {
-    let w = DVec3::new(v[3 * k], v[3 * k + 1], v[3 * k + 2]);
-    let len = w.length();
-    (w.is_finite() && (len - 1.0).abs() <= UNIT_TOLERANCE).then(|| w / len)
+    unit_direction(DVec3::new(v[3 * k], v[3 * k + 1], v[3 * k + 2]))
 }
 
 /// The first index at which `ok` fails, searched in parallel.
@@ -164,16 +219,23 @@ impl Quantity {
 /// allocates nothing. Each element is checked as it is read (the same test as
 /// [`check_inputs`]); `false` when one is invalid, for the caller to name it with
 /// [`check_inputs`]: one pass over the arrays when they are valid.
-pub(crate) fn eval_loop(model: &Model, wi: &[f64], wo: &[f64], h: &[f64], what: Quantity, out: &mut [f64]) -> bool {
+pub(crate) fn eval_loop(
+    model: &impl Scatterer,
+    wi: &[f64],
+    wo: &[f64],
+    h: &[f64],
+    what: Quantity,
+    out: &mut [f64],
+) -> bool {
     let width = what.width();
     debug_assert_eq!(out.len(), width * h.len());
     let bad = AtomicBool::new(false);
     out.par_chunks_mut(width).enumerate().for_each(|(k, o)| match (direction(wi, k), direction(wo, k)) {
         (Some(a), Some(b)) if (-1.0..=1.0).contains(&h[k]) => match what {
-            Quantity::Pdf => o[0] = model.pdf(a, b, h[k]),
+            Quantity::Pdf => o[0] = model.density(a, b, h[k]),
             Quantity::Fs | Quantity::FsCos => {
-                let f = model.eval(a, b, h[k]);
-                let c = if matches!(what, Quantity::FsCos) { fiberlab_math::frame::cos_theta(a) } else { 1.0 };
+                let f = model.f(a, b, h[k]);
+                let c = if matches!(what, Quantity::FsCos) { model.cos_light(a) } else { 1.0 };
                 o.copy_from_slice(&[f[0] * c, f[1] * c, f[2] * c]);
             }
         },
@@ -195,8 +257,11 @@ impl PyModel {
     ) -> PyResult<()> {
         let dirs = [("wi", wi), ("wo", wo)];
         check_sizes(&dirs, h, h.len())?;
-        let model = &self.model;
-        if py.detach(|| eval_loop(model, wi, wo, h, what, out)) {
+        let valid = py.detach(|| match &self.model {
+            AnyModel::Fiber(m) => eval_loop(m, wi, wo, h, what, out),
+            AnyModel::Surface(m) => eval_loop(m, wi, wo, h, what, out),
+        });
+        if valid {
             Ok(())
         } else {
             check_inputs(&dirs, h, h.len())?;
@@ -207,10 +272,11 @@ impl PyModel {
 
 #[pymethods]
 impl PyModel {
-    /// `Model(name, params)`: the registered model `name` with `params` (a dict of key →
-    /// number, string, bool or list, as in a scene file); invalid keys or values raise
-    /// `ValueError` with the command line's message. Relative data paths (the `measured`
-    /// model's `table`) are read from the working directory.
+    /// `Model(name, params)`: the registered model `name` (fiber or surface) with `params` (a
+    /// dict of key → number, string, bool or list, as in a scene file); invalid keys or
+    /// values raise `ValueError` with the command line's message. Relative data paths (the
+    /// `measured` model's `table`, `irawan-2012`'s `pattern`) are read from the working
+    /// directory.
     #[new]
     #[pyo3(signature = (name, params = None))]
     fn new(name: &str, params: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
@@ -224,9 +290,9 @@ impl PyModel {
                 pairs.push((key, raw));
             }
         }
-        let model = fiberlab_render::model_loader::load_model(name, &pairs, Path::new(""))
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        Ok(Self { model, name: name.to_string(), given })
+        let request = ModelRequest::new(name, pairs);
+        let model = request.build_any().map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok(Self { model, request, name: name.to_string(), given })
     }
 
     /// The model's registry name.
@@ -235,16 +301,32 @@ impl PyModel {
         &self.name
     }
 
-    /// What the model claims: a dict with `reciprocal`, `energy_conserving`, `field`
-    /// (`"far"` or `"near"`: whether f_s depends on h) and `lobes` (`"smooth"` or `"delta"`).
+    /// What the model claims: a dict with `kind` (`"fiber"` or `"surface"`), `reciprocal`,
+    /// `energy_conserving`, `lobes` (`"smooth"` or `"delta"`); fiber models add `field`
+    /// (`"far"` or `"near"`: whether f_s depends on h), surface models `transmits` (light may
+    /// leave below the surface).
     #[getter]
     fn flags<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let p = self.model.properties();
         let d = PyDict::new(py);
-        d.set_item("reciprocal", p.reciprocal)?;
-        d.set_item("energy_conserving", p.energy_conserving)?;
-        d.set_item("field", if p.field == Field::Near { "near" } else { "far" })?;
-        d.set_item("lobes", if p.lobes == Lobes::Delta { "delta" } else { "smooth" })?;
+        let lobes = |delta: bool| if delta { "delta" } else { "smooth" };
+        match &self.model {
+            AnyModel::Fiber(m) => {
+                let p = m.properties();
+                d.set_item("kind", "fiber")?;
+                d.set_item("reciprocal", p.reciprocal)?;
+                d.set_item("energy_conserving", p.energy_conserving)?;
+                d.set_item("field", if p.field == Field::Near { "near" } else { "far" })?;
+                d.set_item("lobes", lobes(p.lobes == Lobes::Delta))?;
+            }
+            AnyModel::Surface(m) => {
+                let p = m.properties();
+                d.set_item("kind", "surface")?;
+                d.set_item("reciprocal", p.reciprocal)?;
+                d.set_item("energy_conserving", p.energy_conserving)?;
+                d.set_item("transmits", p.transmits)?;
+                d.set_item("lobes", lobes(p.has_delta))?;
+            }
+        }
         Ok(d)
     }
 
@@ -291,7 +373,11 @@ impl PyModel {
     /// `(name, delta)` pairs (`delta`: samples of that lobe lie on a delta lobe).
     #[getter]
     fn lobes(&self) -> Vec<(&'static str, bool)> {
-        self.model.lobes().iter().map(|l| (l.name, l.delta)).collect()
+        let lobes = match &self.model {
+            AnyModel::Fiber(m) => m.lobes(),
+            AnyModel::Surface(m) => m.lobes(),
+        };
+        lobes.iter().map(|l| (l.name, l.delta)).collect()
     }
 
     /// Importance samples of ω_i for `wo` `(N, 3)`, `u` `(N, 4)` uniforms in [0, 1), `h`
@@ -311,7 +397,6 @@ impl PyModel {
         if u.len() != 4 * n {
             return Err(PyValueError::new_err(format!("u: expected {n} rows of 4 uniforms, got {} values", u.len())));
         }
-        let model = &self.model;
         let arrays = (
             output::<f64, _>(py, numpy::ndarray::Ix2(n, 3)),
             output::<f64, _>(py, numpy::ndarray::Ix2(n, 3)),
@@ -327,7 +412,10 @@ impl PyModel {
                 pdf: pdf.as_slice_mut().expect("contiguous"),
                 lobe: lobe.as_slice_mut().expect("contiguous"),
             };
-            py.detach(|| sample_loop(model, wo, u, h, out))
+            py.detach(|| match &self.model {
+                AnyModel::Fiber(m) => sample_loop(m, wo, u, h, out),
+                AnyModel::Surface(m) => sample_loop(m, wo, u, h, out),
+            })
         };
         if !valid {
             check_inputs(&[("wo", wo)], h, n)?;
@@ -356,7 +444,7 @@ pub(crate) struct SampleOutputs<'a> {
 /// for a failed sample); allocates nothing. Each element is checked as it is read (`wo`
 /// finite and unit, `h` in [−1, 1], `u` in [0, 1)); `false` when one is invalid, for the
 /// caller to name it.
-pub(crate) fn sample_loop(model: &Model, wo: &[f64], u: &[f64], h: &[f64], out: SampleOutputs<'_>) -> bool {
+pub(crate) fn sample_loop(model: &impl Scatterer, wo: &[f64], u: &[f64], h: &[f64], out: SampleOutputs<'_>) -> bool {
     let bad = AtomicBool::new(false);
     out.wi
         .par_chunks_mut(3)
@@ -372,7 +460,7 @@ pub(crate) fn sample_loop(model: &Model, wo: &[f64], u: &[f64], h: &[f64], out: 
                 bad.store(true, Ordering::Relaxed);
                 return;
             };
-            match model.sample(w, h[k], uk) {
+            match model.draw(w, h[k], uk) {
                 Some(s) => {
                     wi.copy_from_slice(&[s.wi.x, s.wi.y, s.wi.z]);
                     weight.copy_from_slice(&[s.weight[0], s.weight[1], s.weight[2]]);
@@ -385,14 +473,17 @@ pub(crate) fn sample_loop(model: &Model, wo: &[f64], u: &[f64], h: &[f64], out: 
     !bad.into_inner()
 }
 
-/// Every registered model: a list of dicts `{name, summary, citation, params}`, each
-/// parameter `{key, kind, unit, default, doc, range | choices}` — what `fiberlab models` lists.
+/// Every registered model, fiber then surface: a list of dicts `{name, kind, summary,
+/// citation, params}` (`kind`: `"fiber"` or `"surface"`), each parameter `{key, kind, unit,
+/// default, doc, range | choices}` — what `fiberlab models` lists.
 #[pyfunction]
 fn models(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
     let list = PyList::empty(py);
-    for spec in fiberlab_scatter::ALL_MODELS {
+    for entry in fiberlab_scatter::registry() {
+        let spec = entry.info();
         let d = PyDict::new(py);
         d.set_item("name", spec.name)?;
+        d.set_item("kind", entry.kind().name())?;
         d.set_item("summary", spec.summary)?;
         d.set_item("citation", spec.citation)?;
         let params = PyList::empty(py);
@@ -440,6 +531,23 @@ fn read_exr<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'p
     Ok(image_array(py, &image))
 }
 
+/// The scene file at `path`, of TOML `text`, or the built-in default scene when both are
+/// `None`; `verb` names the caller in the error for both.
+pub(crate) fn scene_file(
+    path: Option<&Path>,
+    text: Option<&str>,
+    verb: &str,
+) -> PyResult<fiberlab_render::scene_file::SceneFile> {
+    use fiberlab_render::scene_file::SceneFile;
+    let scene_error = |e: fiberlab_render::scene_file::SceneError| PyValueError::new_err(e.to_string());
+    match (path, text) {
+        (Some(_), Some(_)) => Err(PyValueError::new_err(format!("{verb}: give a scene path or its text, not both"))),
+        (Some(p), None) => SceneFile::read(p).map_err(scene_error),
+        (None, Some(t)) => SceneFile::parse(t, Path::new("<text>")).map_err(scene_error),
+        (None, None) => Ok(SceneFile::default_scene()),
+    }
+}
+
 /// Renders a scene (a TOML file `path`, TOML `text`, or the built-in default scene when both
 /// are `None`) like `fiberlab render`, returning `(H, W, 3)` float32 linear RGB. `spp`,
 /// `seed`, `max_depth` override the scene's; `threads` 0 uses every core. `progress(done,
@@ -466,89 +574,40 @@ fn render<'py>(
     dual: Vec<String>,
     device: String,
 ) -> PyResult<Bound<'py, numpy::PyArray3<f32>>> {
-    use fiberlab_render::scene_file::SceneFile;
-    use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+    use std::sync::atomic::AtomicU64;
     let scene_error = |e: fiberlab_render::scene_file::SceneError| PyValueError::new_err(e.to_string());
-    let file = match (&path, &text) {
-        (Some(_), Some(_)) => return Err(PyValueError::new_err("render: give a scene path or its text, not both")),
-        (Some(p), None) => SceneFile::read(p).map_err(scene_error)?,
-        (None, Some(t)) => SceneFile::parse(t, Path::new("<text>")).map_err(scene_error)?,
-        (None, None) => SceneFile::default_scene(),
-    };
-    if spp == Some(0) {
-        return Err(PyValueError::new_err("render: spp must be at least 1"));
-    }
+    let file = scene_file(path.as_deref(), text.as_deref(), "render")?;
     let device =
         fiberlab_gpu::DeviceChoice::named(&device).map_err(|e| PyValueError::new_err(format!("render: {e}")))?;
-    let integrator = integrator.unwrap_or_else(|| file.render_settings().integrator.clone());
-    let fiber_count = fiber_count.unwrap_or_else(|| file.render_settings().fiber_count.clone());
-    let dual = fiberlab_render::dual_scattering::DualScatteringSettings::from_options(&fiber_count, &dual)
-        .map_err(|e| PyValueError::new_err(format!("render: {e}")))?;
-    let scene_settings = file.sampling();
-    let settings = fiberlab_render::integrator::RenderSettings {
-        spp: spp.unwrap_or(scene_settings.spp),
-        seed: seed.unwrap_or(scene_settings.seed),
-        max_depth: max_depth.unwrap_or(scene_settings.max_depth),
-        threads,
-        ..scene_settings
+    let options =
+        fiberlab_render::render_request::RenderOptions { spp, seed, max_depth, threads, integrator, fiber_count, dual };
+    let request = options.validate(&file).map_err(|e| PyValueError::new_err(format!("render: {e}")))?;
+    let (scene, settings, gpu) = py.detach(|| -> PyResult<_> {
+        let (scene, _) = file.build().map_err(scene_error)?;
+        let settings = request.settings_for(&scene).map_err(|e| PyValueError::new_err(format!("render: {e}")))?;
+        let (gpu, _note) = fiberlab_gpu::render_device::open(device)
+            .map_err(|e| PyValueError::new_err(format!("render: device: {e}")))?;
+        Ok((scene, settings, gpu))
+    })?;
+    let (w, h) = (scene.camera().width, scene.camera().height);
+    let (done, total) = (AtomicU64::new(0), AtomicU64::new(0));
+    let report = |p: &fiberlab_render::integrator::Progress| {
+        done.store(p.samples_done, Ordering::Relaxed);
+        total.store(p.samples_total, Ordering::Relaxed);
     };
-    let stop = AtomicBool::new(false);
-    let (done, total, finished) = (AtomicU64::new(0), AtomicU64::new(0), AtomicBool::new(false));
-    let mut interrupt: Option<PyErr> = None;
-    let out = py
-        .detach(|| -> Result<_, PyErr> {
-            let (scene, _) = file.build().map_err(scene_error)?;
-            let integrator = fiberlab_render::dual_scattering::integrator_named(&scene, &integrator, dual)
-                .map_err(|e| PyValueError::new_err(format!("render: {e}")))?;
-            let settings = fiberlab_render::integrator::RenderSettings { integrator, ..settings };
-            let (gpu, _note) = fiberlab_gpu::render_device::open(device)
-                .map_err(|e| PyValueError::new_err(format!("render: device: {e}")))?;
-            let (w, h) = (scene.camera().width, scene.camera().height);
-            let report = |p: &fiberlab_render::integrator::Progress| {
-                done.store(p.samples_done, Ordering::Relaxed);
-                total.store(p.samples_total, Ordering::Relaxed);
-            };
-            // The render runs on its own threads; this (the calling) thread reports progress and
-            // watches for Ctrl-C, which Python only delivers to its main thread.
-            Ok(std::thread::scope(|threads| {
-                let worker = threads.spawn(|| {
-                    let start = fiberlab_render::accumulation::Accumulation::new(w, h);
-                    let out = fiberlab_gpu::render_device::render_continuing(
-                        gpu.as_ref(),
-                        &scene,
-                        &settings,
-                        start,
-                        &report,
-                        &stop,
-                    );
-                    finished.store(true, Ordering::Release);
-                    out
-                });
-                while !finished.load(Ordering::Acquire) {
-                    std::thread::sleep(std::time::Duration::from_millis(50));
-                    Python::attach(|py| {
-                        let result = py.check_signals().and_then(|()| match &progress {
-                            Some(cb) => {
-                                cb.call1(py, (done.load(Ordering::Relaxed), total.load(Ordering::Relaxed))).map(drop)
-                            }
-                            None => Ok(()),
-                        });
-                        if let Err(e) = result
-                            && interrupt.is_none()
-                        {
-                            stop.store(true, Ordering::Relaxed);
-                            interrupt = Some(e);
-                        }
-                    });
-                }
-                worker.join().expect("the render thread does not panic")
-            }))
-        })?
-        .map_err(|e| PyValueError::new_err(format!("render: {e}")))?
-        .output;
-    if let Some(e) = interrupt {
-        return Err(e);
-    }
+    let out = interrupt::interruptible(
+        py,
+        |stop| {
+            let start = fiberlab_render::accumulation::Accumulation::new(w, h);
+            fiberlab_gpu::render_device::render_continuing(gpu.as_ref(), &scene, &settings, start, &report, stop)
+        },
+        |py| match &progress {
+            Some(cb) => cb.call1(py, (done.load(Ordering::Relaxed), total.load(Ordering::Relaxed))).map(drop),
+            None => Ok(()),
+        },
+    )?
+    .map_err(|e| PyValueError::new_err(format!("render: {e}")))?
+    .output;
     if let Some(cb) = &progress {
         cb.call1(py, (out.stats.samples, out.stats.samples))?;
     }
@@ -564,6 +623,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(measure::measure, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
+    m.add_function(wrap_pyfunction!(model_comparison::compare_model, m)?)?;
+    m.add_function(wrap_pyfunction!(model_comparison::evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
     m.add_function(wrap_pyfunction!(hair::hair_read, m)?)?;
     m.add_function(wrap_pyfunction!(hair::hair_write, m)?)?;

@@ -9,7 +9,6 @@ use numpy::ndarray::{Array1, Array3};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Measures `fiber` (a dict of `fiberlab measure --param` keys; angles in degrees, as in a
 /// fiber TOML file) at each light inclination of `theta_i` (radians) and azimuth `phi_i`
@@ -53,37 +52,16 @@ pub(crate) fn measure<'py>(
     let setups: Vec<Setup> =
         theta_i.iter().map(|&t| Setup { theta_i: t, phi_i, rays, bins_theta, bins_phi, seed }).collect();
     setups[0].check_bins().map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let (stop, finished) = (AtomicBool::new(false), AtomicBool::new(false));
-    let mut interrupt: Option<PyErr> = None;
-    // The measurement runs on its own thread; this (the calling) thread watches for Ctrl-C,
-    // which Python delivers only to its main thread, and then stops the measurement.
-    let measurements = py.detach(|| {
-        std::thread::scope(|threads| {
-            let worker = threads.spawn(|| {
-                let out = setups
-                    .iter()
-                    .map(|s| fiberlab_gonio::measure(&fiber, s, &stop, |_| {}))
-                    .collect::<Result<Vec<Measurement>, _>>();
-                finished.store(true, Ordering::Release);
-                out
-            });
-            while !finished.load(Ordering::Acquire) {
-                std::thread::sleep(std::time::Duration::from_millis(50));
-                Python::attach(|py| {
-                    if let Err(e) = py.check_signals()
-                        && interrupt.is_none()
-                    {
-                        stop.store(true, Ordering::Relaxed);
-                        interrupt = Some(e);
-                    }
-                });
-            }
-            worker.join().expect("the measurement thread does not panic")
-        })
-    });
-    if let Some(e) = interrupt {
-        return Err(e);
-    }
+    let measurements = crate::interrupt::interruptible(
+        py,
+        |stop| {
+            setups
+                .iter()
+                .map(|s| fiberlab_gonio::measure(&fiber, s, stop, |_| {}))
+                .collect::<Result<Vec<Measurement>, _>>()
+        },
+        |_| Ok(()),
+    )?;
     let measurements = measurements.map_err(|e| PyValueError::new_err(e.to_string()))?;
     let list = PyList::empty(py);
     for m in &measurements {

@@ -163,7 +163,7 @@ impl<'a> Local<'a> {
         let frame = hit.frame(ray_d);
         let delta = model.properties().lobes == Lobes::Delta;
         let wo = frame.to_local(-ray_d);
-        let chiang = if let Model::Chiang(c) = model { Some(c.at_vertex(wo, hit.h)) } else { None };
+        let chiang = model.at_vertex(wo, hit.h);
         Local::Fiber { model, frame, wo, h: hit.h, delta, chiang }
     }
 

@@ -25,6 +25,7 @@ pub mod light;
 pub mod measured_table;
 pub mod model_loader;
 pub mod region;
+pub mod render_request;
 pub mod sampler;
 pub mod scene;
 pub mod scene_file;

@@ -91,6 +91,14 @@ impl ModelRequest {
         load_surface_model(&self.name, &self.params, &self.base)
     }
 
+    /// The model from whichever registry holds its name.
+    pub fn build_any(&self) -> Result<AnyModel, LoadError> {
+        Ok(match self.kind()? {
+            fiberlab_scatter::ModelKind::Surface => AnyModel::Surface(self.build_surface()?),
+            fiberlab_scatter::ModelKind::Fiber => AnyModel::Fiber(self.build()?),
+        })
+    }
+
     /// The fiber model reduced to the lobes `lobes` (a `lobes=` value such as `r` or
     /// `tts,trts`), or `None` when the model has no `lobes` parameter or does not know those
     /// names (a hair model without a medulla has no `tts`).
@@ -113,6 +121,16 @@ impl ModelRequest {
             .collect::<Vec<_>>()
             .join(" ")
     }
+}
+
+/// A model of either registry, as the callers that take both (`eval`, `sample`, `plot`,
+/// Python's `Model`) build it.
+#[derive(Clone, Debug)]
+pub enum AnyModel {
+    /// A fiber scattering function.
+    Fiber(Model),
+    /// A surface BRDF.
+    Surface(SurfaceModel),
 }
 
 /// Builds model `name` from `pairs` (converted and validated against its specification);

@@ -144,6 +144,20 @@ models! {
         Measured(crate::measured::Measured);
 }
 
+impl Model {
+    /// What a renderer computes once per path vertex and shares between its light-sample
+    /// evaluations and its bounce sample, for the models that prepare one (`chiang`:
+    /// [`ChiangAtVertex`](crate::chiang_2016::ChiangAtVertex), which its own `eval` and
+    /// `sample` go through, so the bits are the same); `None` for the others.
+    #[must_use]
+    pub fn at_vertex(&self, wo: DVec3, h: f64) -> Option<crate::chiang_2016::ChiangAtVertex<'_>> {
+        match self {
+            Model::Chiang(c) => Some(c.at_vertex(wo, h)),
+            _ => None,
+        }
+    }
+}
+
 /// The registry entry called `name`.
 pub fn find(name: &str) -> Result<&'static ModelSpec, ModelError> {
     ALL_MODELS.iter().find(|m| m.name == name).ok_or_else(|| ModelError::UnknownModel {

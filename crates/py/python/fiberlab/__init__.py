@@ -1,6 +1,7 @@
 """fiberlab: light scattering by fibers (hair, fur, cloth) from Python, on NumPy arrays.
 
-Every scattering model of the command line (``fiberlab models``) is reachable:
+Every scattering model of the command line (``fiberlab models``), fiber and surface, is
+reachable:
 
 >>> import numpy as np, fiberlab as fl
 >>> m = fl.load_dict({"type": "chiang", "eumelanin": 1.3, "beta_m": 0.3})
@@ -17,6 +18,10 @@ Conventions (``docs/theory/conventions.md`` in the repository):
   broadcast against each other and against ``h``.
 * Angles are radians: θ is the inclination from the normal plane (sin θ = ω.x) and
   φ = atan2(ω.z, ω.y).
+* **Surface models** (``wood``, ``lambertian``, ``sadeghi-2013``, ``irawan-2012``;
+  ``m.flags["kind"] == "surface"``) take the same calls in the surface's local frame: z is the
+  shading normal, x the tangent (along the texture's u); ``eval_fs`` is the BRDF f_r in sr⁻¹,
+  ``eval`` is f_r · |cos θ_i| with θ_i from the normal, and ``h`` is ignored.
 * ``eval_fs`` is fiberlab's scattering function f_s in sr⁻¹ (no cosine); ``eval`` is
   f_s · cos θ_i, the cosine of the *light* direction measured from the normal plane — the
   quantity a renderer multiplies by incident radiance, and what Mitsuba 3's ``BSDF.eval``
@@ -26,7 +31,9 @@ Conventions (``docs/theory/conventions.md`` in the repository):
   outside their range (the same messages as the command line).
 
 Tools, each running the code of the command of the same name: :func:`render`, :func:`measure`
-(the goniophotometer), :func:`compare` (image metrics), :func:`check` (the validation harness),
+(the goniophotometer), :func:`compare` (image metrics), :func:`compare_model` (a model against a
+measured table), :func:`evaluate` (hair models in renders against a reference), :func:`check`
+(the validation harness),
 :mod:`fiberlab.hair` (``.hair`` strands as arrays, the hair generator) and
 :mod:`fiberlab.frames` (Mitsuba 3's hair frame); :mod:`fiberlab.mitsuba` registers any model as a
 Mitsuba 3 BSDF.
@@ -44,7 +51,9 @@ from . import _native
 __version__ = _native.__version__
 
 __all__ = ["Model", "Sample", "load_dict", "models", "directions_from_angles", "render", "read_exr", "scene_toml", "fit",
-           "measure", "compare", "check", "hair", "frames", "mitsuba"]
+           "measure", "compare", "compare_model", "evaluate", "check", "hair", "frames", "mitsuba"]
+
+import json as _json
 
 
 class Sample(NamedTuple):
@@ -63,9 +72,9 @@ class Sample(NamedTuple):
 
 
 def models() -> list:
-    """Every registered model: dicts ``{name, summary, citation, params}``; each parameter
-    ``{key, kind, unit, default, doc, valid, range | choices}`` (what ``fiberlab models``
-    prints)."""
+    """Every registered model, fiber then surface: dicts ``{name, kind, summary, citation,
+    params}`` (``kind`` is ``"fiber"`` or ``"surface"``); each parameter ``{key, kind, unit,
+    default, doc, valid, range | choices}`` (what ``fiberlab models`` prints)."""
     return _native.models()
 
 
@@ -110,8 +119,10 @@ def _call(batch: tuple, f, *args):
 
 
 class Model:
-    """A scattering model of the registry: ``Model("chiang", eumelanin=1.3)`` or
-    :func:`load_dict`. See the module docs for frames, units and shapes."""
+    """A scattering model of the registry, fiber or surface: ``Model("chiang", eumelanin=1.3)``,
+    ``Model("lambertian", k_d=0.5)`` or :func:`load_dict`. See the module docs for frames,
+    units and shapes (a surface model works in its local frame, z = normal, and ignores
+    ``h``)."""
 
     def __init__(self, type: str, **params: Any) -> None:
         self._native = _native.Model(type, params)
@@ -135,8 +146,9 @@ class Model:
 
     @property
     def flags(self) -> dict:
-        """What the model claims: ``reciprocal``, ``energy_conserving``, ``field``
-        (``"near"`` when f_s depends on h) and ``lobes`` (``"smooth"`` or ``"delta"``)."""
+        """What the model claims: ``kind`` (``"fiber"`` or ``"surface"``), ``reciprocal``,
+        ``energy_conserving``, ``lobes`` (``"smooth"`` or ``"delta"``); a fiber model adds
+        ``field`` (``"near"`` when f_s depends on h), a surface model ``transmits``."""
         return self._native.flags
 
     @property
@@ -409,9 +421,61 @@ def fit(type: str, wi, wo, value, sigma=None, *, init: Mapping[str, Any], fixed:
     return r
 
 
+def compare_model(model: Model, table, *, subsamples: int = 3, viewer_first: bool = False) -> dict:
+    """Compares ``model`` with a measured table (a CSV written by ``fiberlab measure`` or
+    :func:`measure`'s command-line twin; fiber or surface), like ``fiberlab compare-model
+    --json``, by the same library call (``fiberlab_compare::model_table::compare_model``):
+    the same dict as that JSON. A fiber table gives one entry per lobe both have (``r``,
+    ``tt``, ``trt``, ``medulla``, ``all``: ``{rel_l2, mc_rel_l2, peak_measured, peak_model,
+    per_theta_i}``, angles in degrees, ``None`` where the command line writes ``null``); a
+    surface table ``{"fiber": [...]}`` (a fiber highlight) or ``{"all": [...]}`` (the
+    residual). ``subsamples``: midpoint nodes per bin along θ; ``viewer_first``: the table's
+    incidence is the viewer's direction."""
+    if int(subsamples) < 1:
+        raise ValueError(f"compare_model: subsamples must be at least 1, got {subsamples}")
+    return _json.loads(_native.compare_model(model._native, str(table), int(subsamples), bool(viewer_first)))
+
+
+def evaluate(scene=None, *, text: Optional[str] = None, models=("kajiya-kay", "marschner", "chiang"),
+             params: Optional[Mapping[str, Mapping[str, Any]]] = None, table=None, reference=None,
+             spp: Optional[int] = None, reference_spp: int = 256) -> dict:
+    """The colour-matched evaluation of ``fiberlab evaluate`` by the same library call
+    (``fiberlab_compare::evaluation::evaluate``): each of ``models`` (names, or one
+    comma-separated string) rendered in the scene (a path, a dict as for :func:`render`,
+    ``text=``, or the default scene) with the scene's hair absorption, against the render of
+    the ``measured`` model of ``table`` (a ``fiberlab measure`` CSV) or a ``reference`` image
+    (``(H, W, 3)`` linear RGB). ``params`` maps a model name to its parameters (the command
+    line's ``--param MODEL:KEY=VALUE``); ``spp``, ``reference_spp`` as its flags.
+
+    Returns ``{"metrics": [...], "images": {...}}``: ``metrics`` the rows of ``metrics.json``
+    (``model``, ``given``, ``rmse``, ``rmse_noise``, ``rmse_excess``, ``relmse``,
+    ``relmse_noise``, ``ssim``, ``flip``, ``image_noise``, ``reference_noise``), ``images``
+    ``"reference"`` and each model → ``(H, W, 3)`` float32 linear RGB."""
+    path = None
+    if isinstance(scene, Mapping):
+        if text is not None:
+            raise ValueError("evaluate: give a scene dict or its text, not both")
+        text = scene_toml(scene)
+    elif scene is not None:
+        path = str(scene)
+    names = [n.strip() for n in models.split(",")] if isinstance(models, str) else [str(n) for n in models]
+    names = [n for n in names if n]
+    params = dict(params or {})
+    unknown = sorted(set(params) - set(names))
+    if unknown:
+        raise ValueError(f"evaluate: params for {unknown}, which are not among the models {names}")
+    ref = None if reference is None else _image("reference", reference)
+    if int(reference_spp) < 1 or (spp is not None and int(spp) < 1):
+        raise ValueError(f"evaluate: spp and reference_spp must be at least 1, got {spp}, {reference_spp}")
+    rows, images = _native.evaluate(path, text, [(n, dict(params.get(n, {}))) for n in names],
+                                    None if table is None else str(table), ref,
+                                    None if spp is None else int(spp), int(reference_spp))
+    return {"metrics": _json.loads(rows), "images": images}
+
+
 def check(model: "Model", chi2_samples: Optional[int] = None, samples: Optional[int] = None,
           pairs: Optional[int] = None) -> list:
-    """Runs the validation harness of ``fiberlab check`` on one model (χ² tests of sampling,
+    """Runs the validation harness of ``fiberlab check`` on one model, fiber or surface (χ² tests of sampling,
     pdf integrals, sample weights, white furnace, reciprocity, finiteness, … as the model's
     claims allow): a list of dicts ``{model, test, value, expected, tolerance, pass,
     report}``; ``report`` rows are measurements without a pass/fail claim. The effort

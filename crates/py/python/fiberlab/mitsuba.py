@@ -140,6 +140,9 @@ def register(name: str = "fiberlab") -> None:
                 raise ValueError(f"{name} BSDF: the dict needs a 'model' key naming the fiberlab model")
             params = {k: _prop_value(props[k]) for k in props.keys() if k not in _NOT_PARAMETERS}
             self.model = Model(str(props["model"]), **params)
+            if self.model.flags["kind"] != "fiber":
+                raise ValueError(f"{name} BSDF: `{props['model']}` is a surface model; the adapter maps the hair frame "
+                                 "of fiber models (use Mitsuba's own surface BSDFs)")
             self.delta = self.model.flags["lobes"] == "delta"
             lobe = mi.BSDFFlags.DeltaReflection if self.delta else mi.BSDFFlags.Glossy
             flags = lobe | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide | mi.BSDFFlags.NonSymmetric

@@ -3,9 +3,9 @@
 //! functions).
 
 use fiberlab_math::{Rgb, fresnel};
-use fiberlab_scatter::{Field, Model};
 use fiberlab_scatter::deon_2011::AzimuthalInclination;
 use fiberlab_scatter::ideal_specular::Azimuth;
+use fiberlab_scatter::{Field, Model};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// Composite Simpson rule of `f` on `[a, b]` with `n` (even) intervals.

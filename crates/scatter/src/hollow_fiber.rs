@@ -491,11 +491,7 @@ impl Vertex<'_> {
     /// `N_q` at relative azimuth `dphi`.
     #[inline]
     fn azimuthal(&self, q: &SubLobe, dphi: f64) -> f64 {
-        if q.p == 3 {
-            1.0 / TAU
-        } else {
-            logistic(wrap_pi(dphi - q.exit), self.fiber.s) * self.fiber.logistic_norm
-        }
+        if q.p == 3 { 1.0 / TAU } else { logistic(wrap_pi(dphi - q.exit), self.fiber.s) * self.fiber.logistic_norm }
     }
 
     /// `M_p` of every lobe at the light inclination.
@@ -628,12 +624,16 @@ mod tests {
     #[test]
     fn lossless_masses_sum_to_one() {
         for &(kappa, lumen_eta) in &[(0.0, 1.0), (0.5, 1.0), (0.9, 1.0), (0.6, 1.33), (0.7, 2.0)] {
-            let fiber = HollowFiber::new(HollowFiberParams { kappa, lumen_eta, ..HollowFiberParams::default() }).unwrap();
+            let fiber =
+                HollowFiber::new(HollowFiberParams { kappa, lumen_eta, ..HollowFiberParams::default() }).unwrap();
             for &theta in &[0.0, 0.5, -1.2, 1.55] {
                 for k in 0..=40 {
                     let h = -1.0 + k as f64 / 20.0;
                     let total: f64 = fiber.lobe_masses(theta, h).iter().map(|a| a[1]).sum();
-                    assert!((total - 1.0).abs() < 1e-12 || (h.abs() == 1.0 && total <= 1.0), "κ {kappa} θ {theta} h {h}: {total}");
+                    assert!(
+                        (total - 1.0).abs() < 1e-12 || (h.abs() == 1.0 && total <= 1.0),
+                        "κ {kappa} θ {theta} h {h}: {total}"
+                    );
                 }
             }
         }

@@ -300,11 +300,8 @@ mod tests {
                     // R
                     let got = wrap_pi(exit_azimuth(0, gamma, gamma_t));
                     assert!((wrap_pi(got - traced_exit(h, ep, epc, kappa, &[]))).abs() < 1e-10);
-                    let kinds: Vec<Option<usize>> = if passes.meets_core {
-                        (0..passes.n).map(Some).collect()
-                    } else {
-                        vec![None]
-                    };
+                    let kinds: Vec<Option<usize>> =
+                        if passes.meets_core { (0..passes.n).map(Some).collect() } else { vec![None] };
                     for (a, &ka) in kinds.iter().enumerate() {
                         let want = traced_exit(h, ep, epc, kappa, &[ka]);
                         let got = exit_azimuth(1, gamma, gamma_t) + passes.turn[a];

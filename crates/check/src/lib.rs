@@ -94,7 +94,7 @@ pub fn default_cases() -> Vec<CheckCase> {
         CheckCase::new("wood", &[("fiber_angle", "40"), ("fiber_dip", "30"), ("beta", "5")]),
         CheckCase::new("wood", &[("k_d", "0"), ("k_f", "0.159"), ("roughness", "0.1"), ("fiber_dip", "-20")]),
         CheckCase::new("wood", &[("eta", "1"), ("k_f", "0"), ("k_d", "1")]),
-        CheckCase::new("leaf", &[("roughness", "0.05"), ("anth", "15"), ("n", "2.5")]),
+        CheckCase::new("leaf", &[("roughness", "0.15"), ("anth", "15"), ("n", "2.5")]),
         CheckCase::new("leaf", &[("roughness", "1"), ("cab", "0"), ("car", "0"), ("cw", "0"), ("cm", "0")]),
     ]);
     // Every fabric of Sadeghi et al. 2013's table (the default, linen-plain, is above).

@@ -257,11 +257,13 @@ pub fn body_spectra(c: &LeafContents) -> ([f64; WAVELENGTHS], [f64; WAVELENGTHS]
 }
 
 /// The body's reflectance and transmittance in fiberlab's RGB (D65, CIE 1931,
-/// [`fiberlab_math::colorimetry`]).
+/// [`fiberlab_math::colorimetry`]), each channel clamped at 0: a leaf's saturated green lies
+/// outside the Rec. 709 gamut, where the conversion gives a slightly negative blue or red.
 #[must_use]
 pub fn body_rgb(c: &LeafContents) -> (Rgb, Rgb) {
     let (r, t) = body_spectra(c);
-    (reflectance_to_rgb(START_NM, 1.0, &r), reflectance_to_rgb(START_NM, 1.0, &t))
+    let rgb = |s: &[f64]| reflectance_to_rgb(START_NM, 1.0, s).map(|x| x.max(0.0));
+    (rgb(&r), rgb(&t))
 }
 
 #[cfg(test)]
@@ -341,6 +343,7 @@ mod tests {
             assert!((t[j] - row.t40 * tb[j]).abs() < 1e-12);
         }
         let (r_rgb, t_rgb) = body_rgb(&c);
+        assert!(r_rgb.min_component() >= 0.0 && t_rgb.min_component() >= 0.0, "{r_rgb:?} {t_rgb:?}");
         assert!(r_rgb[1] > r_rgb[0] && r_rgb[1] > r_rgb[2], "{r_rgb:?}");
         assert!(t_rgb[1] > t_rgb[0] && t_rgb[1] > t_rgb[2], "{t_rgb:?}");
         // Chlorophyll absorbs most at 430 and 660 nm, least near 550 nm.

@@ -152,12 +152,12 @@ impl Core {
             *inside = !*inside; // a tangent graze: on past the boundary, unchanged
             return;
         }
-        if rng.random::<f64>() >= fresnel::dielectric(cos_i, 1.0 / eta) {
-            if let Some(t) = refract(*d, facing, eta) {
-                *d = t;
-                *inside = !*inside;
-                return;
-            }
+        if rng.random::<f64>() >= fresnel::dielectric(cos_i, 1.0 / eta)
+            && let Some(t) = refract(*d, facing, eta)
+        {
+            *d = t;
+            *inside = !*inside;
+            return;
         }
         *d = (*d + facing * (2.0 * cos_i)).normalize();
     }

@@ -5,13 +5,16 @@
 //! fiberlab integrates the face transmissivity numerically where `prosail` uses its closed
 //! form, so agreement is to the quadrature's accuracy, not bit for bit.
 
-use fiberlab_scatter::feret_2017::{LeafContents, START_NM, leaf_spectra};
+use fiberlab_scatter::feret_2017::{LeafContents, START_NM, WAVELENGTHS, leaf_spectra};
+
+/// A leaf's reflectance and transmittance spectra, 400 … 800 nm.
+type Spectra = ([f64; WAVELENGTHS], [f64; WAVELENGTHS]);
 
 #[test]
 fn reflectance_and_transmittance_match_prosail() {
     let table = include_str!("data/prosail_prospect_d.csv");
     let (mut worst_r, mut worst_t, mut rows) = (0.0f64, 0.0f64, 0);
-    let mut cached: Option<(String, ([f64; 401], [f64; 401]))> = None;
+    let mut cached: Option<(String, Spectra)> = None;
     for line in table.lines().skip(1) {
         let v: Vec<&str> = line.split(',').collect();
         let x: Vec<f64> = v[1..].iter().map(|s| s.parse().unwrap()).collect();

@@ -97,7 +97,7 @@ fn main() {
     #[cfg(fiberlab_stats)]
     impl Drop for PrintStats {
         fn drop(&mut self) {
-            fiberlab_render::bvh::stats::print();
+            fiberlab_geometry::bvh::stats::print();
         }
     }
     #[cfg(fiberlab_stats)]

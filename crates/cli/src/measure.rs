@@ -406,7 +406,7 @@ fn write_surface_exr(m: &SurfaceMeasurement, path: &Path) -> anyhow::Result<()> 
 /// `measure --surface --cloth`: the woven patch's BRDF at every --theta-i into one surface
 /// table (classes `fiber` (one fiber event), `multiple`, `substrate`, `all`).
 fn run_cloth(args: &Args) -> anyhow::Result<()> {
-    use fiberlab_render::woven_goniophotometer::{ClothMeasurement, ClothSetup, measure_cloth, periodic_patch};
+    use fiberlab_gonio::cloth::{ClothMeasurement, ClothSetup, PeriodicPatch, measure_cloth};
     let patch = args.patch.patch()?;
     let pairs: Vec<(String, RawValue)> =
         args.fiber_params.iter().map(|p| (p.key.clone(), RawValue::Text(p.value.clone()))).collect();
@@ -424,12 +424,16 @@ fn run_cloth(args: &Args) -> anyhow::Result<()> {
         },
         crate::memory_budget::Need {
             what: format!("3 × 3 repeats of the woven patch ({segments} segments)"),
-            bytes: fiberlab_render::curves::CurveSet::estimated_bytes(segments),
+            bytes: fiberlab_geometry::curves::CurveSet::estimated_bytes(segments),
         },
     ];
     args.memory.check(&needs)?;
     let built = Instant::now();
-    let periodic = periodic_patch(&patch, args.cloth_substrate)?;
+    let periodic = PeriodicPatch::from_repeats(
+        &patch.fibers(3, 3)?.polylines(),
+        (patch.period(), patch.period()),
+        args.cloth_substrate,
+    );
     println!(
         "patch: {} segments over 3 × 3 repeats of {:.4} mm, built in {:.2} s",
         periodic.curves.segment_count(),

@@ -25,7 +25,7 @@
 //! follows one thread direction over the whole cloth. Shading normals are the height field's,
 //! `normalize(−∂y/∂x, 1, −∂y/∂z)`, from central differences of the closed form.
 
-use crate::shapes::TriangleMesh;
+use fiberlab_geometry::TriangleMesh;
 use fiberlab_math::DVec3;
 use std::fmt::Write;
 
@@ -311,7 +311,7 @@ mod tests {
         let cloth = DrapedCloth { resolution: MIN_RESOLUTION, ..DrapedCloth::default() };
         let g = cloth.grid().unwrap();
         let text = g.to_obj("test cloth");
-        let mesh = TriangleMesh::parse_obj(&text, std::path::Path::new("cloth.obj"), 1.0, DVec3::ZERO).unwrap();
+        let mesh = fiberlab_io::obj::parse_obj(&text, std::path::Path::new("cloth.obj"), 1.0, DVec3::ZERO).unwrap();
         assert!(mesh.has_uvs());
         assert_eq!(mesh.len(), 2 * MIN_RESOLUTION.pow(2));
     }

@@ -36,9 +36,9 @@
 //! which is Φ(0, h) of `docs/theory/conventions.md` ("Exit azimuth") in pbrt's `φ_i − φ_o` convention (tested below by
 //! reflecting the ray off the actual cylinder normal).
 
-use crate::bvh::{Aabb, Boxes, BuildPrim, Bvh, Ray};
+use crate::bvh::{Aabb, Boxes, BuildPrim, Bvh};
+use crate::ray::Ray;
 use crate::simd::{Lanes, Portable, RayF32, SegmentHead, SimdLevel};
-use fiberlab_io::HairFile;
 use fiberlab_math::{DVec3, FiberFrame};
 use glam::Vec3;
 
@@ -209,19 +209,32 @@ impl CurveSet {
         (segments, count as usize)
     }
 
-    /// Tubes from a `.hair` file (radius = thickness/2).
+    /// Tubes from strands stored as single-precision points (as hair files hold them): strand
+    /// `k` is `points[ranges[k]]`, and `radius(i)` is the tube's radius at point `i`. The points
+    /// are widened to `f64` one strand at a time, so no second copy of a large groom is made.
     #[must_use]
-    pub fn from_hair(hair: &HairFile) -> Self {
-        let ranges = hair.strand_ranges();
-        let points: Vec<DVec3> =
-            hair.points.iter().map(|p| DVec3::new(p[0].into(), p[1].into(), p[2].into())).collect();
-        let radii: Vec<f64> = (0..points.len()).map(|i| 0.5 * f64::from(hair.thickness_at(i))).collect();
+    pub fn from_f32_strands(
+        points: &[[f32; 3]],
+        ranges: &[std::ops::Range<usize>],
+        radius: impl Fn(usize) -> f64,
+    ) -> Self {
         let capacity = points.len().saturating_sub(ranges.len());
-        let (segments, count) =
-            Self::segments_of(ranges.into_iter().map(|r| (&points[r.clone()], &radii[r])), capacity);
-        // The `f64` copies of the points are not needed by the build.
-        drop((points, radii));
-        Self::from_segments(segments, count)
+        let mut segments = Vec::with_capacity(capacity);
+        let (mut strand_points, mut strand_radii) = (Vec::new(), Vec::new());
+        let mut count = 0;
+        for r in ranges {
+            strand_points.clear();
+            strand_radii.clear();
+            strand_points.extend(points[r.clone()].iter().map(|p| DVec3::new(p[0].into(), p[1].into(), p[2].into())));
+            strand_radii.extend(r.clone().map(&radius));
+            let (mut strand, n) = Self::segments_of(std::iter::once((&strand_points[..], &strand_radii[..])), 0);
+            for s in &mut strand {
+                s.strand = count;
+            }
+            count += n as u32;
+            segments.append(&mut strand);
+        }
+        Self::from_segments(segments, count as usize)
     }
 
     /// Tubes from cubic curves: per strand, control points and a radius per control point;
@@ -309,7 +322,7 @@ impl CurveSet {
     /// strands of 8 segments, and 1190 on 1 thread instead of 2 (10k strands) — the whole
     /// process, the generator's ~44 bytes per segment and the hair data included. This
     /// constant is the largest of these, rounded up; the hair data is estimated apart
-    /// ([`fiberlab_io::HairHeader::read_bytes`], [`crate::generator::HairParams::estimated_bytes`])
+    /// ([`fiberlab_io::HairHeader::read_bytes`], `fiberlab_procedural::generator::HairParams::estimated_bytes`)
     /// and added, so the estimate stays above what was measured: the default render (512×512,
     /// 1 spp) peaks at 597 MB against 608 MB estimated in all. These figures predate building the
     /// pieces straight into `f32` records (no `f64` boxes) and the clustered build (sets of more

@@ -75,37 +75,11 @@ pub mod stats {
     }
 }
 
+use crate::ray::Ray;
 use crate::simd::{Lanes, Portable, RowChoice, SimdLevel, SlabTerms};
 use fiberlab_math::DVec3;
 use glam::{Vec3, Vec3A, Vec4};
 use oriented::{OrientedChild, OrientedNode};
-
-/// A ray `o + t·d` restricted to `t_min < t < t_max`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Ray {
-    /// Origin, scene units.
-    pub o: DVec3,
-    /// Unit direction.
-    pub d: DVec3,
-    /// Smallest accepted distance (excludes self-intersection at the origin).
-    pub t_min: f64,
-    /// Largest accepted distance.
-    pub t_max: f64,
-}
-
-impl Ray {
-    /// A ray from `o` along unit `d` over (0, ∞).
-    #[must_use]
-    pub fn new(o: DVec3, d: DVec3) -> Self {
-        Self { o, d, t_min: 0.0, t_max: f64::INFINITY }
-    }
-
-    /// The point at distance `t`.
-    #[must_use]
-    pub fn at(&self, t: f64) -> DVec3 {
-        self.o + self.d * t
-    }
-}
 
 /// An axis-aligned box; the empty box has `min > max`.
 #[derive(Clone, Copy, Debug, PartialEq)]

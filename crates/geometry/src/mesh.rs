@@ -12,7 +12,7 @@
 //! along the normal) any unit vector orthogonal to `n` is used.
 //!
 //! Spheres: `p − c = r (sinθ cosφ, cosθ, sinθ sinφ)` with θ from `+y`, `u = φ/2π ∈ [0, 1)`,
-//! `v = 1 − θ/π` (1 at the top, as image rows run: see [`crate::texture`]), tangent `∂P/∂φ ∝ (−sinφ, 0, cosφ)`. The floor `y = y₀`: `u = x`, `v = z` in
+//! `v = 1 − θ/π` (1 at the top, as image rows run: see `fiberlab_render::texture`), tangent `∂P/∂φ ∝ (−sinφ, 0, cosφ)`. The floor `y = y₀`: `u = x`, `v = z` in
 //! scene units, tangent `+x`.
 
 use fiberlab_math::DVec3;

@@ -26,7 +26,7 @@
 //! - **Periodic.** Twist rates are rounded to a whole number of turns per pattern repeat
 //!   (the angles used are reported by [`WovenPatch::effective_twists`]), so a patch of several
 //!   repeats is seamless and one repeat tiles the plane: the goniophotometer
-//!   (`crate::woven_goniophotometer`) wraps rays across its lateral sides.
+//!   (`fiberlab_gonio::cloth`) wraps rays across its lateral sides.
 
 use fiberlab_math::DVec3;
 use std::f64::consts::PI;
@@ -180,7 +180,7 @@ pub struct Fibers {
 }
 
 impl Fibers {
-    /// The fibers as `(points, radii)` slices for [`crate::curves::CurveSet::from_polylines`].
+    /// The fibers as `(points, radii)` slices for [`fiberlab_geometry::CurveSet::from_polylines`].
     #[must_use]
     pub fn polylines(&self) -> Vec<(&[DVec3], Vec<f64>)> {
         let mut start = 0;

@@ -8,7 +8,7 @@
 //! increasing `x` at constant `z` and the frame's `y = z × x` points along `−z` at the apex (right-handed seen from
 //! above): a fiber angle of 0 puts the fibers along `x`, in the surface, everywhere.
 
-use crate::shapes::TriangleMesh;
+use fiberlab_geometry::TriangleMesh;
 use fiberlab_math::DVec3;
 use std::f64::consts::TAU;
 
@@ -73,7 +73,7 @@ pub fn cabochon(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::Ray;
+    use fiberlab_geometry::Ray;
 
     /// Rays straight down hit the dome at the sphere's height, with the sphere's normal, the
     /// top-view uv and the tangent ∂P/∂x at constant z, `(1, −x/(y − c_y), 0)`; outward winding.

@@ -113,7 +113,7 @@ impl MapleFigure {
     }
 
     /// The maps over `u, v ∈ [0, 1]` at texel centres (row 0 at `v = 1`, as
-    /// [`crate::texture`] reads them).
+    /// `fiberlab_render::texture` reads them).
     #[must_use]
     pub fn maps(&self) -> MapleMaps {
         let (w, h) = (self.width, self.height);

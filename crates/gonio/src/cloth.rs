@@ -1,11 +1,11 @@
-//! The cloth goniophotometer: an explicit periodic patch of fibers (from
-//! [`crate::woven_patch`], or any periodic [`CurveSet`]) path traced with a fiber scattering
-//! function at every fiber hit, tabulated as a BRDF on the surface-table format of the wood
-//! slab (`fiberlab_gonio::fiber_slab`, `fiberlab_io::table::SURFACE_HEADER`), so
+//! The cloth goniophotometer: an explicit periodic patch of fibers (a woven patch of
+//! `fiberlab_procedural::woven_patch`, or any periodic set of strands) path traced with a fiber
+//! scattering function at every fiber hit, tabulated as a BRDF on the surface-table format of
+//! the wood slab ([`crate::fiber_slab`], `fiberlab_io::table::SURFACE_HEADER`), so
 //! `compare-model` and `fit` read it.
 //!
-//! It lives in `render` because it needs the curve BVH and the renderer's fiber frame
-//! ([`crate::curves::CurveHit::frame`]); `gonio` sits below `render`.
+//! The fibers are the renderer's tubes in the curve BVH of `fiberlab_geometry`, with the same
+//! fiber frame at a hit ([`fiberlab_geometry::CurveHit::frame`]).
 //!
 //! # Estimator
 //! One lateral period `[0, P_x) × [0, P_y)` of the patch is the unit cell; the curves of the
@@ -30,8 +30,7 @@
 //! Path classes (named as the slab's): `fiber` (one fiber event, no substrate), `multiple` (two or more fiber
 //! events, no substrate), `substrate` (touched the substrate), `all`.
 
-use crate::bvh::Ray;
-use crate::curves::CurveSet;
+use fiberlab_geometry::{CurveSet, Ray};
 use fiberlab_math::split_mix::SplitMix64;
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::{Model, ScatteringFunction};
@@ -65,7 +64,7 @@ pub enum ClothGonioError {
 
 /// What to measure: the slab goniophotometer's setup. Here `theta_i`, `phi_i` are the direction
 /// paths are traced from (the viewer's, as the renderer's camera paths), θ_i in [0, 89.9°).
-pub use fiberlab_gonio::fiber_slab::SurfaceSetup as ClothSetup;
+pub use crate::fiber_slab::SurfaceSetup as ClothSetup;
 
 /// A periodic fiber sample.
 pub struct PeriodicPatch {
@@ -85,7 +84,7 @@ pub struct ClothMeasurement {
     /// The setup.
     pub setup: ClothSetup,
     /// Per class ([`ClothMeasurement::LOBE_NAMES`]): bin values `f_r`, standard errors, albedo.
-    pub lobes: Vec<fiberlab_gonio::LobeTable>,
+    pub lobes: Vec<crate::LobeTable>,
     /// Fraction of the power leaving through the bottom (no substrate).
     pub transmitted: Rgb,
     /// Standard error of `transmitted` (luminance-free, per channel).
@@ -243,7 +242,7 @@ pub fn measure_cloth(
     let (st, ct) = setup.theta_i.sin_cos();
     let wi = DVec3::new(st * setup.phi_i.cos(), st * setup.phi_i.sin(), ct);
     let chunks = setup.rays.div_ceil(CHUNK);
-    let mut sums = fiberlab_gonio::BinSums::new(3, nt * np);
+    let mut sums = crate::BinSums::new(3, nt * np);
     let mut down = [Rgb::ZERO; 2];
     let (mut dropped, mut traced, mut events) = (0usize, 0usize, 0u64);
     let batch = 2 * rayon::current_num_threads().max(1);
@@ -293,7 +292,7 @@ pub fn measure_cloth(
         next = end;
     }
     let n = traced.max(1) as f64;
-    let lobes = sums.tables(traced, nt, np, |i| fiberlab_gonio::fiber_slab::bin_cos_solid_angle(i, nt, np));
+    let lobes = sums.tables(traced, nt, np, |i| crate::fiber_slab::bin_cos_solid_angle(i, nt, np));
     let t = down[0] / n;
     let t_std = ((down[1] / n - t * t).map(|x| x.max(0.0)) / n).map(f64::sqrt);
     Ok(ClothMeasurement {
@@ -307,27 +306,35 @@ pub fn measure_cloth(
     })
 }
 
-/// The patch's fibers over the 3 × 3 repeats around the cell `[0, P)²`, as a
-/// [`PeriodicPatch`] (`substrate` at the bottom of the fibers, or none).
-pub fn periodic_patch(
-    patch: &crate::woven_patch::WovenPatch,
-    substrate: Option<Rgb>,
-) -> Result<PeriodicPatch, crate::woven_patch::PatchError> {
-    let fibers = patch.fibers(3, 3)?;
-    let p = patch.period();
-    let shift = DVec3::new(p, p, 0.0);
-    let points: Vec<DVec3> = fibers.points.iter().map(|&q| q - shift).collect();
-    let shifted = crate::woven_patch::Fibers { points, ..fibers };
-    let lines = shifted.polylines();
-    let curves = CurveSet::from_polylines(lines.iter().map(|(pts, r)| (*pts, r.as_slice())));
-    let (lo, hi) = shifted.points.iter().fold((f64::MAX, f64::MIN), |(a, b), q| (a.min(q.z), b.max(q.z)));
-    let r = shifted.radius * 2.0;
-    Ok(PeriodicPatch { curves, period: (p, p), z_range: (lo - r, hi + r), substrate })
+impl PeriodicPatch {
+    /// A periodic patch from strands `(points, radii)` that tile `[0, 3P_x) × [0, 3P_y)` with 3 × 3
+    /// repeats of the pattern (as `WovenPatch::fibers(3, 3)` makes them): shifted so that the
+    /// middle repeat is the cell `[0, P_x) × [0, P_y)`, the height range taken from the points
+    /// and the widest tube, and `substrate` at its bottom (or none).
+    #[must_use]
+    pub fn from_repeats(strands: &[(&[DVec3], Vec<f64>)], period: (f64, f64), substrate: Option<Rgb>) -> Self {
+        let shift = DVec3::new(period.0, period.1, 0.0);
+        let shifted: Vec<(Vec<DVec3>, &[f64])> = strands
+            .iter()
+            .map(|(points, radii)| (points.iter().map(|&q| q - shift).collect(), radii.as_slice()))
+            .collect();
+        let curves = CurveSet::from_polylines(shifted.iter().map(|(p, r)| (p.as_slice(), *r)));
+        let (lo, hi) =
+            shifted.iter().flat_map(|(p, _)| p).fold((f64::MAX, f64::MIN), |(a, b), q| (a.min(q.z), b.max(q.z)));
+        let r = 2.0 * strands.iter().flat_map(|(_, r)| r).fold(0.0f64, |a, &b| a.max(b));
+        Self { curves, period, z_range: (lo - r, hi + r), substrate }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A woven patch of the procedural crate as a periodic patch.
+    fn woven(weave: &fiberlab_procedural::woven_patch::WovenPatch) -> PeriodicPatch {
+        let fibers = weave.fibers(3, 3).unwrap();
+        PeriodicPatch::from_repeats(&fibers.polylines(), (weave.period(), weave.period()), None)
+    }
 
     fn model(name: &str, params: &[(&str, &str)]) -> Model {
         fiberlab_scatter::build(name, params).unwrap()
@@ -362,9 +369,12 @@ mod tests {
     /// conserve energy on the camera side, so reflected + transmitted = 1 within noise.
     #[test]
     fn lossless_woven_patch_reflects_plus_transmits_one() {
-        let weave =
-            crate::woven_patch::WovenPatch { fibers_per_ply: 10, samples_per_spacing: 12, ..Default::default() };
-        let patch = periodic_patch(&weave, None).unwrap();
+        let weave = fiberlab_procedural::woven_patch::WovenPatch {
+            fibers_per_ply: 10,
+            samples_per_spacing: 12,
+            ..Default::default()
+        };
+        let patch = woven(&weave);
         let m = model("chiang", &[("sigma_a", "0"), ("beta_m", "0.3"), ("beta_n", "0.3")]);
         for theta in [0.0, 60.0] {
             let r = run(&patch, &m, &setup(theta, 30.0, 20_000));
@@ -394,13 +404,13 @@ mod tests {
     /// patch is symmetric: f(ω_a → bin of ω_b) ≈ f(ω_b → bin of ω_a) within the noise.
     #[test]
     fn tabulated_brdf_is_reciprocal_for_reciprocal_fibers() {
-        let weave = crate::woven_patch::WovenPatch {
-            weave: crate::woven_patch::Weave::Twill21,
+        let weave = fiberlab_procedural::woven_patch::WovenPatch {
+            weave: fiberlab_procedural::woven_patch::Weave::Twill21,
             fibers_per_ply: 10,
             samples_per_spacing: 12,
             ..Default::default()
         };
-        let patch = periodic_patch(&weave, None).unwrap();
+        let patch = woven(&weave);
         let m = model("diffuse", &[("albedo", "0.9")]);
         // Directions at bin centres: θ bins of 10°, φ bins of 22.5°.
         let (a, b) = ((25.0, -78.75), (65.0, 56.25));
@@ -430,7 +440,7 @@ mod tests {
         let single = &r.lobes[0];
         let (mut on, mut total) = (0.0, 0.0);
         for i in 0..90 {
-            let omega = fiberlab_gonio::fiber_slab::bin_cos_solid_angle(i, 90, 180);
+            let omega = crate::fiber_slab::bin_cos_solid_angle(i, 90, 180);
             for j in 0..180 {
                 let (t, p) = r.bin_centre(i, j);
                 let along = t.sin() * p.cos();

@@ -28,8 +28,10 @@ const LAYERS: &[(&str, u32)] = &[
     ("fiberlab-fit", 3),
     ("fiberlab-procedural", 3),
     ("fiberlab-render", 4),
-    ("fiberlab-cli", 5),
-    ("fiberlab-py", 5),
+    ("fiberlab-compare", 5),
+    ("fiberlab-gpu", 5),
+    ("fiberlab-cli", 6),
+    ("fiberlab-py", 6),
 ];
 
 fn layer(name: &str) -> u32 {

@@ -457,6 +457,14 @@ impl SceneFile {
         (c.width, c.height)
     }
 
+    /// Renders `width × height` pixels instead of the camera's own size (`fiberlab render
+    /// --size`, for quick previews): the vertical field of view is kept, so a different aspect
+    /// ratio shows more or less of the scene at the sides.
+    pub fn override_image_size(&mut self, width: u32, height: u32) {
+        let c = self.desc.camera.get_mut();
+        (c.width, c.height) = (width, height);
+    }
+
     /// The memory [`SceneFile::build`] and a render of the scene will take, estimated before
     /// anything is built: the image from the camera's size, the strands of each `[[hair]]`
     /// from its generator's counts or its `.hair` file's header (the `--hair` override's

@@ -6,15 +6,10 @@
 //! absorption spectra are the published data (`data/prospect_d_400_800.txt`, 400–800 nm, with
 //! its source); the rest is computed here.
 //!
-//! | parameter | unit | healthy green leaf | meaning |
-//! |---|---|---|---|
-//! | `n` | — | 1.5 | structure: number of elementary plates (1 compact … 3 spongy) |
-//! | `cab` | µg cm⁻² | 40 | chlorophyll a + b |
-//! | `car` | µg cm⁻² | 8 | carotenoids |
-//! | `anth` | µg cm⁻² | 0 | anthocyanins |
-//! | `cbrown` | — | 0 | brown pigments (senescence) |
-//! | `cw` | cm | 0.01 | equivalent water thickness |
-//! | `cm` | g cm⁻² | 0.009 | dry matter per area |
+//! The contents ([`LeafContents`]: structure `n`; chlorophyll a+b `cab`, carotenoids `car`,
+//! anthocyanins `anth` in µg cm⁻²; brown pigments `cbrown`; water `cw` in cm; dry matter `cm` in
+//! g cm⁻²) are the `leaf` model's parameters, with their units and ranges in its registry entry
+//! (`fiberlab models --model leaf`); the defaults are a healthy green leaf.
 //!
 //! # The plate model, in our words
 //! A leaf is N identical *plates* of leaf material (index n(λ)) in air, each absorbing with

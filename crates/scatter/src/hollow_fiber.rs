@@ -7,19 +7,8 @@
 //! Muinonen (Applied Optics 40(28), 2001) traced hollow wood fibres with ray optics; Linder et
 //! al. (Optics Express 21(6), 2013) found that paper's sideways scattering needs the lumen.
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `eta` | — | 1.55 (cellulose 1.53–1.56) | (1, 4] wall index |
-//! | `kappa` | — | 0.5 | [0, 1) lumen radius / fiber radius |
-//! | `lumen_eta` | — | 1 (air) | [1, 4] lumen index (1.33 water-filled; `eta`: index-matched) |
-//! | `beta_m` | — | 0.3 | (0, 1] longitudinal roughness (Chiang's map) |
-//! | `beta_n` | — | 0.3 | (0, 1] azimuthal roughness (Chiang's map) |
-//! | `alpha` | degrees at the edge, radians in [`HollowFiberParams`] | 0 | [−20, 20] surface tilt (plant fibers have no scales) |
-//! | `sigma_a` | 1/radius | (0 if no absorption key is given) | [0, ∞) per channel, wall absorption |
-//! | `eumelanin`, `pheomelanin` | — | — | [0, 100] wall pigment (animal hairs) |
-//! | `color` | — | — | (0, 1] per channel: σ_a by Chiang's inversion for a solid fiber (approximate here) |
-//! | `lobes` | — | r,tt,trt,residual | subset: lobes by number of wall passes |
-//! | `field` | — | near | `near` (value at h) or `far` (h-average, for comparisons) |
+//! Parameters: the registry entry below (`PARAMS`); `fiberlab models --model hollow-fiber` and the
+//! book's page `docs/book/src/models/hollow-fiber.md` show it as a table.
 //!
 //! # Formula
 //! As `chiang`, a backward near-field form: the camera ray ω_o hits at offset h (γ_o = asin h)

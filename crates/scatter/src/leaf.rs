@@ -4,17 +4,8 @@
 //! reflection is nearly independent of wavelength and set by the cuticle's roughness (Bousquet,
 //! Lachérade, Jacquemoud & Moya 2005); the interior is the plate model's body.
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `n` | — | 1.5 | [1, 3] PROSPECT structure (plates) |
-//! | `cab` | µg cm⁻² | 40 | [0, 150] chlorophyll a + b |
-//! | `car` | µg cm⁻² | 8 | [0, 40] carotenoids |
-//! | `anth` | µg cm⁻² | 0 | [0, 40] anthocyanins |
-//! | `cbrown` | — | 0 | [0, 2] brown pigments |
-//! | `cw` | cm | 0.01 | [0, 0.1] equivalent water thickness |
-//! | `cm` | g cm⁻² | 0.009 | [0, 0.05] dry matter |
-//! | `roughness` | — | 0.3 | [0.01, 1] GGX α of the cuticle |
-//! | `eta` | — | 1.47 | [1.2, 2] cuticle index (PROSPECT's leaf material: 1.47 at 550 nm) |
+//! Parameters: the registry entry below (`PARAMS`); `fiberlab models --model leaf` and the
+//! book's page `docs/book/src/models/leaf.md` show it as a table.
 //!
 //! # Formula
 //! Local frame z = normal; both faces are alike, so a direction pair below the surface is

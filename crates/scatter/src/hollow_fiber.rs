@@ -67,7 +67,7 @@ use crate::hair::normal_plane::exit_azimuth;
 use crate::hair::parameters::{self, ALPHA_RANGE, BETA_RANGE, ETA_RANGE};
 use crate::hair::roughness::{lobe_variances, logistic_scale};
 use crate::hair::tilt::{lobe_tilts, rotate};
-use crate::hair::tube::{MAX_PASS_KINDS, Tube};
+use crate::hair::tube::{MAX_CORE_CHORDS, MAX_PASS_KINDS, Tube};
 use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
 use crate::{
     Field, LobeInfo, Lobes, MIN_COS, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction,
@@ -555,6 +555,37 @@ impl ScatteringFunction for HollowFiber {
         self.eval_and_pdf(wi, wo, h).0
     }
 
+    /// The narrowest azimuthal feature across the width, in γ = asin h: the trimmed
+    /// logistic's standard deviation `πs/√3` over the fastest rate `|dΦ/dγ|` at which a
+    /// sub-lobe's exit azimuth moves at the fiber's centre. The wall alone moves the R lobe at 2
+    /// (Chiang's feature, `πs/(2√3)`). A lumen adds each pass's turn: with `b = h/η′`,
+    /// reflection off it turns by `π − 2 asin(b/κ)` (rate `2/(η′κ)` in h), j chords through it
+    /// by `2(γ_c − γ_k) + (j − 1)(2γ_c − π)` (rate `2j/(η′_lκ) − 2/(η′κ)`), and a TRT path
+    /// makes two passes; `η′ ≥ η` and `η′_l ≥ η_l`, so θ = 0 is the fastest. An index-matched
+    /// or absent lumen turns nothing: Chiang's feature. Near the lumen's edge the turn's rate
+    /// grows without bound (a square-root end at the breakpoints): equal panels blur it, which
+    /// is why [`ScatteringFunction::eval_far`] here uses the model's own far-field rule.
+    fn width_feature(&self) -> f64 {
+        let std = PI * self.s / 3f64.sqrt();
+        let HollowFiberParams { eta, kappa, lumen_eta, .. } = self.params;
+        if kappa == 0.0 || lumen_eta == eta {
+            return 0.5 * std;
+        }
+        let reflect = 2.0 / (eta * kappa);
+        let chords = (1..=MAX_CORE_CHORDS)
+            .map(|j| (2.0 * j as f64 / (lumen_eta * kappa) - reflect).abs())
+            .fold(reflect, f64::max);
+        // Two passes (TRT) at the fastest turn, on top of the wall's |2p/η − 2| ≤ 2.
+        std / (2.0 + 2.0 * chords)
+    }
+
+    /// The width average `½∫ f_s dh` by the model's own rule (the `field = far` pieces between
+    /// the lumen's breakpoints with `h = c·sinψ`), which resolves the square-root ends that
+    /// equal panels in γ blur.
+    fn eval_far(&self, wi: DVec3, wo: DVec3) -> Rgb {
+        self.far_eval_and_pdf(wi, wo).0
+    }
+
     fn pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> f64 {
         self.eval_and_pdf(wi, wo, h).1
     }
@@ -661,6 +692,46 @@ mod tests {
             let sum = lobes.iter().fold(Rgb::ZERO, |s, &l| s + l);
             assert!((sum - g).max_component().abs() < 1e-12 * g.max_component());
         }
+    }
+
+    /// Without a lumen that turns anything the feature is Chiang's; with one it is narrower,
+    /// and equal panels of that width (the trait's default width average) come closer to the
+    /// model's own far field (pieces between the breakpoints, checked against a 20,000-point
+    /// midpoint rule above) than panels of Chiang's width do.
+    #[test]
+    fn width_feature_resolves_the_lumen_turns() {
+        use fiberlab_math::quadrature::{width_average, width_panels};
+        let chiang = crate::build("chiang", &[("beta_n", "0.3")]).unwrap();
+        for (kappa, lumen_eta) in [(0.0, 1.0), (0.5, 1.55)] {
+            let fiber =
+                HollowFiber::new(HollowFiberParams { kappa, lumen_eta, ..HollowFiberParams::default() }).unwrap();
+            assert!((fiber.width_feature() - chiang.width_feature()).abs() < 1e-15);
+        }
+        let mut worse = 0.0;
+        for kappa in [0.3, 0.5, 0.7] {
+            let fiber = HollowFiber::new(HollowFiberParams { kappa, ..HollowFiberParams::default() }).unwrap();
+            assert!(fiber.width_feature() < 0.5 * chiang.width_feature());
+            let (mut err_own, mut err_chiang) = (0.0_f64, 0.0_f64);
+            for &(ti, to, dphi) in &[(0.1, -0.2, 2.5), (0.5, -0.4, 0.3), (-0.3, 0.2, -1.2), (0.0, 0.05, 3.0)] {
+                let (wi, wo) = (direction(ti, dphi), direction(to, 0.0));
+                let reference = fiber.eval_far(wi, wo);
+                let by_panels = |feature: f64| width_average(width_panels(feature), |h| fiber.eval(wi, wo, h));
+                let rel = |g: Rgb| {
+                    ((g - reference).max_component().abs()).max((reference - g).max_component().abs())
+                        / reference.max_component()
+                };
+                err_own = err_own.max(rel(by_panels(fiber.width_feature())));
+                err_chiang = err_chiang.max(rel(by_panels(chiang.width_feature())));
+            }
+            eprintln!(
+                "κ {kappa}: feature {:.4}, worst relative error {err_own:.2e} (Chiang's feature: {err_chiang:.2e})",
+                fiber.width_feature()
+            );
+            assert!(err_own <= err_chiang, "κ {kappa}: {err_own} vs {err_chiang}");
+            assert!(err_own < 1e-3, "κ {kappa}: {err_own}");
+            worse = f64::max(worse, err_chiang);
+        }
+        eprintln!("worst with Chiang's feature: {worse:.2e}");
     }
 
     #[test]

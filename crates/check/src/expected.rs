@@ -3,9 +3,9 @@
 //! functions).
 
 use fiberlab_math::{Rgb, fresnel};
-use fiberlab_scatter::Model;
 use fiberlab_scatter::deon_2011::AzimuthalInclination;
 use fiberlab_scatter::ideal_specular::Azimuth;
+use fiberlab_scatter::{Field, Model};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// Composite Simpson rule of `f` on `[a, b]` with `n` (even) intervals.
@@ -66,12 +66,18 @@ pub fn albedo(model: &Model, theta_i: f64) -> Option<Rgb> {
 
 /// The camera-side white furnace `∫ f_s(ω_i, ω_o) cosθ_i dω_i` a model must have for every
 /// `ω_o` (and h), when it claims exact camera-side energy conservation: 1 for lossless
-/// Chiang (Σ_p A_p = 1, docs/theory/hair.md, "Attenuation") and for lossless d'Eon with the
+/// Chiang (Σ_p A_p = 1, docs/theory/hair.md, "Attenuation"), for the lossless hollow fiber
+/// with every lobe (the same sum over its sub-lobes) and for lossless d'Eon with the
 /// camera-side azimuthal inclination.
 #[must_use]
 pub fn camera_furnace(model: &Model) -> Option<Rgb> {
     match model {
         Model::Chiang(m) if m.sigma_a().is_black() => Some(Rgb::ONE),
+        Model::HollowFiber(m)
+            if m.sigma_a().is_black() && m.params().lobes == [true; 4] && m.params().field == Field::Near =>
+        {
+            Some(Rgb::ONE)
+        }
         Model::Deon(m) if m.sigma_a().is_black() && m.azimuthal_inclination() == AzimuthalInclination::Camera => {
             Some(Rgb::ONE)
         }

@@ -94,6 +94,8 @@ pub fn default_cases() -> Vec<CheckCase> {
         CheckCase::new("wood", &[("fiber_angle", "40"), ("fiber_dip", "30"), ("beta", "5")]),
         CheckCase::new("wood", &[("k_d", "0"), ("k_f", "0.159"), ("roughness", "0.1"), ("fiber_dip", "-20")]),
         CheckCase::new("wood", &[("eta", "1"), ("k_f", "0"), ("k_d", "1")]),
+        CheckCase::new("leaf", &[("roughness", "0.15"), ("anth", "15"), ("n", "2.5")]),
+        CheckCase::new("leaf", &[("roughness", "1"), ("cab", "0"), ("car", "0"), ("cw", "0"), ("cm", "0")]),
     ]);
     // Every fabric of Sadeghi et al. 2013's table (the default, linen-plain, is above).
     cases.extend(
@@ -121,6 +123,9 @@ pub fn default_cases() -> Vec<CheckCase> {
         CheckCase::new("chiang", &[("sigma_a", "0")]),
         CheckCase::new("chiang", &[("sigma_a", "0"), ("alpha", "0"), ("beta_m", "0.5"), ("beta_n", "0.7")]),
         CheckCase::new("chiang", &[("color", "0.6,0.4,0.2"), ("beta_m", "0.4"), ("beta_n", "0.4")]),
+        CheckCase::new("hollow-fiber", &[("kappa", "0.9"), ("beta_m", "0.1"), ("beta_n", "0.1")]),
+        CheckCase::new("hollow-fiber", &[("sigma_a", "0.4,0.8,1.5"), ("alpha", "3"), ("kappa", "0.3")]),
+        CheckCase::new("hollow-fiber", &[("lumen_eta", "2.5"), ("kappa", "0.7"), ("lobes", "tt,residual")]),
         CheckCase::new("deon", &[("sigma_a", "0")]),
         CheckCase::new("deon", &[("eumelanin", "0.3"), ("theta_n", "difference")]),
         CheckCase::new("yan-fur", &[("beta_m", "4"), ("beta_n", "5"), ("kappa", "0.8"), ("sigma_m_s", "3")]),

@@ -85,3 +85,25 @@ fn plot_and_check_take_surface_models() {
     let out = stdout_of(fiberlab().args(["check", "--model", "lambertian", "-q"]));
     assert!(out.contains("lambertian k_d=1") && out.contains(" 0 failed"), "{out}");
 }
+
+/// The contract below the surface: for a transmitting model (`leaf`) a pair on opposite sides
+/// is its BTDF, the same for the pair swapped (reciprocity) and for the mirrored pair (two-sided);
+/// `sample` returns directions below the surface with their pdf; a non-transmitting model gives
+/// 0 there.
+#[test]
+fn transmission_rows_follow_the_contract() {
+    let input = "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0.6,-0.8,0.6,0,0.8\n0.6,0,0.8,0,0.6,-0.8\n0,0.6,0.8,0.6,0,-0.8\n";
+    let values = |out: &str| -> Vec<Vec<f64>> {
+        out.lines().skip(1).map(|l| l.split(',').skip(6).map(|x| x.parse::<f64>().unwrap()).collect()).collect()
+    };
+    let leaf = values(&stdout_of(fiberlab().args(["eval", "--model", "leaf"]).write_stdin(input)));
+    assert!(leaf[0][1] > 0.0 && leaf[0][1] > leaf[0][0] && leaf[0][3] > 0.0, "green transmission {:?}", leaf[0]);
+    for c in 0..3 {
+        assert!((leaf[0][c] - leaf[1][c]).abs() < 1e-12 && (leaf[0][c] - leaf[2][c]).abs() < 1e-12, "{leaf:?}");
+    }
+    let wood = values(&stdout_of(fiberlab().args(["eval", "--model", "wood"]).write_stdin(input)));
+    assert_eq!(wood[0], vec![0.0; 4]);
+    let out = stdout_of(fiberlab().args(["sample", "--model", "leaf", "--wo", "0,0.6,0.8", "--count", "2000"]));
+    let below = out.lines().skip(1).filter(|l| l.split(',').nth(2).unwrap().parse::<f64>().unwrap() < 0.0).count();
+    assert!(below > 100 && below < 1900, "{below} of 2000 below the surface");
+}

@@ -23,6 +23,12 @@ pub enum FiberError {
         /// Valid range, with its unit.
         range: &'static str,
     },
+    /// Two parts that cannot be combined.
+    #[error("fiber: give {keys}, not both")]
+    Exclusive {
+        /// The keys that exclude each other.
+        keys: &'static str,
+    },
     /// More bins than the measurement's 32-bit bin indices address.
     #[error("bins: {bins_theta} × {bins_phi} = {bins} bins per table; at most 4294967295 (32-bit bin indices)")]
     TooManyBins {
@@ -66,6 +72,18 @@ pub struct Medulla {
     pub g: f64,
 }
 
+/// A concentric clear lumen (plant fibers, hollow hairs): a core of another index that
+/// refracts and reflects at its boundary (Fresnel, total internal reflection) and neither
+/// absorbs nor scatters. Its boundary is the medulla's with an index step: with `eta` equal to
+/// the fiber's, light crosses it unchanged, as it crosses a medulla's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lumen {
+    /// Radius relative to the fiber (0, 1) (the cross-section's shape scaled).
+    pub radius: f64,
+    /// Refractive index of the lumen (1 for air).
+    pub eta: f64,
+}
+
 /// What happens where a ray meets the fiber surface from outside.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SurfaceKind {
@@ -93,6 +111,8 @@ pub struct Fiber {
     pub scale_length: f64,
     /// Optional medulla.
     pub medulla: Option<Medulla>,
+    /// Optional lumen (exclusive with a medulla).
+    pub lumen: Option<Lumen>,
     /// Dielectric (default) or opaque Lambertian surface.
     pub surface: SurfaceKind,
 }
@@ -108,6 +128,7 @@ impl Default for Fiber {
             scale_angle: 0.0,
             scale_length: 0.5,
             medulla: None,
+            lumen: None,
             surface: SurfaceKind::Dielectric,
         }
     }
@@ -142,6 +163,13 @@ impl Fiber {
                 check("medulla_sigma_a", m.sigma_a[c], m.sigma_a[c] >= 0.0, "[0, ∞)")?;
             }
             check("medulla_g", m.g, m.g.abs() < 1.0, "(−1, 1)")?;
+        }
+        if let Some(l) = self.lumen {
+            check("lumen_radius", l.radius, l.radius > 0.0 && l.radius < 1.0 - height, "(0, 1 − L·tan α)")?;
+            check("lumen_eta", l.eta, (1.0..=4.0).contains(&l.eta), "[1, 4]")?;
+            if self.medulla.is_some() {
+                return Err(FiberError::Exclusive { keys: "medulla_radius and lumen_radius" });
+            }
         }
         if let SurfaceKind::Lambertian(a) = self.surface {
             for c in 0..3 {
@@ -233,6 +261,20 @@ pub const FIBER_PARAMS: &[ParamSpec] = &[
         doc: "Henyey–Greenstein asymmetry of the medulla",
     },
     ParamSpec {
+        key: "lumen_radius",
+        kind: ParamKind::Number(Range::open(0.0, 1.0)),
+        unit: "radii",
+        default: "",
+        doc: "radius of a concentric clear lumen (giving it adds the lumen; not with a medulla)",
+    },
+    ParamSpec {
+        key: "lumen_eta",
+        kind: ParamKind::Number(Range::closed(1.0, 4.0)),
+        unit: "",
+        default: "1",
+        doc: "refractive index of the lumen (1 air; the fiber's eta: index-matched)",
+    },
+    ParamSpec {
         key: "surface",
         kind: ParamKind::Choice(&["dielectric", "lambertian"]),
         unit: "",
@@ -318,6 +360,10 @@ impl Fiber {
             }),
             None => None,
         };
+        let lumen = match p.number_opt("lumen_radius") {
+            Some(radius) => Some(Lumen { radius, eta: p.number("lumen_eta")? }),
+            None => None,
+        };
         let surface = match p.choice("surface")? {
             "lambertian" => SurfaceKind::Lambertian(p.color("albedo")?),
             _ => SurfaceKind::Dielectric,
@@ -330,6 +376,7 @@ impl Fiber {
             scale_angle: p.degrees("scale_angle")?,
             scale_length: p.number("scale_length")?,
             medulla,
+            lumen,
             surface,
         };
         f.validate()?;
@@ -363,6 +410,14 @@ mod tests {
         assert_eq!(Fiber::from_pairs::<&str, &str>(&[]).unwrap(), Fiber::default());
         let m = Fiber::from_pairs(&[("medulla_radius", "0.3"), ("medulla_sigma_s", "5")]).unwrap();
         assert_eq!(m.medulla.unwrap().sigma_s, 5.0);
+        let l = Fiber::from_pairs(&[("lumen_radius", "0.5")]).unwrap();
+        assert_eq!(l.lumen, Some(Lumen { radius: 0.5, eta: 1.0 }));
+        let l = Fiber::from_pairs(&[("lumen_radius", "0.5"), ("lumen_eta", "1.33")]).unwrap();
+        assert_eq!(l.lumen.unwrap().eta, 1.33);
+        let e = Fiber::from_pairs(&[("lumen_radius", "0.5"), ("medulla_radius", "0.3")]).unwrap_err().to_string();
+        assert!(e.contains("medulla_radius and lumen_radius"), "{e}");
+        let e = Fiber::from_pairs(&[("lumen_radius", "1")]).unwrap_err().to_string();
+        assert!(e.contains("`lumen_radius`"), "{e}");
     }
 
     /// Angles are reported in degrees (the unit they are written in), huge values in exponent

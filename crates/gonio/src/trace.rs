@@ -1,7 +1,10 @@
 //! Tracing one ray through the explicit fiber: Fresnel splitting at every interface by
 //! stochastic branch selection (reflect with probability F, so weights stay 1), total
 //! internal reflection, path-length absorption, Henyey–Greenstein scattering in the
-//! medulla, and classification of the path by its sequence of events.
+//! medulla, refraction at a lumen's boundary, and classification of the path by its sequence
+//! of events at the outer surface (events at the medulla's or lumen's boundary do not change
+//! the class: a TT path is one that entered and left the fiber without an internal
+//! reflection at the outer surface, whatever it met inside).
 
 use crate::fiber::{Fiber, SurfaceKind};
 use crate::surface::Surface;
@@ -102,14 +105,72 @@ impl Events {
     }
 }
 
+/// The concentric core a path may cross: a medulla (index-matched: its boundary changes
+/// nothing; it scatters and absorbs) or a lumen (another index: Fresnel at its boundary; clear).
+struct Core {
+    surface: Surface,
+    /// `n_core/n_wall` (1 for a medulla).
+    ratio: f64,
+    sigma_s: f64,
+    sigma_a: Rgb,
+    g: f64,
+}
+
+impl Core {
+    fn of(fiber: &Fiber, surface: &Surface) -> Option<Self> {
+        if let Some(m) = fiber.medulla {
+            return Some(Self {
+                surface: Surface::new_smooth_scaled(surface, m.radius),
+                ratio: 1.0,
+                sigma_s: m.sigma_s,
+                sigma_a: m.sigma_a,
+                g: m.g,
+            });
+        }
+        fiber.lumen.map(|l| Self {
+            surface: Surface::new_smooth_scaled(surface, l.radius),
+            ratio: l.eta / fiber.eta,
+            sigma_s: 0.0,
+            sigma_a: Rgb::ZERO,
+            g: 0.0,
+        })
+    }
+
+    /// At the core's boundary (outward normal `normal`, `None` for a tangent exit), coming
+    /// from inside (`inside`) or outside: crosses it (flipping `inside`, refracting `d`) or,
+    /// with Fresnel's probability, reflects. An index-matched boundary is always crossed
+    /// straight, without drawing a number.
+    fn cross(&self, d: &mut DVec3, normal: Option<DVec3>, inside: &mut bool, rng: &mut impl Rng) {
+        let Some(n) = normal.filter(|_| self.ratio != 1.0) else {
+            *inside = !*inside;
+            return;
+        };
+        // Facing normal and the index ratio n_incident/n_transmitted.
+        let (facing, eta) = if *inside { (-n, self.ratio) } else { (n, 1.0 / self.ratio) };
+        let cos_i = -d.dot(facing);
+        if cos_i <= 0.0 {
+            *inside = !*inside; // a tangent graze: on past the boundary, unchanged
+            return;
+        }
+        if rng.random::<f64>() >= fresnel::dielectric(cos_i, 1.0 / eta)
+            && let Some(t) = refract(*d, facing, eta)
+        {
+            *d = t;
+            *inside = !*inside;
+            return;
+        }
+        *d = (*d + facing * (2.0 * cos_i)).normalize();
+    }
+}
+
 /// Traces a ray from `origin` along `dir` (outside the fiber) until it leaves for good.
 pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &mut impl Rng) -> Outcome {
     let (mut p, mut d) = (origin, dir);
     let mut weight = Rgb::ONE;
     let mut ev = Events::default();
     let mut outside = true;
-    let mut in_medulla = false;
-    let medulla = fiber.medulla.map(|m| (m, Surface::new_smooth_scaled(surface, m.radius)));
+    let mut in_core = false;
+    let core = Core::of(fiber, surface);
     for _ in 0..MAX_EVENTS {
         if outside {
             let Some(hit) = surface.intersect(p, d, EPS) else {
@@ -140,15 +201,16 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
         }
         // Inside: the next surface hit, unless the medulla scatters first.
         let Some(hit) = surface.intersect(p, d, EPS) else { return Outcome::Dropped };
-        if let Some((m, core)) = &medulla {
-            // Which medium the path is in is state, flipped at each crossing of the medulla's
+        if let Some(m) = &core {
+            // Which medium the path is in is state, flipped at each crossing of the core's
             // boundary: a point just placed on that boundary is on neither side to rounding
             // error, so it must not be inferred from the position.
-            let boundary = core.intersect(p, d, EPS).map_or(f64::INFINITY, |h| h.t);
-            if in_medulla {
+            let boundary = m.surface.intersect(p, d, EPS);
+            let (t_b, normal) = boundary.map_or((f64::INFINITY, None), |h| (h.t, Some(h.normal)));
+            if in_core {
                 // A path inside always meets the boundary ahead; a tangent entry whose exit is
                 // within EPS leaves at once.
-                let leave = if boundary.is_finite() { boundary } else { 0.0 };
+                let leave = if t_b.is_finite() { t_b } else { 0.0 };
                 let t_s = if m.sigma_s > 0.0 { -(1.0 - rng.random::<f64>()).ln() / m.sigma_s } else { f64::INFINITY };
                 if t_s < leave {
                     weight *= (m.sigma_a * -t_s).exp();
@@ -158,13 +220,13 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
                 } else {
                     weight *= (m.sigma_a * -leave).exp();
                     p += d * leave;
-                    in_medulla = false;
+                    m.cross(&mut d, normal, &mut in_core, rng);
                 }
                 continue;
-            } else if boundary < hit.t {
-                weight *= (fiber.sigma_a * -boundary).exp();
-                p += d * boundary;
-                in_medulla = true;
+            } else if t_b < hit.t {
+                weight *= (fiber.sigma_a * -t_b).exp();
+                p += d * t_b;
+                m.cross(&mut d, normal, &mut in_core, rng);
                 continue;
             }
         }

@@ -18,6 +18,7 @@
 #![forbid(unsafe_code)]
 
 pub mod bravais;
+pub mod colorimetry;
 pub mod frame;
 pub mod fresnel;
 pub mod noise;

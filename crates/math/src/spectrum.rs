@@ -1,5 +1,7 @@
 //! Spectral quantities. fiberlab computes in linear RGB (Rec. 709 primaries); every model
 //! is written against [`Spectrum`], so a sampled-spectral type can replace [`Rgb`] later.
+//! Spectra (e.g. a leaf's reflectance) become RGB by [`crate::colorimetry::reflectance_to_rgb`]:
+//! D65 and the CIE 1931 observer, white-normalized.
 
 use std::ops::{Add, AddAssign, Div, Index, Mul, MulAssign, Sub};
 

@@ -6,7 +6,8 @@
 //!   plain and twill weaves), for the renderer and the cloth goniophotometer;
 //! * [`draped_cloth`]: a cloth mesh draped over a sphere, with texture coordinates;
 //! * [`figured_maple`]: a procedural figured-maple map of wood fiber direction and figure;
-//! * [`cabochon`]: a polished cabochon dome for chatoyant minerals.
+//! * [`cabochon`]: a polished cabochon dome for chatoyant minerals;
+//! * [`grass`]: a patch of grass blades as curved, twisted, tapered ribbons in tufts.
 //!
 //! It stops at making geometry and parameter maps: it reads and writes no files (the formats
 //! are `fiberlab-io`'s) and renders nothing.
@@ -16,4 +17,5 @@ pub mod cabochon;
 pub mod draped_cloth;
 pub mod figured_maple;
 pub mod generator;
+pub mod grass;
 pub mod woven_patch;

@@ -19,6 +19,8 @@
 //! [[sphere]]          # center, radius, material, optional emission = [r, g, b] (a light)
 //! [[mesh]]            # file = "x.obj", material, scale, translate; or floor = y;
 //!                     # or cabochon = { radius, height, rings, sectors }, translate
+//!                     # or grass = { … GrassParams … }, translate (blades as two-sided
+//!                     #   ribbons: give them a transmitting surface model such as "leaf")
 //! [[light]]           # type = "environment" (radiance) | "envmap" (file, scale)
 //!                     #      | "sun" (direction, angular_radius_deg, irradiance)
 //!                     #      | "distant" (direction, irradiance: a delta light)
@@ -39,6 +41,7 @@ use fiberlab_io::Basis;
 use fiberlab_io::{HairFile, LinearImage};
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_procedural::generator::HairParams;
+use fiberlab_procedural::grass::GrassParams;
 use fiberlab_scatter::{Model, ModelError};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -211,6 +214,8 @@ struct MeshDesc {
     file: Option<Spanned<String>>,
     floor: Option<f64>,
     cabochon: Option<Spanned<CabochonDesc>>,
+    /// A generated grass patch ([`fiberlab_procedural::grass`]).
+    grass: Option<Spanned<GrassParams>>,
     material: Spanned<String>,
     /// For `file` only (default 1).
     scale: Option<f64>,
@@ -930,10 +935,11 @@ impl SceneFile {
             let md = m.get_ref();
             let material = self.surface_material(names, &md.material)?;
             if let Some(c) = &md.cabochon {
-                if md.file.is_some() || md.floor.is_some() || md.scale.is_some() {
-                    return Err(
-                        self.error(m.span(), "mesh: a cabochon takes translate only (no file, floor, scale)".into())
-                    );
+                if md.file.is_some() || md.floor.is_some() || md.scale.is_some() || md.grass.is_some() {
+                    return Err(self.error(
+                        m.span(),
+                        "mesh: a cabochon takes translate only (no file, floor, scale, grass)".into(),
+                    ));
                 }
                 let cd = c.get_ref();
                 let translate = self.point(m.span(), "mesh: translate", md.translate.unwrap_or_default())?;
@@ -941,6 +947,16 @@ impl SceneFile {
                     fiberlab_procedural::cabochon::cabochon(cd.radius, cd.height, cd.rings, cd.sectors, translate)
                         .map_err(|e| self.error(c.span(), format!("mesh: {e}")))?;
                 scene.mesh(dome, material);
+                continue;
+            }
+            if let Some(g) = &md.grass {
+                if md.file.is_some() || md.floor.is_some() || md.scale.is_some() {
+                    return Err(self.error(m.span(), "mesh: grass takes translate only (no file, floor, scale)".into()));
+                }
+                let translate = self.point(m.span(), "mesh: translate", md.translate.unwrap_or_default())?;
+                // Sized and checked against its triangle limit before any is made.
+                let blades = g.get_ref().generate().map_err(|e| self.error(g.span(), format!("mesh: {e}")))?;
+                scene.mesh(blades.into_mesh(translate), material);
                 continue;
             }
             let mesh = match (&md.file, md.floor) {
@@ -980,7 +996,7 @@ impl SceneFile {
                 }
                 (None, Some(y)) if y.is_finite() => TriangleMesh::floor(y, 100.0),
                 (None, Some(y)) => return Err(self.error(m.span(), format!("mesh: floor = {y:?} must be finite"))),
-                _ => return Err(self.error(m.span(), "mesh: give exactly one of file, floor, cabochon".into())),
+                _ => return Err(self.error(m.span(), "mesh: give exactly one of file, floor, cabochon, grass".into())),
             };
             scene.mesh(mesh, material);
         }

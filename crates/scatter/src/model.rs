@@ -139,6 +139,7 @@ models! {
         Chiang(crate::chiang_2016::Chiang),
         Deon(crate::deon_2011::Deon),
         YanFur(crate::yan_2017::YanFur),
+        HollowFiber(crate::hollow_fiber::HollowFiber),
         SadeghiThread(crate::sadeghi_2013::SadeghiThread);
     from_data:
         Measured(crate::measured::Measured);
@@ -230,6 +231,11 @@ mod tests {
         assert_eq!(e::DeonParams::from_param_set(&defaults(&e::Deon::INFO)), Ok(e::DeonParams::default()));
         use crate::yan_2017 as y;
         assert_eq!(y::YanFurParams::from_param_set(&defaults(&y::YanFur::INFO)), Ok(y::YanFurParams::default()));
+        use crate::hollow_fiber as hf;
+        assert_eq!(
+            hf::HollowFiberParams::from_param_set(&defaults(&hf::HollowFiber::INFO)),
+            Ok(hf::HollowFiberParams::default())
+        );
         use crate::sadeghi_2013 as sd;
         let thread = sd::ThreadParams::from_param_set(&defaults(&sd::SadeghiThread::INFO)).unwrap();
         let expected = sd::ThreadParams::default();

@@ -98,6 +98,7 @@ surface_models! {
     Wood(crate::marschner_2005::Wood),
     Sadeghi(crate::sadeghi_2013::Sadeghi2013),
     Irawan(crate::irawan_2012::Irawan2012),
+    Leaf(crate::leaf::Leaf),
 }
 
 /// Which registry a model belongs to, as `fiberlab models` prints it (`kind: fiber`).

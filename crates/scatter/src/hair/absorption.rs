@@ -64,6 +64,12 @@ impl Absorption {
     /// Reads the absorption keys (`sigma_a`, `eumelanin`/`pheomelanin`, `color`); keys from
     /// more than one group are [`ModelError::Inconsistent`]; with none, [`Absorption::default`].
     pub fn from_param_set(p: &ParamSet) -> Result<Self, ModelError> {
+        Self::from_param_set_or(p, Absorption::default())
+    }
+
+    /// [`Absorption::from_param_set`] with another absorption when no key is given (a model
+    /// whose fibers are not hair, e.g. the clear wall of `hollow-fiber`).
+    pub fn from_param_set_or(p: &ParamSet, default: Absorption) -> Result<Self, ModelError> {
         let melanin = p.is_given("eumelanin") || p.is_given("pheomelanin");
         let groups = [p.is_given("sigma_a"), melanin, p.is_given("color")];
         if groups.iter().filter(|&&g| g).count() > 1 {
@@ -81,7 +87,7 @@ impl Absorption {
         } else if let Some(c) = p.color_opt("color") {
             Absorption::Color(c)
         } else {
-            Absorption::default()
+            default
         })
     }
 

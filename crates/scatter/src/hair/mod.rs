@@ -11,6 +11,7 @@
 //! | [`tilt`] | the cuticle tilt of each lobe, as a rotation of the fixed direction (Chiang's and Marschner's ratios) | Chiang 2016, d'Eon 2013, Marschner 2003 |
 //! | [`roughness`] | Chiang's maps β → `v_p`, `s`, and d'Eon's azimuthal σ | Chiang 2016 |
 //! | [`backward_form`] | `f_s = g/cosθ_i`, light-side albedo, measured non-reciprocity | Chiang 2016 |
+//! | [`tube`] | a wall around a concentric core of another index: the kinds of wall pass, their turns and Fresnel weights | (ours; Bravais 1856 as in Marschner 2003) |
 //! | [`parameters`] | the parameter table entries the hair models share | |
 //! | [`fiber`] | the fiber parameters Chiang and d'Eon share, with presets and checks | |
 //!
@@ -40,3 +41,4 @@ pub mod normal_plane;
 pub mod parameters;
 pub mod roughness;
 pub mod tilt;
+pub mod tube;

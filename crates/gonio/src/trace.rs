@@ -1,12 +1,15 @@
 //! Tracing one ray through the explicit fiber: Fresnel splitting at every interface by
-//! stochastic branch selection (reflect with probability F, so weights stay 1), total
-//! internal reflection, path-length absorption, Henyey–Greenstein scattering in the
+//! stochastic branch selection (reflect with probability F, so weights stay 1; on a rough
+//! interface at a visible microfacet normal, with the masking weight of [`crate::interface`]),
+//! total internal reflection, path-length absorption, Henyey–Greenstein scattering in the
 //! medulla, and classification of the path by its sequence of events.
 
 use crate::fiber::{Fiber, SurfaceKind};
+use crate::interface::{Crossing, cross};
 use crate::surface::Surface;
+use fiberlab_math::microfacet::Ggx;
 use fiberlab_math::phase::sample_henyey_greenstein;
-use fiberlab_math::{DVec3, FiberFrame, Rgb, fresnel};
+use fiberlab_math::{DVec3, FiberFrame, Rgb};
 use rand::Rng;
 use std::f64::consts::TAU;
 
@@ -54,6 +57,9 @@ pub enum Outcome {
     Missed,
     /// The path exceeded [`MAX_EVENTS`] interactions and was dropped (its power is lost).
     Dropped,
+    /// A rough interface sent the path back into its microsurface (single-scattering
+    /// microfacet loss, [`crate::interface::Crossing::Masked`]); its power is lost.
+    Masked,
     /// The ray left the fiber.
     Exit(Exit),
 }
@@ -62,17 +68,6 @@ pub enum Outcome {
 pub const MAX_EVENTS: usize = 200;
 /// Self-intersection guard (radii).
 const EPS: f64 = 1e-7;
-
-/// Refraction of `d` through a surface whose unit normal `n` faces the incident side,
-/// with `eta = n_incident/n_transmitted`; `None` under total internal reflection.
-fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
-    let cos_i = -d.dot(n);
-    let sin2_t = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
-    if sin2_t >= 1.0 {
-        return None;
-    }
-    Some((d * eta + n * (eta * cos_i - (1.0 - sin2_t).sqrt())).normalize())
-}
 
 /// Cosine-weighted direction about the frame's first axis.
 fn cosine_about(frame: &FiberFrame, u0: f64, u1: f64) -> DVec3 {
@@ -110,6 +105,7 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
     let mut outside = true;
     let mut in_medulla = false;
     let medulla = fiber.medulla.map(|m| (m, Surface::new_smooth_scaled(surface, m.radius)));
+    let ggx = (fiber.roughness > 0.0).then(|| Ggx::new(fiber.roughness));
     for _ in 0..MAX_EVENTS {
         if outside {
             let Some(hit) = surface.intersect(p, d, EPS) else {
@@ -127,14 +123,17 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
                 ev.external_reflections += 1;
                 continue;
             }
-            let cos_i = -d.dot(hit.normal);
-            if rng.random::<f64>() < fresnel::dielectric(cos_i, fiber.eta) {
-                d = (d + hit.normal * (2.0 * cos_i)).normalize();
-                ev.external_reflections += 1;
-            } else {
-                d = refract(d, hit.normal, 1.0 / fiber.eta).expect("no TIR entering a denser medium");
-                ev.transmissions += 1;
-                outside = false;
+            match cross(d, hit.normal, fiber.eta, ggx.as_ref(), rng) {
+                Crossing::Reflected { direction, weight: w } => {
+                    (d, weight) = (direction, weight * w);
+                    ev.external_reflections += 1;
+                }
+                Crossing::Refracted { direction, weight: w } => {
+                    (d, weight) = (direction, weight * w);
+                    ev.transmissions += 1;
+                    outside = false;
+                }
+                Crossing::Masked => return Outcome::Masked,
             }
             continue;
         }
@@ -170,22 +169,23 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
         }
         weight *= (fiber.sigma_a * -hit.t).exp();
         p += d * hit.t;
-        let cos_i = d.dot(hit.normal);
-        if cos_i <= 0.0 || rng.random::<f64>() < fresnel::dielectric(cos_i, 1.0 / fiber.eta) {
+        if d.dot(hit.normal) <= 0.0 {
+            // Grazing or numerically inward at the wall: a mirror reflection keeps it inside.
             d = (d - hit.normal * (2.0 * d.dot(hit.normal))).normalize();
             ev.internal_reflections += 1;
-        } else {
-            match refract(d, -hit.normal, fiber.eta) {
-                Some(t) => {
-                    d = t;
-                    ev.transmissions += 1;
-                    outside = true;
-                }
-                None => {
-                    d = (d - hit.normal * (2.0 * cos_i)).normalize();
-                    ev.internal_reflections += 1;
-                }
+            continue;
+        }
+        match cross(d, -hit.normal, 1.0 / fiber.eta, ggx.as_ref(), rng) {
+            Crossing::Reflected { direction, weight: w } => {
+                (d, weight) = (direction, weight * w);
+                ev.internal_reflections += 1;
             }
+            Crossing::Refracted { direction, weight: w } => {
+                (d, weight) = (direction, weight * w);
+                ev.transmissions += 1;
+                outside = true;
+            }
+            Crossing::Masked => return Outcome::Masked,
         }
     }
     Outcome::Dropped

@@ -1,6 +1,6 @@
 //! Pure mathematics shared by every fiberlab model: the fiber frame and its angles,
 //! the RGB spectrum type, special functions (stable `i0e`, logistic, Gaussian),
-//! dielectric Fresnel and Bravais' modified indices. No I/O, no allocation.
+//! dielectric Fresnel, Bravais' modified indices and the GGX microfacet distribution. No I/O, no allocation.
 //!
 //! # Conventions (docs/theory/conventions.md), used by every crate
 //! Directions are unit vectors in the **fiber frame**: `x` = tangent `u` (root → tip),
@@ -19,11 +19,12 @@
 pub mod bravais;
 pub mod frame;
 pub mod fresnel;
+pub mod microfacet;
 pub mod phase;
 pub mod special;
 pub mod spectrum;
 pub mod split_mix;
 
 pub use frame::{FiberFrame, relative_phi, wrap_pi};
-pub use glam::DVec3;
+pub use glam::{DVec2, DVec3};
 pub use spectrum::{Rgb, Spectrum};

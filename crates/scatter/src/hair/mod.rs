@@ -5,6 +5,7 @@
 //! | file | concept | papers |
 //! |---|---|---|
 //! | [`longitudinal`] | d'Eon's normalized `M_p` and Marschner's Gaussian lobes | d'Eon 2011, Marschner 2003 |
+//! | [`ellipse`] | elliptical cross-sections: offsets, boundary points, exact smooth paths | Khungurn & Marschner 2017 |
 //! | [`normal_plane`] | Bravais' `η′`, the exit azimuth `Φ(p, h)`, its roots and the TRT caustic | Marschner 2003 |
 //! | [`attenuation`] | Fresnel, chord lengths (optionally through a concentric core), `A_p` | Marschner 2003, Chiang 2016, Yan 2015 |
 //! | [`absorption`] | where σ_a comes from: given, melanin, or a desired colour | d'Eon 2011, Chiang 2016 |
@@ -33,6 +34,7 @@
 pub mod absorption;
 pub mod attenuation;
 pub mod backward_form;
+pub mod ellipse;
 pub mod fiber;
 pub mod longitudinal;
 pub mod medulla;

@@ -14,6 +14,7 @@ pub mod fiber;
 pub mod fiber_slab;
 pub use bin_sums::BinSums;
 pub mod interface;
+pub mod model_comparison;
 pub mod surface;
 pub mod trace;
 

@@ -22,6 +22,7 @@ pub mod chiang_2016;
 pub mod deon_2011;
 pub mod dual_scattering_tables;
 pub mod goldman_1997;
+pub mod huang_2022;
 pub mod ideal_diffuse;
 pub mod ideal_specular;
 pub mod irawan_2012;

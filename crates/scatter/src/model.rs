@@ -117,6 +117,7 @@ models! {
         Chiang(crate::chiang_2016::Chiang),
         Deon(crate::deon_2011::Deon),
         YanFur(crate::yan_2017::YanFur),
+        Huang(crate::huang_2022::Huang),
         SadeghiThread(crate::sadeghi_2013::SadeghiThread);
     from_data:
         Measured(crate::measured::Measured);
@@ -194,6 +195,8 @@ mod tests {
         assert_eq!(e::DeonParams::from_param_set(&defaults(&e::Deon::INFO)), Ok(e::DeonParams::default()));
         use crate::yan_2017 as y;
         assert_eq!(y::YanFurParams::from_param_set(&defaults(&y::YanFur::INFO)), Ok(y::YanFurParams::default()));
+        use crate::huang_2022 as hu;
+        assert_eq!(hu::HuangParams::from_param_set(&defaults(&hu::Huang::INFO)), Ok(hu::HuangParams::default()));
         use crate::sadeghi_2013 as sd;
         let thread = sd::ThreadParams::from_param_set(&defaults(&sd::SadeghiThread::INFO)).unwrap();
         let expected = sd::ThreadParams::default();

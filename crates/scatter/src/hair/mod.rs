@@ -10,6 +10,7 @@
 //! | [`attenuation`] | Fresnel, chord lengths (optionally through a concentric core), `A_p` | Marschner 2003, Chiang 2016, Yan 2015 |
 //! | [`absorption`] | where σ_a comes from: given, melanin, or a desired colour | d'Eon 2011, Chiang 2016 |
 //! | [`tilt`] | the cuticle tilt of each lobe, as a rotation of the fixed direction (Chiang's and Marschner's ratios) | Chiang 2016, d'Eon 2013, Marschner 2003 |
+//! | [`rough_interface`] | directional albedos of a rough (GGX) dielectric interface | Walter 2007, Heitz 2018 |
 //! | [`roughness`] | Chiang's maps β → `v_p`, `s`, and d'Eon's azimuthal σ | Chiang 2016 |
 //! | [`backward_form`] | `f_s = g/cosθ_i`, light-side albedo, measured non-reciprocity | Chiang 2016 |
 //! | [`parameters`] | the parameter table entries the hair models share | |
@@ -40,5 +41,6 @@ pub mod longitudinal;
 pub mod medulla;
 pub mod normal_plane;
 pub mod parameters;
+pub mod rough_interface;
 pub mod roughness;
 pub mod tilt;

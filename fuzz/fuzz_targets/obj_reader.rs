@@ -2,16 +2,15 @@
 //! panic; a mesh that loads has triangles and can be intersected.
 #![no_main]
 
+use fiberlab_geometry::Ray;
 use fiberlab_math::DVec3;
-use fiberlab_render::bvh::Ray;
-use fiberlab_render::shapes::TriangleMesh;
 use libfuzzer_sys::fuzz_target;
 use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {
     // The file reader refuses non-UTF-8 text before parsing; so does this target.
     let Ok(text) = std::str::from_utf8(data) else { return };
-    match TriangleMesh::parse_obj(text, Path::new("fuzz.obj"), 1.0, DVec3::ZERO) {
+    match fiberlab_io::obj::parse_obj(text, Path::new("fuzz.obj"), 1.0, DVec3::ZERO) {
         Ok(mesh) => {
             assert!(!mesh.is_empty(), "a loaded mesh has triangles");
             let _ = mesh.intersect(&Ray::new(DVec3::new(0.1, 0.2, 5.0), -DVec3::Z));

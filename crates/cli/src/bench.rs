@@ -30,8 +30,8 @@ pub struct Args {
 
 /// Renderer figures on the default scene, quoted against brute force measured in the same run.
 fn render_figures(strands: usize) -> anyhow::Result<()> {
+    use fiberlab_procedural::generator::HairParams;
     use fiberlab_render::bench::{brute_force_throughput, bvh_build, ray_throughput, samples_per_second};
-    use fiberlab_render::generator::HairParams;
     use fiberlab_render::scene_file::SceneFile;
     let file = SceneFile::default_scene();
     let (scene, settings) = file.build()?;

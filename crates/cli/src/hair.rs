@@ -3,7 +3,7 @@
 //! (read only), `.usda`).
 
 use fiberlab_io::{Format, StrandsError, strand_files};
-use fiberlab_render::generator::{HairParams, Style};
+use fiberlab_procedural::generator::{HairParams, Style};
 use std::path::PathBuf;
 
 /// Flags of `fiberlab hair`.

@@ -29,9 +29,12 @@ mod texture;
 
 use clap::{Parser, Subcommand};
 
+/// `fiberlab --version`: the package version and the commit it was built from (`build.rs`).
+const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (", env!("FIBERLAB_COMMIT"), ")");
+
 /// fiberlab: scattering functions for hair, fur and other fibers.
 #[derive(Parser)]
-#[command(name = "fiberlab", version, about, long_about = None)]
+#[command(name = "fiberlab", version = VERSION, about, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -97,7 +100,7 @@ fn main() {
     #[cfg(fiberlab_stats)]
     impl Drop for PrintStats {
         fn drop(&mut self) {
-            fiberlab_render::bvh::stats::print();
+            fiberlab_geometry::bvh::stats::print();
         }
     }
     #[cfg(fiberlab_stats)]

@@ -12,8 +12,9 @@
 use crate::arg_values::{self, Angle, Bins, KeyValue};
 use crate::files::{read_toml, stream_atomically};
 use crate::memory_budget::{MemoryLimit, measure_needs};
-use crate::plot::{Grids, Scale, write_figure};
+use crate::plot::{Scale, write_figure};
 use anyhow::Context;
+use fiberlab_compare::maps::{ScatteringMap, table_map};
 use fiberlab_gonio::fiber_slab::{FiberSlab, SurfaceMeasurement, SurfaceSetup, measure_surface};
 use fiberlab_gonio::{Fiber, Measurement, Setup, measure};
 use fiberlab_math::Rgb;
@@ -276,15 +277,9 @@ fn write_exr(m: &Measurement, path: &Path) -> anyhow::Result<()> {
 }
 
 /// The `all` lobe as a figure: image, azimuthal distribution and the specular-cone row.
-fn figure(m: &Measurement) -> Grids {
-    let (nt, np) = (m.setup.bins_theta, m.setup.bins_phi);
-    let all = &m.lobes[5];
-    let image: Vec<Vec<f64>> = (0..nt).map(|i| (0..np).map(|j| all.f[i * np + j].luminance()).collect()).collect();
-    let azimuthal =
-        (0..np).map(|j| (0..nt).map(|i| image[i][j] * m.bin_centre(i, j).0.cos().powi(2)).sum::<f64>()).collect();
-    let cone_row =
-        ((((-m.setup.theta_i) + std::f64::consts::FRAC_PI_2) / std::f64::consts::PI * nt as f64) as usize).min(nt - 1);
-    Grids { azimuthal, cone: image[cone_row].clone(), image }
+fn figure(m: &Measurement) -> ScatteringMap {
+    let values: Vec<f64> = m.lobes[5].f.iter().map(|v| v.luminance()).collect();
+    table_map(&values, m.setup.bins_theta, m.setup.bins_phi, m.setup.theta_i)
 }
 
 /// The sample of `--surface`, from the flags (radius 1: lengths in fiber radii).
@@ -407,7 +402,7 @@ fn write_surface_exr(m: &SurfaceMeasurement, path: &Path) -> anyhow::Result<()> 
 /// `measure --surface --cloth`: the woven patch's BRDF at every --theta-i into one surface
 /// table (classes `fiber` (one fiber event), `multiple`, `substrate`, `all`).
 fn run_cloth(args: &Args) -> anyhow::Result<()> {
-    use fiberlab_render::woven_goniophotometer::{ClothMeasurement, ClothSetup, measure_cloth, periodic_patch};
+    use fiberlab_gonio::cloth::{ClothMeasurement, ClothSetup, PeriodicPatch, measure_cloth};
     let patch = args.patch.patch()?;
     let pairs: Vec<(String, RawValue)> =
         args.fiber_params.iter().map(|p| (p.key.clone(), RawValue::Text(p.value.clone()))).collect();
@@ -425,12 +420,16 @@ fn run_cloth(args: &Args) -> anyhow::Result<()> {
         },
         crate::memory_budget::Need {
             what: format!("3 × 3 repeats of the woven patch ({segments} segments)"),
-            bytes: fiberlab_render::curves::CurveSet::estimated_bytes(segments),
+            bytes: fiberlab_geometry::curves::CurveSet::estimated_bytes(segments),
         },
     ];
     args.memory.check(&needs)?;
     let built = Instant::now();
-    let periodic = periodic_patch(&patch, args.cloth_substrate)?;
+    let periodic = PeriodicPatch::from_repeats(
+        &patch.fibers(3, 3)?.polylines(),
+        (patch.period(), patch.period()),
+        args.cloth_substrate,
+    );
     println!(
         "patch: {} segments over 3 × 3 repeats of {:.4} mm, built in {:.2} s",
         periodic.curves.segment_count(),

@@ -8,7 +8,7 @@
 //! user's risk). The estimators live beside what they estimate
 //! ([`fiberlab_render::scene_file::SceneFile::memory_estimate`],
 //! [`fiberlab_gonio::Setup::estimated_bytes`],
-//! [`fiberlab_render::generator::HairParams::estimated_bytes`]); this module only adds them up
+//! [`fiberlab_procedural::generator::HairParams::estimated_bytes`]); this module only adds them up
 //! and compares.
 //!
 //! Counts are u64 and checked: an estimate that overflows 64 bits, or is more than this
@@ -20,7 +20,7 @@
 //! the input; they have nothing to estimate.
 
 use fiberlab_gonio::Setup;
-use fiberlab_render::generator::HairParams;
+use fiberlab_procedural::generator::HairParams;
 use fiberlab_render::scene_file::{MemoryEstimate, SceneFile};
 
 /// A quantity a command will hold in memory: what it is, as the user wrote it, and its

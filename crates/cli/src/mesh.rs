@@ -1,14 +1,14 @@
-//! `fiberlab mesh cloth`: writes the draped-cloth mesh ([`fiberlab_render::draped_cloth`])
+//! `fiberlab mesh cloth`: writes the draped-cloth mesh ([`fiberlab_procedural::draped_cloth`])
 //! that `scenes/cloth.toml` uses: a square cloth over a sphere on the floor, as an OBJ with
 //! texture coordinates (`u` along the cloth's `x` edge, `v` along its `z` edge) and normals.
 //!
 //! `fiberlab mesh cloth-patch`: writes the fibers of an explicit woven patch
-//! ([`fiberlab_render::woven_patch`]) as a strand file (`.usda`, `.hair`, `.pbrt`), which a
+//! ([`fiberlab_procedural::woven_patch`]) as a strand file (`.usda`, `.hair`, `.pbrt`), which a
 //! scene renders with `[[hair]] file = …`.
 
 use anyhow::Context;
-use fiberlab_render::draped_cloth::DrapedCloth;
-use fiberlab_render::woven_patch::{Weave, WovenPatch};
+use fiberlab_procedural::draped_cloth::DrapedCloth;
+use fiberlab_procedural::woven_patch::{Weave, WovenPatch};
 use std::path::PathBuf;
 
 /// Flags of `fiberlab mesh`.
@@ -118,7 +118,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let header = format!(
         "A cloth draped over a sphere (radius {r}, centre (0, {r}, 0)) on the floor y = 0, written by\n\
          `fiberlab mesh cloth --resolution {resolution} --half-size {half_size} --folds {folds}`\n\
-         (crates/render/src/draped_cloth.rs): u = 1/2 + x/(2·{half_size}) along x, v = 1/2 − z/(2·{half_size}).",
+         (crates/procedural/src/draped_cloth.rs): u = 1/2 + x/(2·{half_size}) along x, v = 1/2 − z/(2·{half_size}).",
         r = cloth.sphere_radius
     );
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {

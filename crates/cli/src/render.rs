@@ -66,6 +66,10 @@ pub struct Args {
     /// left out). Repeatable.
     #[arg(long = "dual", value_name = "KEY=VALUE")]
     dual: Vec<String>,
+    /// Image size in pixels instead of the scene camera's (a quick preview: `--size 128x128`);
+    /// the vertical field of view stays the scene's.
+    #[arg(long, value_name = "WxH", value_parser = arg_values::image_size)]
+    size: Option<arg_values::ImageSize>,
     /// Render only part I of N (0-based bands of rows), for `fiberlab merge`.
     #[arg(long, value_name = "I/N", value_parser = arg_values::tile)]
     tile: Option<Tile>,
@@ -236,6 +240,9 @@ fn scene_hash(args: &Args) -> anyhow::Result<String> {
         h = fnv1a(fnv1a(h, b"hair"), &read(p)?);
     }
     h = fnv1a(h, format!("max_depth={:?}", args.max_depth).as_bytes());
+    if let Some(size) = args.size {
+        h = fnv1a(h, format!("size={}x{}", size.width, size.height).as_bytes());
+    }
     if args.integrator.is_some() || args.fiber_count.is_some() || !args.dual.is_empty() {
         let text = format!("integrator={:?} fiber_count={:?} dual={:?}", args.integrator, args.fiber_count, args.dual);
         h = fnv1a(h, text.as_bytes());
@@ -263,7 +270,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Some(p) => SceneFile::read(p)?,
         None => SceneFile::default_scene(),
     };
-    // Pixels are checked against the camera as written, before hair and BVHs are built.
+    if let Some(size) = args.size {
+        file.override_image_size(size.width, size.height);
+    }
+    // Pixels are checked against the camera's size, before hair and BVHs are built.
     let (w, h) = file.image_size();
     let region = config.pixels.region(w, h)?;
     if let Some(h) = &args.hair {

@@ -1,11 +1,11 @@
 //! `fiberlab texture wood`: writes the procedural figured-maple fiber map
-//! ([`fiberlab_render::figured_maple`]) that `scenes/wood.toml` uses, in the output directory:
+//! ([`fiberlab_procedural::figured_maple`]) that `scenes/wood.toml` uses, in the output directory:
 //! `fiber_angle.png` and `fiber_dip.png` (16-bit grey, linear: code `c` means
 //! `−90° + 180°·c/65535`, read with `remap = [-90, 90]`) and `k_d.png` (8-bit sRGB colour).
 
 use anyhow::Context;
 use fiberlab_io::ToneMap;
-use fiberlab_render::figured_maple::MapleFigure;
+use fiberlab_procedural::figured_maple::MapleFigure;
 use std::path::PathBuf;
 
 /// Flags of `fiberlab texture`.

@@ -21,13 +21,16 @@ fn workspace() -> PathBuf {
 const LAYERS: &[(&str, u32)] = &[
     ("fiberlab-math", 0),
     ("fiberlab-scatter", 1),
+    ("fiberlab-geometry", 1),
     ("fiberlab-io", 2),
-    ("fiberlab-check", 2),
-    ("fiberlab-gonio", 2),
-    ("fiberlab-fit", 2),
-    ("fiberlab-render", 3),
-    ("fiberlab-cli", 4),
-    ("fiberlab-py", 4),
+    ("fiberlab-check", 3),
+    ("fiberlab-gonio", 3),
+    ("fiberlab-fit", 3),
+    ("fiberlab-procedural", 3),
+    ("fiberlab-render", 4),
+    ("fiberlab-compare", 5),
+    ("fiberlab-cli", 6),
+    ("fiberlab-py", 6),
 ];
 
 fn layer(name: &str) -> u32 {

@@ -5,14 +5,13 @@
 mod fiberlab_process;
 use fiberlab_math::DVec3;
 use fiberlab_process::fiberlab;
-use fiberlab_render::shapes::TriangleMesh;
 
 #[test]
 fn mesh_cloth_writes_a_textured_mesh_clear_of_the_sphere() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("sub/cloth.obj");
     fiberlab().args(["mesh", "cloth", "--resolution", "40", "--out"]).arg(&out).assert().success();
-    let mesh = TriangleMesh::load_obj(&out, 1.0, DVec3::ZERO).unwrap();
+    let mesh = fiberlab_io::obj::read_obj(&out, 1.0, DVec3::ZERO).unwrap();
     assert!(mesh.has_uvs());
     assert_eq!(mesh.len(), 2 * 40 * 40);
     // Straight down from above the top onto the sphere (radius 0.5, centre (0, 0.5, 0)): the

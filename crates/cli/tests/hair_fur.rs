@@ -20,7 +20,7 @@ fn generate(dir: &std::path::Path, args: &[&str]) -> HairFile {
 #[test]
 fn fur_style_uses_the_fur_defaults_and_flags_override_them() {
     let dir = tempfile::tempdir().unwrap();
-    let fur = fiberlab_render::generator::HairParams::fur();
+    let fur = fiberlab_procedural::generator::HairParams::fur();
     let hair = generate(dir.path(), &[]);
     assert_eq!(hair.strand_count(), 300);
     // The fur's 6 segments, not the hair's 24; its root diameter and tenfold taper.

@@ -1,6 +1,6 @@
 //! `fiberlab texture wood`: the maps it writes read back as the figure's functions.
 
-use fiberlab_render::figured_maple::MapleFigure;
+use fiberlab_procedural::figured_maple::MapleFigure;
 use fiberlab_render::texture::{Encoding, Texture, Wrap};
 use std::process::Command;
 

@@ -5,7 +5,9 @@
 //! and the relative L2 distance of the tables with, in parentheses, the one the measured
 //! table's Monte Carlo error alone gives.
 //!
-//! `cargo run --release -p fiberlab-gonio --example huang_proof -- [RAYS] [OFFSETS]`
+//! `cargo run --release -p fiberlab-gonio --example huang_proof -- [RAYS] [OFFSETS] [SUB]`
+//! (defaults 1 000 000 rays, 512 offsets per node, 4 × 4 nodes per 10° bin: the R lobe at
+//! α = 0.1 needs the nodes, the microfacet lattices the offsets).
 
 use fiberlab_gonio::model_comparison::{BinAverage, compare_lobes};
 use fiberlab_gonio::{Fiber, Orientation, Setup, measure};
@@ -17,6 +19,7 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let rays: usize = args.get(1).map_or(1_000_000, |a| a.parse().expect("RAYS"));
     let offsets: usize = args.get(2).map_or(512, |a| a.parse().expect("OFFSETS"));
+    let sub: usize = args.get(3).map_or(4, |a| a.parse().expect("SUB"));
     // (aspect, orientation °, θ_i °, φ_i °, tilt °)
     let mut geometry = vec![(1.0, 0.0, 0.0, 0.0, 0.0), (1.0, 0.0, 30.0, 0.0, 0.0), (1.0, 0.0, 60.0, 0.0, 0.0)];
     for aspect in [0.85, 0.7] {
@@ -27,7 +30,10 @@ fn main() {
         ]);
     }
     geometry.push((1.0, 0.0, 30.0, 0.0, 3.0));
-    println!("rays {rays} per case, model far field over {offsets} offsets; σ_a = 0.2, 0.4, 0.8 per radius, η = 1.55");
+    println!(
+        "rays {rays} per case, model far field over {sub} × {sub} nodes per bin and {offsets} offsets per node; \
+         σ_a = 0.2, 0.4, 0.8 per radius, η = 1.55"
+    );
     println!();
     println!("| α | a | ψ | θ_i | φ_i | tilt | R | TT | TRT | TRRT+ | all |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
@@ -62,7 +68,7 @@ fn main() {
                 ],
             )
             .expect("valid parameters");
-            let rows = compare_lobes(&m, &fiber, &model, BinAverage { sub: 2, offsets });
+            let rows = compare_lobes(&m, &fiber, &model, BinAverage { sub, offsets });
             let cells: Vec<String> = rows
                 .iter()
                 .map(|r| format!("{:.3} · {:.2} ({:.2})", r.model_albedo / r.measured_albedo, r.rel_l2, r.mc_rel_l2))

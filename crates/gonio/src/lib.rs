@@ -7,9 +7,15 @@
 //! and along one scale period; each bin's `f_s` is the fraction of intercepted power that
 //! leaves through the bin divided by `∫_bin cosθ_r dω_r`, with a Monte Carlo standard error.
 //! Measurements are deterministic for a seed, whatever the thread count. Pure: no I/O.
+//!
+//! Three instruments share that estimator: the single fiber ([`fiber`], this module's
+//! [`measure`]), the slab of parallel fibers seen as a surface ([`fiber_slab`], wood), and the
+//! periodic patch of explicit fibers path traced with a fiber model ([`cloth`], woven cloth;
+//! its tubes are `fiberlab_geometry`'s curve BVH).
 #![forbid(unsafe_code)]
 
 pub mod bin_sums;
+pub mod cloth;
 pub mod fiber;
 pub mod fiber_slab;
 pub use bin_sums::BinSums;

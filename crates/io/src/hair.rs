@@ -372,6 +372,14 @@ impl HairFile {
         self.thickness.as_ref().map_or(self.default_thickness, |t| t[i])
     }
 
+    /// The strands as round tubes (radius = thickness/2) in a curve BVH, for the renderer.
+    #[must_use]
+    pub fn curve_set(&self) -> fiberlab_geometry::CurveSet {
+        fiberlab_geometry::CurveSet::from_f32_strands(&self.points, &self.strand_ranges(), |i| {
+            0.5 * f64::from(self.thickness_at(i))
+        })
+    }
+
     /// The flags word this file is written with.
     #[must_use]
     pub fn flags(&self) -> u32 {

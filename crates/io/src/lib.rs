@@ -12,6 +12,7 @@
 //! * [`weave_pattern`]: Irawan & Marschner weave patterns (grid + yarns) as text, read and write,
 //!   errors naming file, line and field.
 //! * [`image_metrics`]: RMSE, relative MSE, SSIM and FLIP between two images (`fiberlab compare`).
+//! * [`obj`]: Wavefront OBJ files as `fiberlab_geometry` triangle meshes, errors naming the line.
 #![forbid(unsafe_code)]
 
 pub mod block_error;
@@ -19,6 +20,7 @@ pub mod hair;
 pub mod image_file;
 pub mod image_metrics;
 mod lookahead;
+pub mod obj;
 pub mod pbrt_curves;
 mod scene_text;
 pub mod strand_files;

@@ -1,6 +1,8 @@
 //! Pure mathematics shared by every fiberlab model: the fiber frame and its angles,
 //! the RGB spectrum type, special functions (stable `i0e`, logistic, Gaussian),
-//! dielectric Fresnel, Bravais' modified indices and the GGX microfacet distribution. No I/O, no allocation.
+//! dielectric Fresnel, Bravais' modified indices, the GGX microfacet distribution, quadrature
+//! rules (Gauss–Legendre and the one width average of near-field quantities). No I/O, no
+//! allocation on hot paths.
 //!
 //! # Conventions (docs/theory/conventions.md), used by every crate
 //! Directions are unit vectors in the **fiber frame**: `x` = tangent `u` (root → tip),
@@ -20,7 +22,9 @@ pub mod bravais;
 pub mod frame;
 pub mod fresnel;
 pub mod microfacet;
+pub mod noise;
 pub mod phase;
+pub mod quadrature;
 pub mod special;
 pub mod spectrum;
 pub mod split_mix;

@@ -1,8 +1,8 @@
 //! `fiberlab._native.hair_*`: `.hair` strand files (`fiberlab_io::hair`) and the procedural
-//! generator of `fiberlab hair generate` (`fiberlab_render::generator`) as arrays.
+//! generator of `fiberlab hair generate` (`fiberlab_procedural::generator`) as arrays.
 
 use fiberlab_io::{Format, HairFile, strand_files};
-use fiberlab_render::generator::HairParams;
+use fiberlab_procedural::generator::HairParams;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;

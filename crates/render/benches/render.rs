@@ -2,8 +2,8 @@
 #![allow(missing_docs)] // criterion macros generate undocumented items
 //! samples on a reduced default scene. Run with `cargo bench -p fiberlab-render`.
 use criterion::{Criterion, criterion_group, criterion_main};
+use fiberlab_procedural::generator::HairParams;
 use fiberlab_render::bench::{bvh_build, ray_throughput, samples_per_second};
-use fiberlab_render::generator::HairParams;
 use fiberlab_render::scene_file::SceneFile;
 
 fn benches(c: &mut Criterion) {

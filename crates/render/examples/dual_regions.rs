@@ -5,14 +5,14 @@
 //! the reference's mean luminance, and each image's relative error of its mean luminance.
 //! Usage: `cargo run --release -p fiberlab-render --example dual_regions -- SCENE.toml
 //! REFERENCE.exr IMAGE.exr…` (images of that scene's camera; the scene needs a sun).
+use fiberlab_geometry::Ray;
+use fiberlab_geometry::shapes::sphere_hit;
 use fiberlab_io::LinearImage;
 use fiberlab_math::Rgb;
-use fiberlab_render::bvh::Ray;
 use fiberlab_render::dual_scattering::{DualScattering, DualScatteringSettings, RENDER_TABLE_RESOLUTION};
 use fiberlab_render::light::Light;
 use fiberlab_render::scene::Hit;
 use fiberlab_render::scene_file::SceneFile;
-use fiberlab_render::shapes::sphere_hit;
 use std::path::Path;
 
 const CLASSES: [&str; 6] = ["sun hidden by a surface", "0 fibers", "1-3 fibers", "4-15 fibers", "16-63 fibers", "64+"];

@@ -1,8 +1,8 @@
 //! Renders the built-in default scene to `preview.exr` / `preview.png` and prints timings and
 //! performance figures. Usage: `cargo run --release -p fiberlab-render --example preview [SPP] [THREADS]`.
 use fiberlab_io::ToneMap;
+use fiberlab_procedural::generator::HairParams;
 use fiberlab_render::bench::{bvh_build, ray_throughput, samples_per_second};
-use fiberlab_render::generator::HairParams;
 use fiberlab_render::scene_file::SceneFile;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;

@@ -2,14 +2,14 @@
 //! BVH build time and memory per segment, ray throughput for coherent camera rays and
 //! incoherent rays, and path-traced samples per second.
 
-use crate::bvh::Ray;
 use crate::camera::Camera;
-use crate::curves::CurveSet;
-use crate::generator::SplitMix64;
 use crate::integrator::{Region, RenderSettings, render};
 use crate::scene::Scene;
+use fiberlab_geometry::Ray;
+use fiberlab_geometry::curves::CurveSet;
 use fiberlab_io::HairFile;
 use fiberlab_math::DVec3;
+use fiberlab_procedural::generator::SplitMix64;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
@@ -38,7 +38,7 @@ impl BuildStats {
 #[must_use]
 pub fn bvh_build(hair: &HairFile) -> (CurveSet, BuildStats) {
     let t = Instant::now();
-    let set = CurveSet::from_hair(hair);
+    let set = hair.curve_set();
     let stats = BuildStats {
         seconds: t.elapsed().as_secs_f64(),
         segments: set.segment_count(),

@@ -1,6 +1,6 @@
 //! A pinhole camera: look-at, vertical field of view, resolution. Pixel (0, 0) is the top-left.
 
-use crate::bvh::Ray;
+use fiberlab_geometry::Ray;
 use fiberlab_math::DVec3;
 
 /// A pinhole camera.

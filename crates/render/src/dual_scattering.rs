@@ -49,11 +49,11 @@
 //! the ones the slab benchmark of `bench/dual_scattering/` selected (ARCHITECTURE.md, "Dual
 //! scattering").
 
-use crate::bvh::Ray;
-use crate::curves::CurveHit;
 use crate::fiber_count::{Crossing, DensityGrid, FiberCount, exact_crossings, exact_crossings_until};
 use crate::scene::{FiberMaterialId, Hit, Scene};
-use crate::shapes::sphere_hit;
+use fiberlab_geometry::Ray;
+use fiberlab_geometry::curves::CurveHit;
+use fiberlab_geometry::shapes::sphere_hit;
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::dual_scattering_tables::{DualTables, DualTablesError, Resolution};
 use fiberlab_scatter::{Lobes, ScatteringFunction};
@@ -608,8 +608,8 @@ fn surfaces_unoccluded(scene: &Scene, ray: &Ray) -> bool {
 mod tests {
     use super::*;
     use crate::camera::Camera;
-    use crate::curves::CurveSet;
     use crate::scene::SceneBuilder;
+    use fiberlab_geometry::curves::CurveSet;
     use fiberlab_math::split_mix::SplitMix64;
 
     /// Uniforms in [0, 1) from a seed.

@@ -2,7 +2,7 @@
 //! ([`crate::dual_scattering`]; Zinke, Yuksel, Weber and Keyser 2008, §5):
 //!
 //! * **exact**: a counting walk of the ray through every assembly's BVH
-//!   ([`crate::curves::CurveSet::each_entry`]) — every tube the ray enters, each with the sine of
+//!   ([`fiberlab_geometry::curves::CurveSet::each_entry`]) — every tube the ray enters, each with the sine of
 //!   the light's inclination to that fiber (`ω_d·u`), so each crossing is looked up at its own θ;
 //! * **grid**: a voxel density grid ([`DensityGrid`]) built once per scene. Each cell holds the
 //!   projected fiber "area density" `W = Σ 2r ℓ / V` (sum over the pieces of segments whose
@@ -16,8 +16,8 @@
 //!   a cell's average is wrong right at the shading point, where it holds the shading fiber and,
 //!   at the edge of a hair layer, the fibers on the far side of the start.
 
-use crate::bvh::Ray;
 use crate::scene::{FiberMaterialId, Scene};
+use fiberlab_geometry::Ray;
 use fiberlab_math::DVec3;
 
 /// How dual scattering counts the fibers toward the light.
@@ -72,7 +72,7 @@ pub fn exact_crossings(
 }
 
 /// [`exact_crossings`] that stops when `each` returns true (true then), in no particular
-/// order of the crossings ([`crate::curves::CurveSet::each_entry_until`]).
+/// order of the crossings ([`fiberlab_geometry::curves::CurveSet::each_entry_until`]).
 pub fn exact_crossings_until(
     scene: &Scene,
     ray: &Ray,
@@ -109,7 +109,8 @@ impl DensityGrid {
     #[must_use]
     pub fn build(scene: &Scene, resolution: usize) -> Option<Self> {
         let first = scene.fibers().first()?;
-        let bounds = scene.fibers().iter().fold(crate::bvh::Aabb::EMPTY, |b, f| b.union(f.curves().bounds()));
+        let bounds =
+            scene.fibers().iter().fold(fiberlab_geometry::bvh::Aabb::EMPTY, |b, f| b.union(f.curves().bounds()));
         let extent = bounds.max - bounds.min;
         if !(extent.max_element() > 0.0 && extent.max_element().is_finite()) {
             return None;

@@ -39,8 +39,8 @@ pub fn fiber_coverage(scene: &Scene, n: u32) -> LinearImage {
 mod tests {
     use super::*;
     use crate::camera::Camera;
-    use crate::curves::CurveSet;
     use crate::scene::SceneBuilder;
+    use fiberlab_geometry::curves::CurveSet;
     use fiberlab_math::DVec3;
 
     #[test]

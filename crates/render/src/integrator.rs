@@ -3,7 +3,7 @@
 //! parallel that can be stopped and continued, parts and merging.
 //!
 //! # Fiber hits (`docs/theory/conventions.md`, "Fiber scattering function versus renderer BSDF")
-//! At a fiber hit the frame `(u, v, w)` and `h` come from [`crate::curves`]; directions are
+//! At a fiber hit the frame `(u, v, w)` and `h` come from [`fiberlab_geometry::curves`]; directions are
 //! converted to that frame and the model's `f_s(ω_i, ω_o; h)` is evaluated. The throughput of
 //! a light sample is `f_s·cosθ_i·L_i/pdf` with `cosθ_i = sqrt(1 − (ω_i·u)²)` measured from the
 //! fiber's normal plane; a scattering sample multiplies the throughput by the model's
@@ -19,13 +19,13 @@
 //! then merged, or stop and resume.
 
 use crate::accumulation::{Accumulation, ResumeError};
-use crate::bvh::Ray;
-use crate::curves::CurveHit;
 use crate::dual_scattering::{Integrator, SurfaceBounce};
-use crate::mesh::ShadingFrame;
 pub use crate::region::Region;
 use crate::sampler::PixelSampler;
 use crate::scene::{Hit, Scene, SurfaceMaterial};
+use fiberlab_geometry::Ray;
+use fiberlab_geometry::curves::CurveHit;
+use fiberlab_geometry::mesh::ShadingFrame;
 use fiberlab_io::LinearImage;
 use fiberlab_math::frame::cos_theta;
 use fiberlab_math::{DVec3, FiberFrame, Rgb};
@@ -691,11 +691,10 @@ pub fn merge(parts: &[LinearImage]) -> Result<LinearImage, MergeError> {
 mod tests {
     use super::*;
     use crate::camera::Camera;
-    use crate::curves::CurveSet;
-    use crate::generator::{HairParams, Style};
     use crate::light::Light;
     use crate::scene::SceneBuilder;
-    use crate::shapes::TriangleMesh;
+    use fiberlab_geometry::shapes::TriangleMesh;
+    use fiberlab_procedural::generator::{HairParams, Style};
 
     /// Lossless models of every kind: Chiang 2016 with σ_a = 0 (near-field; its sample weight is
     /// exactly 1 on the camera side) and the ideal specular fiber (a delta lobe: no light
@@ -746,7 +745,7 @@ mod tests {
             Camera::look_at(DVec3::new(0.0, 0.3, 5.0), DVec3::new(0.0, 0.0, 0.0), DVec3::Y, 40.0, 24, 24).unwrap();
         let mut b = SceneBuilder::new(camera);
         let (fiber, skin) = (b.fiber_material(fiber), b.surface_material(SurfaceMaterial::Lambert(Rgb::splat(albedo))));
-        b.fibers(CurveSet::from_hair(&hair), fiber).light(Light::Constant { radiance: Rgb::ONE });
+        b.fibers(hair.curve_set(), fiber).light(Light::Constant { radiance: Rgb::ONE });
         if head {
             b.sphere(DVec3::ZERO, 1.0, skin, None);
         }

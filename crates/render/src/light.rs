@@ -208,7 +208,7 @@ impl SphereLight {
         let cos_max = (1.0 - radius * radius / d2).max(0.0).sqrt();
         let axis = to / d2.sqrt();
         let wi = sample_cone(axis, cos_max, u);
-        let distance = crate::shapes::sphere_entry(p, wi, center, radius)?;
+        let distance = fiberlab_geometry::shapes::sphere_entry(p, wi, center, radius)?;
         Some(LightSample { wi, distance, radiance: self.radiance, pdf: cone_pdf(cos_max), delta: false })
     }
 
@@ -421,7 +421,7 @@ mod tests {
         }
         assert!((integral - 1.0).abs() < 1e-2, "∫pdf = {integral}");
         // Samples land in cells with the frequency the pdf predicts (bright cell 0).
-        let mut g = crate::generator::SplitMix64::new(3);
+        let mut g = fiberlab_procedural::generator::SplitMix64::new(3);
         let n = 200_000;
         let bright = (0..n)
             .filter(|_| {
@@ -439,7 +439,7 @@ mod tests {
     fn sun_delivers_its_irradiance() {
         let sun = Light::sun(DVec3::Y, 0.02, Rgb::splat(3.0));
         // E = ∫_cone L cosθ dω, by Monte Carlo over the light's own samples.
-        let mut g = crate::generator::SplitMix64::new(1);
+        let mut g = fiberlab_procedural::generator::SplitMix64::new(1);
         let n = 20000;
         let mut e = 0.0;
         for _ in 0..n {

@@ -6,13 +6,13 @@
 //! - an emitting sphere is one sphere with an emission, never a sphere plus a separate light;
 //! - the next-event light picker is built once, with the scene.
 
-use crate::bvh::Ray;
 use crate::camera::Camera;
-use crate::curves::{CurveHit, CurveSet};
 use crate::light::{Emitter, Light, LightPicker, LightSample, SphereLight};
-use crate::mesh::SurfacePoint;
-use crate::shapes::{TriangleMesh, sphere_hit};
 use crate::surface_material::ModelMaterial;
+use fiberlab_geometry::Ray;
+use fiberlab_geometry::curves::{CurveHit, CurveSet};
+use fiberlab_geometry::mesh::SurfacePoint;
+use fiberlab_geometry::shapes::{TriangleMesh, sphere_hit};
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::Model;
 
@@ -127,7 +127,7 @@ pub enum Hit {
         p: DVec3,
         /// Geometric unit normal (not flipped).
         n: DVec3,
-        /// Texture coordinates, shading normal and tangent ([`crate::mesh`]).
+        /// Texture coordinates, shading normal and tangent ([`fiberlab_geometry::mesh`]).
         shading: SurfacePoint,
         /// Its material.
         material: SurfaceMaterialId,

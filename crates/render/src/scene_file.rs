@@ -26,19 +26,19 @@
 //! Relative paths are resolved against the scene file's directory.
 
 use crate::camera::Camera;
-use crate::curves::{CubicBasis, CurveSet};
-use crate::generator::HairParams;
 use crate::integrator::RenderSettings;
 use crate::light::{EnvironmentMap, Light};
 use crate::model_loader::{LoadError, load_model, load_surface_model};
 use crate::scene::{FiberMaterialId, Scene, SceneBuilder, SurfaceMaterial, SurfaceMaterialId};
-use crate::shapes::TriangleMesh;
 use crate::strand_diameters;
 use crate::surface_material::{ModelMaterial, takes_uv_position, texture_source};
 use crate::toml_params::raw_pairs;
+use fiberlab_geometry::curves::{CubicBasis, CurveSet};
+use fiberlab_geometry::shapes::TriangleMesh;
 use fiberlab_io::Basis;
 use fiberlab_io::{HairFile, LinearImage};
 use fiberlab_math::{DVec3, Rgb};
+use fiberlab_procedural::generator::HairParams;
 use fiberlab_scatter::{Model, ModelError};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -218,7 +218,7 @@ struct MeshDesc {
     translate: Option<[f64; 3]>,
 }
 
-/// `[[mesh]] cabochon = { … }`: a sphere-cap dome ([`crate::cabochon`]).
+/// `[[mesh]] cabochon = { … }`: a sphere-cap dome ([`fiberlab_procedural::cabochon`]).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CabochonDesc {
@@ -450,6 +450,14 @@ impl SceneFile {
     pub fn image_size(&self) -> (u32, u32) {
         let c = self.desc.camera.get_ref();
         (c.width, c.height)
+    }
+
+    /// Renders `width × height` pixels instead of the camera's own size (`fiberlab render
+    /// --size`, for quick previews): the vertical field of view is kept, so a different aspect
+    /// ratio shows more or less of the scene at the sides.
+    pub fn override_image_size(&mut self, width: u32, height: u32) {
+        let c = self.desc.camera.get_mut();
+        (c.width, c.height) = (width, height);
     }
 
     /// The memory [`SceneFile::build`] and a render of the scene will take, estimated before
@@ -738,7 +746,7 @@ impl SceneFile {
             }
             strand_diameters::check(&hair).map_err(|e| self.error(span, format!("{source}: {e}")))?;
             let curves = match cubic {
-                None => CurveSet::from_hair(&hair),
+                None => hair.curve_set(),
                 Some(strands) => cubic_curves(&strands, per_curve),
             };
             scene.fibers(curves, material);
@@ -929,8 +937,9 @@ impl SceneFile {
                 }
                 let cd = c.get_ref();
                 let translate = self.point(m.span(), "mesh: translate", md.translate.unwrap_or_default())?;
-                let dome = crate::cabochon::cabochon(cd.radius, cd.height, cd.rings, cd.sectors, translate)
-                    .map_err(|e| self.error(c.span(), format!("mesh: {e}")))?;
+                let dome =
+                    fiberlab_procedural::cabochon::cabochon(cd.radius, cd.height, cd.rings, cd.sectors, translate)
+                        .map_err(|e| self.error(c.span(), format!("mesh: {e}")))?;
                 scene.mesh(dome, material);
                 continue;
             }
@@ -943,7 +952,7 @@ impl SceneFile {
                     let translate = self.point(m.span(), "mesh: translate", md.translate.unwrap_or_default())?;
                     // Vertices that the scale or translation makes infinite are refused there.
                     let path = self.resolve(f.get_ref());
-                    let mesh = TriangleMesh::load_obj(&path, scale, translate)
+                    let mesh = fiberlab_io::obj::read_obj(&path, scale, translate)
                         .map_err(|e| self.error(f.span(), format!("mesh: {e}")))?;
                     if !mesh.has_uvs() && self.textured(&md.material) {
                         return Err(self.error(
@@ -1365,7 +1374,7 @@ mod tests {
             // kept in the repository: that scene builds on one repeat of the default patch, made here.
             let text = std::fs::read_to_string(&path).unwrap();
             if text.contains("file = \"cloth_patch.usda\"") && !dir.join("cloth_patch.usda").exists() {
-                let fibers = crate::woven_patch::WovenPatch::default().fibers(1, 1).unwrap();
+                let fibers = fiberlab_procedural::woven_patch::WovenPatch::default().fibers(1, 1).unwrap();
                 fiberlab_io::strand_files::write(&made.path().join("cloth_patch.usda"), &fibers.strands(), 1).unwrap();
                 path = made.path().join(path.file_name().unwrap());
                 std::fs::write(&path, &text).unwrap();

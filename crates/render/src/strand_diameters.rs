@@ -2,7 +2,7 @@
 //! generated hair before it becomes tubes.
 //!
 //! A strand is rendered as tubes whose segment `k` has the diameter `(d_k + d_{k+1})/2` of
-//! its two end points (see [`crate::curves`]), so the rule applies to that segment diameter
+//! its two end points (see [`fiberlab_geometry::curves`]), so the rule applies to that segment diameter
 //! (a pointed tip, `d = 0` at the last point, is allowed). Each segment diameter `d` must be
 //! * finite and `> 0` — a tube of diameter 0 (or NaN) is never hit, the strand vanishes;
 //! * at most [`MAX_FRACTION_OF_EXTENT`] of the diagonal of the hair's bounding box (of its

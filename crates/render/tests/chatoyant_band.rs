@@ -9,12 +9,12 @@
 //! curve across the fibers. Each image row's brightest pixel is compared with that locus,
 //! computed from the camera rays alone.
 
+use fiberlab_geometry::shapes::TriangleMesh;
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_render::camera::Camera;
 use fiberlab_render::integrator::{RenderSettings, render};
 use fiberlab_render::light::Light;
 use fiberlab_render::scene::{SceneBuilder, SurfaceMaterial};
-use fiberlab_render::shapes::TriangleMesh;
 use fiberlab_render::surface_material::ModelMaterial;
 use fiberlab_scatter::{build_surface, find_surface};
 use std::sync::atomic::AtomicBool;

@@ -3,10 +3,9 @@
 //! mutated valid scenes and OBJ-like text never panic, every error names its file, and
 //! every non-finite number written into a scene is refused at a line of the file.
 
+use fiberlab_geometry::Ray;
 use fiberlab_math::DVec3;
-use fiberlab_render::bvh::Ray;
 use fiberlab_render::scene_file::{SceneError, SceneFile};
-use fiberlab_render::shapes::TriangleMesh;
 use proptest::prelude::*;
 use proptest::sample::Index;
 use std::path::Path;
@@ -170,9 +169,9 @@ fn every_non_finite_scene_number_is_refused_at_its_line() {
 #[test]
 fn obj_coordinates_beyond_single_precision_name_their_line() {
     let text = "v 0 0 0\nv 1e39 0 0\nv 1 1 0\nf 1 2 3\n";
-    let e = TriangleMesh::parse_obj(text, Path::new("big.obj"), 1.0, DVec3::ZERO).unwrap_err().to_string();
+    let e = fiberlab_io::obj::parse_obj(text, Path::new("big.obj"), 1.0, DVec3::ZERO).unwrap_err().to_string();
     assert!(e.starts_with("big.obj: line 2:") && e.contains("`v 1e39 0 0`"), "{e}");
-    assert!(TriangleMesh::parse_obj(&text.replace("1e39", "3e38"), Path::new("big.obj"), 1.0, DVec3::ZERO).is_ok());
+    assert!(fiberlab_io::obj::parse_obj(&text.replace("1e39", "3e38"), Path::new("big.obj"), 1.0, DVec3::ZERO).is_ok());
 }
 
 /// Values a hostile user might put in place of any number of the scene.
@@ -244,7 +243,7 @@ proptest! {
                 format!("{} {}\n", kinds[*kind], rest.join(" "))
             })
             .collect();
-        match TriangleMesh::parse_obj(&text, Path::new("hostile.obj"), 1.0, DVec3::ZERO) {
+        match fiberlab_io::obj::parse_obj(&text, Path::new("hostile.obj"), 1.0, DVec3::ZERO) {
             Ok(mesh) => {
                 prop_assert!(!mesh.is_empty());
                 let _ = mesh.intersect(&Ray::new(DVec3::new(0.2, 0.3, 5.0), -DVec3::Z));
@@ -255,7 +254,7 @@ proptest! {
 
     #[test]
     fn random_bytes_never_panic_the_obj_reader(bytes in proptest::collection::vec(any::<u8>(), 0..400)) {
-        if let Err(e) = TriangleMesh::parse_obj(&String::from_utf8_lossy(&bytes), Path::new("hostile.obj"), 1.0, DVec3::ZERO) {
+        if let Err(e) = fiberlab_io::obj::parse_obj(&String::from_utf8_lossy(&bytes), Path::new("hostile.obj"), 1.0, DVec3::ZERO) {
             prop_assert!(e.to_string().starts_with("hostile.obj: "), "{}", e);
         }
     }

@@ -1,12 +1,12 @@
 //! Surface-model materials in the path tracer, against closed forms.
 
+use fiberlab_geometry::shapes::TriangleMesh;
 use fiberlab_io::LinearImage;
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_render::camera::Camera;
 use fiberlab_render::integrator::{RenderSettings, render};
 use fiberlab_render::light::Light;
 use fiberlab_render::scene::{SceneBuilder, SurfaceMaterial};
-use fiberlab_render::shapes::TriangleMesh;
 use fiberlab_render::surface_material::{ModelMaterial, TextureSource};
 use fiberlab_render::texture::Wrap;
 use fiberlab_scatter::{build_surface, find_surface};

@@ -1,8 +1,8 @@
 //! Scene files with surface-model materials, textures and cabochons.
 
+use fiberlab_geometry::Ray;
 use fiberlab_io::LinearImage;
 use fiberlab_math::DVec3;
-use fiberlab_render::bvh::Ray;
 use fiberlab_render::scene::{Hit, SurfaceMaterial};
 use fiberlab_render::scene_file::SceneFile;
 use std::path::Path;

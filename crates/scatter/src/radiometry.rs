@@ -9,6 +9,7 @@
 
 use crate::{Field, Lobes, ModelError, ScatteringFunction, params::Range};
 use fiberlab_math::frame::{cos_theta, direction, direction_from_sin_cos, phi, theta};
+use fiberlab_math::quadrature::width_nodes;
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -68,15 +69,16 @@ impl CrossSection {
     }
 }
 
-/// Resolution of the midpoint quadratures below: θ cells over [−π/2, π/2], φ cells over
-/// [−π, π], and h cells over [−1, 1] (used only for near-field models).
+/// Resolution of the quadratures below: midpoint θ cells over [−π/2, π/2] and φ cells over
+/// [−π, π], and `h` nodes of the width average (near-field models only).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Quadrature {
     /// Cells in θ.
     pub theta: usize,
     /// Cells in φ.
     pub phi: usize,
-    /// Cells in h (near-field models only).
+    /// Nodes of the width average, rounded up to whole panels of four (near-field models
+    /// only; [`fiberlab_math::quadrature::width_nodes`]).
     pub h: usize,
 }
 
@@ -100,11 +102,11 @@ impl Quadrature {
         }
     }
 
-    /// The h nodes (and weight ½·dh each, so the weights sum to 1) for `f`'s field.
-    fn h_nodes(&self, field: Field) -> impl Iterator<Item = (f64, f64)> {
-        let n = if field == Field::Near { self.h.max(1) } else { 1 };
-        (0..n)
-            .map(move |k| if n == 1 { (0.0, 1.0) } else { (-1.0 + (k as f64 + 0.5) * 2.0 / n as f64, 1.0 / n as f64) })
+    /// The h nodes and weights (summing to 1) for `f`'s field: the width-average rule of
+    /// [`fiberlab_math::quadrature::width_nodes`] with about `h` nodes (four per panel) for a
+    /// near-field model, `h = 0` for a far-field one.
+    fn h_nodes(&self, field: Field) -> Vec<(f64, f64)> {
+        if field == Field::Near { width_nodes(self.h.max(1).div_ceil(4)) } else { vec![(0.0, 1.0)] }
     }
 }
 

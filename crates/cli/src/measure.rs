@@ -29,9 +29,9 @@ use std::time::Instant;
 /// Flags of `fiberlab measure`, each read and validated by its value parser.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Fiber parameter as KEY=VALUE (repeatable): eta, sigma_a, aspect, orientation (degrees
-    /// or `average`), scale_angle (degrees), scale_length, medulla_radius, medulla_sigma_s,
-    /// medulla_sigma_a, medulla_g, surface, albedo.
+    /// Fiber parameter as KEY=VALUE (repeatable): eta, roughness (GGX α of the interface, 0 =
+    /// smooth), sigma_a, aspect, orientation (degrees or `average`), scale_angle (degrees),
+    /// scale_length, medulla_radius, medulla_sigma_s, medulla_sigma_a, medulla_g, surface, albedo.
     #[arg(long = "param", value_name = "KEY=VALUE", value_parser = arg_values::key_value, conflicts_with = "surface")]
     params: Vec<KeyValue>,
     /// A TOML file with the same keys (command-line --param values override it).
@@ -199,10 +199,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     println!("traced {traced} rays in {seconds:.2} s: {:.3} Mrays/s", traced as f64 / seconds / 1e6);
     for m in &measurements {
         println!(
-            "θ_i = {:.2}°: missed {} (beam margin for scales), dropped {} (> event limit)",
+            "θ_i = {:.2}°: missed {} (beam margin for scales), dropped {} (> event limit), masked {} (rough interface)",
             m.setup.theta_i.to_degrees(),
             m.missed,
-            m.dropped
+            m.dropped,
+            m.masked
         );
         for (name, lobe) in Measurement::LOBE_NAMES.iter().zip(&m.lobes) {
             // The lobe's peak bin (luminance) and its relative Monte Carlo error.

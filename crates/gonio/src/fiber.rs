@@ -1,6 +1,6 @@
 //! The simulated fiber: an infinite straight dielectric cylinder along `x` (the fiber
 //! frame's tangent, root → tip) with an elliptical cross-section, optional cuticle scales,
-//! absorbing interior and an optional scattering medulla. Lengths are in units of the
+//! a smooth or rough (GGX) interface, absorbing interior and an optional scattering medulla. Lengths are in units of the
 //! major semi-axis (the "radius"), so absorption coefficients are per unit radius, as in
 //! the analytic models.
 
@@ -99,6 +99,9 @@ pub enum SurfaceKind {
 pub struct Fiber {
     /// Refractive index η of the cortex (and medulla).
     pub eta: f64,
+    /// GGX roughness α of the interface (0: smooth), about the local surface normal (the
+    /// tilted scale normal where there are scales), at every crossing from either side.
+    pub roughness: f64,
     /// Cortex absorption per unit radius.
     pub sigma_a: Rgb,
     /// Axis ratio a = minor/major ∈ (0, 1].
@@ -122,6 +125,7 @@ impl Default for Fiber {
     fn default() -> Self {
         Self {
             eta: 1.55,
+            roughness: 0.0,
             sigma_a: Rgb::ZERO,
             aspect: 1.0,
             orientation: Orientation::Fixed(0.0),
@@ -142,6 +146,7 @@ impl Fiber {
     /// Validates every field.
     pub fn validate(&self) -> Result<(), FiberError> {
         check("eta", self.eta, self.eta > 1.0 && self.eta <= 4.0, "(1, 4]")?;
+        check("roughness", self.roughness, (0.0..=1.0).contains(&self.roughness), "[0, 1]")?;
         for c in 0..3 {
             check("sigma_a", self.sigma_a[c], self.sigma_a[c] >= 0.0, "[0, ∞)")?;
         }
@@ -196,6 +201,13 @@ pub const FIBER_PARAMS: &[ParamSpec] = &[
         unit: "",
         default: "1.55",
         doc: "refractive index of the cortex (and medulla)",
+    },
+    ParamSpec {
+        key: "roughness",
+        kind: ParamKind::Number(Range::UNIT),
+        unit: "",
+        default: "0",
+        doc: "GGX roughness α of the interface (0: smooth), visible normals sampled at every crossing",
     },
     ParamSpec {
         key: "sigma_a",
@@ -370,6 +382,7 @@ impl Fiber {
         };
         let f = Fiber {
             eta: p.number("eta")?,
+            roughness: p.number("roughness")?,
             sigma_a: p.color("sigma_a")?,
             aspect: p.number("aspect")?,
             orientation,
@@ -405,7 +418,11 @@ mod tests {
         assert!(e.contains("`eta`"), "{e}");
         let e = Fiber::from_pairs(&[("colour", "1")]).unwrap_err();
         assert!(matches!(e, FiberKeyError::UnknownKey { .. }), "{e}");
-        assert!(e.to_string().contains("eta, sigma_a, aspect"), "{e}");
+        assert!(e.to_string().contains("eta, roughness, sigma_a, aspect"), "{e}");
+        let rough = Fiber::from_pairs(&[("roughness", "0.3")]).unwrap();
+        assert_eq!(rough.roughness, 0.3);
+        let e = Fiber::from_pairs(&[("roughness", "1.5")]).unwrap_err().to_string();
+        assert!(e.contains("`roughness`"), "{e}");
         assert!(matches!(Fiber::from_pairs(&[("orientation", "sideways")]), Err(FiberKeyError::Orientation(_))));
         assert_eq!(Fiber::from_pairs::<&str, &str>(&[]).unwrap(), Fiber::default());
         let m = Fiber::from_pairs(&[("medulla_radius", "0.3"), ("medulla_sigma_s", "5")]).unwrap();

@@ -1,13 +1,16 @@
 //! Tracing one ray through the explicit fiber: Fresnel splitting at every interface by
-//! stochastic branch selection (reflect with probability F, so weights stay 1), total
-//! internal reflection, path-length absorption, Henyey–Greenstein scattering in the
+//! stochastic branch selection (reflect with probability F, so weights stay 1; on a rough
+//! outer interface at a visible microfacet normal, with the masking weight of
+//! [`crate::interface`]), total internal reflection, path-length absorption, Henyey–Greenstein scattering in the
 //! medulla, refraction at a lumen's boundary, and classification of the path by its sequence
 //! of events at the outer surface (events at the medulla's or lumen's boundary do not change
 //! the class: a TT path is one that entered and left the fiber without an internal
 //! reflection at the outer surface, whatever it met inside).
 
 use crate::fiber::{Fiber, SurfaceKind};
+use crate::interface::{Crossing, cross};
 use crate::surface::Surface;
+use fiberlab_math::microfacet::Ggx;
 use fiberlab_math::phase::sample_henyey_greenstein;
 use fiberlab_math::{DVec3, FiberFrame, Rgb, fresnel};
 use rand::Rng;
@@ -59,6 +62,9 @@ pub enum Outcome {
     Dropped,
     /// The ray left the fiber.
     Exit(Exit),
+    /// A rough interface sent the path back into its microsurface (single-scattering
+    /// microfacet loss, [`crate::interface::Crossing::Masked`]); its power is lost.
+    Masked,
 }
 
 /// Interactions after which a path is dropped (reported as lost energy).
@@ -171,6 +177,7 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
     let mut outside = true;
     let mut in_core = false;
     let core = Core::of(fiber, surface);
+    let ggx = (fiber.roughness > 0.0).then(|| Ggx::new(fiber.roughness));
     for _ in 0..MAX_EVENTS {
         if outside {
             let Some(hit) = surface.intersect(p, d, EPS) else {
@@ -188,14 +195,17 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
                 ev.external_reflections += 1;
                 continue;
             }
-            let cos_i = -d.dot(hit.normal);
-            if rng.random::<f64>() < fresnel::dielectric(cos_i, fiber.eta) {
-                d = (d + hit.normal * (2.0 * cos_i)).normalize();
-                ev.external_reflections += 1;
-            } else {
-                d = refract(d, hit.normal, 1.0 / fiber.eta).expect("no TIR entering a denser medium");
-                ev.transmissions += 1;
-                outside = false;
+            match cross(d, hit.normal, fiber.eta, ggx.as_ref(), rng) {
+                Crossing::Reflected { direction, weight: w } => {
+                    (d, weight) = (direction, weight * w);
+                    ev.external_reflections += 1;
+                }
+                Crossing::Refracted { direction, weight: w } => {
+                    (d, weight) = (direction, weight * w);
+                    ev.transmissions += 1;
+                    outside = false;
+                }
+                Crossing::Masked => return Outcome::Masked,
             }
             continue;
         }
@@ -232,22 +242,23 @@ pub fn trace(fiber: &Fiber, surface: &Surface, origin: DVec3, dir: DVec3, rng: &
         }
         weight *= (fiber.sigma_a * -hit.t).exp();
         p += d * hit.t;
-        let cos_i = d.dot(hit.normal);
-        if cos_i <= 0.0 || rng.random::<f64>() < fresnel::dielectric(cos_i, 1.0 / fiber.eta) {
+        if d.dot(hit.normal) <= 0.0 {
+            // Grazing or numerically inward at the wall: a mirror reflection keeps it inside.
             d = (d - hit.normal * (2.0 * d.dot(hit.normal))).normalize();
             ev.internal_reflections += 1;
-        } else {
-            match refract(d, -hit.normal, fiber.eta) {
-                Some(t) => {
-                    d = t;
-                    ev.transmissions += 1;
-                    outside = true;
-                }
-                None => {
-                    d = (d - hit.normal * (2.0 * cos_i)).normalize();
-                    ev.internal_reflections += 1;
-                }
+            continue;
+        }
+        match cross(d, -hit.normal, 1.0 / fiber.eta, ggx.as_ref(), rng) {
+            Crossing::Reflected { direction, weight: w } => {
+                (d, weight) = (direction, weight * w);
+                ev.internal_reflections += 1;
             }
+            Crossing::Refracted { direction, weight: w } => {
+                (d, weight) = (direction, weight * w);
+                ev.transmissions += 1;
+                outside = true;
+            }
+            Crossing::Masked => return Outcome::Masked,
         }
     }
     Outcome::Dropped

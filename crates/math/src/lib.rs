@@ -1,7 +1,8 @@
 //! Pure mathematics shared by every fiberlab model: the fiber frame and its angles,
 //! the RGB spectrum type, special functions (stable `i0e`, logistic, Gaussian),
-//! dielectric Fresnel and Bravais' modified indices, quadrature rules (Gauss–Legendre and the
-//! one width average of near-field quantities). No I/O, no allocation on hot paths.
+//! dielectric Fresnel, Bravais' modified indices, the GGX microfacet distribution, quadrature
+//! rules (Gauss–Legendre and the one width average of near-field quantities). No I/O, no
+//! allocation on hot paths.
 //!
 //! # Conventions (docs/theory/conventions.md), used by every crate
 //! Directions are unit vectors in the **fiber frame**: `x` = tangent `u` (root → tip),
@@ -21,6 +22,7 @@ pub mod bravais;
 pub mod colorimetry;
 pub mod frame;
 pub mod fresnel;
+pub mod microfacet;
 pub mod noise;
 pub mod phase;
 pub mod quadrature;
@@ -29,5 +31,5 @@ pub mod spectrum;
 pub mod split_mix;
 
 pub use frame::{FiberFrame, relative_phi, wrap_pi};
-pub use glam::DVec3;
+pub use glam::{DVec2, DVec3};
 pub use spectrum::{Rgb, Spectrum};

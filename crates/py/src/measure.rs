@@ -95,5 +95,6 @@ fn measurement_dict<'py>(py: Python<'py>, m: &Measurement) -> PyResult<Bound<'py
     d.set_item("traced", m.traced)?;
     d.set_item("missed", m.missed)?;
     d.set_item("dropped", m.dropped)?;
+    d.set_item("masked", m.masked)?;
     Ok(d)
 }

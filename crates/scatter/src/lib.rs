@@ -24,6 +24,7 @@ pub mod dual_scattering_tables;
 pub mod feret_2017;
 pub mod goldman_1997;
 pub mod hollow_fiber;
+pub mod huang_2022;
 pub mod ideal_diffuse;
 pub mod ideal_specular;
 pub mod irawan_2012;

@@ -140,6 +140,7 @@ models! {
         Deon(crate::deon_2011::Deon),
         YanFur(crate::yan_2017::YanFur),
         HollowFiber(crate::hollow_fiber::HollowFiber),
+        Huang(crate::huang_2022::Huang),
         SadeghiThread(crate::sadeghi_2013::SadeghiThread);
     from_data:
         Measured(crate::measured::Measured);
@@ -236,6 +237,8 @@ mod tests {
             hf::HollowFiberParams::from_param_set(&defaults(&hf::HollowFiber::INFO)),
             Ok(hf::HollowFiberParams::default())
         );
+        use crate::huang_2022 as hu;
+        assert_eq!(hu::HuangParams::from_param_set(&defaults(&hu::Huang::INFO)), Ok(hu::HuangParams::default()));
         use crate::sadeghi_2013 as sd;
         let thread = sd::ThreadParams::from_param_set(&defaults(&sd::SadeghiThread::INFO)).unwrap();
         let expected = sd::ThreadParams::default();

@@ -1,7 +1,10 @@
 //! The one width average (`ScatteringFunction::eval_far`): for every near-field model, with its
 //! defaults and with narrow azimuthal lobes, the default rule agrees with a 2048-node rule of the
 //! same kind (1024 panels) and with a 20000-cell midpoint rule in `h` (an independent
-//! discretisation); a far-field model's width average is its value.
+//! discretisation); a far-field model's width average is its value. `huang-2022` integrates its
+//! microfacets across the width (each offset shifts its lattices), so its `eval` is not smooth
+//! in h and every rule is a quasi-Monte Carlo sum there (1.2% off measured where a narrow
+//! TT lobe gets few nodes): 3% for it.
 
 use fiberlab_math::frame::direction;
 use fiberlab_math::quadrature::width_nodes;
@@ -48,12 +51,13 @@ fn eval_far_is_the_width_average_of_every_near_field_model() {
                 assert_eq!(far, model.eval(wi, wo, 0.0), "{name}: a far-field model's average is its value");
                 continue;
             }
+            let tol = if name.starts_with("huang-2022") { 3e-2 } else { 2e-3 };
             for (what, want) in
                 [("2048-node rule", reference(model, wi, wo)), ("midpoints in h", midpoint_in_h(model, wi, wo))]
             {
                 for c in 0..3 {
                     assert!(
-                        (far[c] - want[c]).abs() <= 2e-3 * scale,
+                        (far[c] - want[c]).abs() <= tol * scale,
                         "{name}: eval_far {far:?} vs {what} {want:?} at {wi} {wo}"
                     );
                 }

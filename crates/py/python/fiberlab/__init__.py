@@ -354,7 +354,8 @@ def measure(fiber: Optional[Mapping[str, Any]] = None, theta_i=0.0, phi_i: float
     ``theta_r`` ``(nθ,)`` and ``phi`` ``(nφ,)`` (radians), ``lobes`` (``"r"``, ``"tt"``,
     ``"trt"``, ``"higher"``, ``"medulla"``, ``"all"`` → ``{"f", "std"}`` ``(nθ, nφ, 3)`` f_s in
     sr⁻¹ and its Monte Carlo standard error, and ``"albedo"`` ``(3,)``) and the ray counts
-    ``traced``, ``missed``, ``dropped``; for a list, a list of such dicts.
+    ``traced``, ``missed``, ``dropped``, ``masked`` (paths ended by a rough interface); for a
+    list, a list of such dicts.
     """
     thetas = np.atleast_1d(np.asarray(theta_i, dtype=np.float64))
     if thetas.ndim != 1:

@@ -5,10 +5,12 @@
 //! | file | concept | papers |
 //! |---|---|---|
 //! | [`longitudinal`] | d'Eon's normalized `M_p` and Marschner's Gaussian lobes | d'Eon 2011, Marschner 2003 |
+//! | [`ellipse`] | elliptical cross-sections: offsets, boundary points, exact smooth paths | Khungurn & Marschner 2017 |
 //! | [`normal_plane`] | Bravais' `η′`, the exit azimuth `Φ(p, h)`, its roots and the TRT caustic | Marschner 2003 |
 //! | [`attenuation`] | Fresnel, chord lengths (optionally through a concentric core), `A_p` | Marschner 2003, Chiang 2016, Yan 2015 |
 //! | [`absorption`] | where σ_a comes from: given, melanin, or a desired colour | d'Eon 2011, Chiang 2016 |
 //! | [`tilt`] | the cuticle tilt of each lobe, as a rotation of the fixed direction (Chiang's and Marschner's ratios) | Chiang 2016, d'Eon 2013, Marschner 2003 |
+//! | [`rough_interface`] | directional albedos of a rough (GGX) dielectric interface | Walter 2007, Heitz 2018 |
 //! | [`roughness`] | Chiang's maps β → `v_p`, `s`, and d'Eon's azimuthal σ | Chiang 2016 |
 //! | [`backward_form`] | `f_s = g/cosθ_i`, light-side albedo, measured non-reciprocity | Chiang 2016 |
 //! | [`tube`] | a wall around a concentric core of another index: the kinds of wall pass, their turns and Fresnel weights | (ours; Bravais 1856 as in Marschner 2003) |
@@ -34,11 +36,13 @@
 pub mod absorption;
 pub mod attenuation;
 pub mod backward_form;
+pub mod ellipse;
 pub mod fiber;
 pub mod longitudinal;
 pub mod medulla;
 pub mod normal_plane;
 pub mod parameters;
+pub mod rough_interface;
 pub mod roughness;
 pub mod tilt;
 pub mod tube;

@@ -53,33 +53,18 @@
 //!   quintic fade; the paper and Mitsuba use Perlin gradient noise — same role, a different
 //!   noise), one field for warps and one for wefts, held in [0.5°, 89.5°].
 //!
-//! The paper's equation numbers are not quoted here: the repository holds no copy of the
-//! paper, and the formulas above are written from its description (circle/ellipse/parabola/
-//! hyperbola spines, `min(−ln ξ, 10)` intensity cells, u_max noise) and re-derived.
-//! These options are fixed at construction and included in the normalisation tables (below),
-//! so the diffuse-light average stays 1 with them (tested); with `umax_noise` the tables
-//! average over enough tiles to hold 8×8 cells of the noise lattice.
+//! These options are fixed at construction and included in the normalisation tables (below).
+//! Equation numbers are not quoted (no copy of the paper was checked; see
+//! `docs/theory/irawan-2012.md`).
 //!
 //! # Normalisation (stays correct under textured α, β)
-//! `f_r = k_d/π + k_s·X·s_n`, X the integrand above. Mitsuba computes one `s_n` per fabric,
-//! so that the specular part's average albedo under diffuse light is 1, before rendering;
-//! texturing α or β afterwards leaves `s_n` stale (the complaint of ThunderLoom #26). Here
-//! `s_n` is a function of the current α and β: X is linear in α,
-//! `X = α·X₁ + X₂(β)`, so the diffuse-light average `π·E[X]` (E over cosine-distributed
-//! `ω_i`, `ω_o` and uniform UV) is `α·S₁ + S₂(β)`. At construction `S₁` and `S₂` on 65
-//! values of β ∈ [0, 20] are estimated from the same 2·10⁵ sample pairs; at evaluation
-//! `s_n = 1/(α·S₁ + S₂(β))` with `S₂` interpolated linearly in β. Setting α or β through
-//! `set_parameter` therefore renormalises exactly (α) or to the interpolation error (β).
-//!
-//! **The average normalisation does not bound the albedo pointwise.** The highlights are
-//! concentrated on a few points of the tile and a few directions, so the directional albedo
-//! of `X·s_n` at one UV point reaches several times its average: on a 12×12 UV grid × 48
-//! light directions we measured peaks of 8.2 (cotton denim), 4.1 (silk shantung), 7.9 (silk
-//! charmeuse), 11.7 (cotton twill), 9.2 (wool gabardine) and 7.1 (polyester lining) per unit
-//! `k_s`. The presets' `k_s` (ours, like their colours) are therefore chosen as
-//! `0.8·(1 − max k_d)/peak`, which keeps `∫ f_r cosθ_o dω_o ≤ 1` on the tested grid; a larger
-//! `k_s_scale`, α or β texture can exceed 1 at individual points while the fabric average
-//! stays `k_s + k_d`.
+//! `f_r = k_d/π + k_s·X·s_n`, X the integrand above, `s_n = 1/(α·S₁ + S₂(β))`: the
+//! diffuse-light average of X is linear in α, and `S₁`, `S₂` (on 65 values of β ∈ [0, 20])
+//! are estimated at construction from 2·10⁵ sample pairs, so texturing α or β through
+//! `set_parameter` renormalises (exactly in α, to the interpolation error in β). The average
+//! does not bound the albedo pointwise (peaks of 4–12 per unit `k_s`); the presets' `k_s` keep
+//! `∫ f_r cosθ_o dω_o ≤ 1` on a tested grid. Why, and the measured peaks:
+//! `docs/theory/irawan-2012.md`.
 //!
 //! Reciprocal: everything depends on the directions through `h`, `|ω_i + ω_o|`, `ω_i·ω_o` and
 //! the symmetric Seeliger factor (the harness checks the claim). Energy: `k_s + k_d ≤ 1` bounds the average

@@ -37,64 +37,17 @@
 //!   `η*(φ_h) = ½[(η*₁ + η*₂) + cos(2φ_h)(η*₁ − η*₂)]`, `η*₁ = 2(η − 1)a² − η + 2`,
 //!   `η*₂ = 2(η − 1)a⁻² − η + 2`, φ_h from the major axis `v` (+y).
 //!
-//! # Decisions where the paper and its implementations differ
-//! (`docs/theory/peer-discrepancies.md` records each with the peers' choices.)
-//! * **Normalization k_M** ("Marschner longitudinal normalization"): `normalization=energy`
-//!   (default) uses `k_M = ½`: a unit-area Gaussian in θ_h has mass 2 in θ_r
-//!   (dθ_r = 2dθ_h), so `k_M = ½` makes `∫ S cosθ_r dω_r ≈ Σ_p ∫N_p dφ = Σ_p ½∫A_p dh ≤ 1`
-//!   for narrow, unshifted lobes (tested: within 1.5% up to θ_i = 0.95 rad);
-//!   `normalization=paper` uses `k_M = 1` as the formula is printed (Cortex does this), with
-//!   twice the albedo. Default energy, because the renderer and furnace tests need a fiber
-//!   that does not create light; the paper's intent cannot be settled from the sources. Even
-//!   with `k_M = ½` the model is **not** energy conserving in general, and
-//!   [`Properties::energy_conserving`] says so: lobes shifted by α_p or widened by β_p put
-//!   light off the cone θ_r = −θ_i, where `cos²θ_r/cos²θ_d ≠ 1` (measured, σ_a = 0, no
-//!   glints: ρ ≈ 1.05 at θ_i ≈ 1 rad for Table 1 values; for narrow lobes ρ → ≈ 1.85 as
-//!   θ_i → 90°, where `cos²θ_r/cos²θ_d → 4cos²θ_h`), and the glints add up to ≈ 0.1 more
-//!   ([`albedo_table`]).
-//! * **Roots** ("Cubic root approximation"): `roots=exact` (default) solves `Φ(p, γ) = φ`
-//!   exactly by bracketing on the monotone pieces (split at the caustic γ_c) and safeguarded
-//!   Newton; it stays well-posed as η′ → ∞ (θ_d → ±90°), where Φ becomes linear.
-//!   `roots=cubic` is the paper's approximation `γ_t ≈ (3c/π)γ − (4c/π³)γ³`,
-//!   `c = asin(1/η′)`, solved by the same bracketing on the cubic (no closed-form Cardano, so
-//!   a → 0 is harmless). Exact is the default because the cubic moves the caustic by ~2°
-//!   (20.5° vs 18.6° at θ_d = 0) and the exact solve costs little; the cubic is kept for
-//!   paper fidelity and comparison ([`cubic_azimuth_error_table`], [`caustic_table`]). In
-//!   both modes A uses the exact γ_t; the caustic position, width and Φ'' come from the
-//!   chosen Φ (as the paper does).
-//! * **Fresnel** ("Fresnel with the parallel Bravais index"): the 3D dielectric Fresnel at
-//!   `cosθ_d·cosγ` for every interface (no Snell with η″, which fakes total internal
-//!   reflection at grazing θ_d).
-//! * **Absorption path** ("Printed absorption path"): `absorption=chord` (default) uses the
-//!   internal chord `2cosγ_t/cosθ_t`; `absorption=paper` the printed `2σ_a′(1 + cos 2γ_t) =
-//!   4σ_a cos²γ_t/cosθ_t`, which is not the chord length (Zinke & Weber 2007). σ_a is per
-//!   unit radius; θ_t from Snell along the axis with θ_d (`sinθ_t = sinθ_d/η`).
-//! * **Fade** ("Glint fade"): `t = 1 − smoothstep(2, 2 + Δη′, η′)`, the only choice
-//!   continuous with t = 1 below η′ = 2. The glint Gaussians are evaluated at the wrapped
-//!   differences `wrap(φ ∓ φ_c)`; the sampler's glint density is the wrapped Gaussian
-//!   ([`fiberlab_math::special::wrapped_gaussian`], the same one `deon` uses).
-//! * **Half angle φ_h** ("Elliptical fibers"): `(φ_i + φ_r)/2` is defined only modulo π
-//!   (adding 2π to one azimuth moves it by π), but η* depends on `cos 2φ_h = cos(φ_i + φ_r)`,
-//!   which is unambiguous and symmetric in i ↔ r; that is what is evaluated. Hence S stays
-//!   exactly symmetric (reciprocal in the circular sense) for every a — note that a truly
-//!   elliptical fiber would obey the generalized reciprocity `D(ω_i)f(i,r) = D(ω_r)f(r,i)`
-//!   instead (`docs/theory/radiometry.md`, "Non-circular fibers"); the first-order
-//!   correction ignores this, as the paper does.
-//! * **Tilt sign**: `alpha_r` keeps the paper's sign (α_R < 0: R toward the root; TT, TRT
-//!   toward the tip), unlike `chiang`'s and `deon`'s `alpha` (> 0 toward the root).
-//! * **Defaults**: Table 1's mid-range values as used by Lemein's thesis: η = 1.55,
-//!   α_R = −7.5°, β_R = 7.5°, k_G = 2.5, w_c = 15°, Δη′ = 0.3, Δh_M = 0.5, a = 1 (circular,
-//!   so the defaults are the plain model), and σ_a = (0.2, 0.3, 0.5) per radius: Table 1's
-//!   lower end (0.2) in red, a light brown.
-//! * **Grazing**: `cos²θ_d` in the denominator is clamped at [`MIN_COS_THETA_D`]² (S would
-//!   be infinite only at θ_r = −θ_i = ±90° exactly); `|dΦ/dγ|` is clamped at
-//!   [`MIN_DPHI`] exactly on a caustic. Toward the fiber axis (θ_i → ±90°) the pdf per
-//!   steradian grows like 1/cosθ_i (the density in (θ_i, φ) is finite; `dω = cosθ dθ dφ`), and
-//!   on the axis itself `cosθ_i` is taken as [`crate::MIN_COS`], the rule every model uses; on
-//!   the specular cone `f_s` grows like 1/cos²θ_d, the form of the paper's `M_p N_p/cos²θ_d`.
-//! * Parameter ranges: a ≥ 0.75 keeps `η*₁ − 1 = (η − 1)(2a² − 1) > 0` (η* ≤ 1 has no
-//!   refraction); β_R ≥ 1° and |α_R| ≤ 20° keep the truncated θ-Gaussians of the sampler
-//!   representable in double precision.
+//! # Decisions
+//! Where the paper and its implementations differ, the choices and their reasons are in
+//! `docs/theory/marschner-2003.md` (the peers' choices in `docs/theory/peer-discrepancies.md`).
+//! In short: `normalization=energy` (k_M = ½; default) or `paper` (k_M = 1, as printed), and
+//! even with k_M = ½ the model is not energy conserving in general
+//! ([`Properties::energy_conserving`] is false; [`albedo_table`] measures it); `roots=exact`
+//! (default) or the paper's `cubic`; the 3D Fresnel at `cosθ_d·cosγ`; `absorption=chord`
+//! (default) or the printed `paper` path; the glint fade `t = 1 − smoothstep(2, 2 + Δη′, η′)`;
+//! η* from `cos 2φ_h = cos(φ_i + φ_r)`, so S stays symmetric for every a; `alpha_r` with the
+//! paper's sign (α_R < 0: R toward the root); Table 1's mid-range defaults; `cos²θ_d` clamped
+//! at [`MIN_COS_THETA_D`]², `|dΦ/dγ|` at [`MIN_DPHI`]; a ≥ 0.75, β_R ≥ 1°, |α_R| ≤ 20°.
 //!
 //! # Sampling
 //! `sampling.rs` draws (lobe, θ_h, φ) and evaluates the matching pdf; its header

@@ -63,9 +63,6 @@ pub enum ClothGonioError {
     },
 }
 
-/// What to measure: the slab goniophotometer's setup. Here `theta_i`, `phi_i` are the direction
-/// paths are traced from (the viewer's, as the renderer's camera paths), θ_i in [0, 89.9°).
-
 /// A periodic fiber sample.
 pub struct PeriodicPatch {
     /// Curves of the cell and its 8 neighbours.

@@ -39,7 +39,9 @@ use surface::Surface;
 const CHUNK: usize = 1 << 16;
 
 /// What to measure, on a fiber ([`measure`]) or on a surface (the slab of
-/// [`fiber_slab::measure_surface`], the woven patch of [`cloth::measure_cloth`]).
+/// [`fiber_slab::measure_surface`], the woven patch of [`cloth::measure_cloth`]). For the woven
+/// patch `theta_i`, `phi_i` are the direction paths are traced from (the viewer's, as the
+/// renderer's camera paths), θ_i in [0, 89.9°).
 #[derive(Clone, Copy, Debug)]
 pub struct Setup {
     /// Light inclination θ_i (radians): on a fiber from the normal plane, |θ_i| < π/2; on a

@@ -212,11 +212,8 @@ fn print_residual(args: &Args, rows: &[ResidualComparison]) -> anyhow::Result<()
 /// profile through φ_i + 180°.
 fn draw_highlight(path: &std::path::Path, rows: &[HighlightComparison], title: &str) -> anyhow::Result<()> {
     use plotters::prelude::*;
-    crate::plot::register_font();
     let size = (1400u32, 40 + 480 * rows.len().max(1) as u32);
-    let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+    crate::plot::draw_png(path, size, |root| {
         let err = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("drawing: {e:?}");
         root.fill(&WHITE).map_err(err)?;
         let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
@@ -301,18 +298,15 @@ fn draw_highlight(path: &std::path::Path, rows: &[HighlightComparison], title: &
                 .map_err(err)?;
         }
         root.present().map_err(err)?;
-    }
-    crate::plot::write_png(path, &buf, size)
+        Ok(())
+    })
 }
 
 /// Measured (± 1σ) vs model `f_r` along the two planes of each incidence.
 fn draw_slices(path: &std::path::Path, rows: &[ResidualComparison], title: &str) -> anyhow::Result<()> {
     use plotters::prelude::*;
-    crate::plot::register_font();
     let size = (1400u32, 40 + 420 * rows.len().max(1) as u32);
-    let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+    crate::plot::draw_png(path, size, |root| {
         let err = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("drawing: {e:?}");
         root.fill(&WHITE).map_err(err)?;
         let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
@@ -359,6 +353,6 @@ fn draw_slices(path: &std::path::Path, rows: &[ResidualComparison], title: &str)
                 .map_err(err)?;
         }
         root.present().map_err(err)?;
-    }
-    crate::plot::write_png(path, &buf, size)
+        Ok(())
+    })
 }

@@ -212,10 +212,7 @@ fn grid(tiles: &[Tile], path: &Path, scale: u32) -> anyhow::Result<()> {
     let text_rows = tiles.iter().map(|t| t.lines.len() as u32).max().unwrap_or(0);
     let footer = if text_rows > 0 { text_rows * line + 8 } else { 0 };
     let size = (w * tiles.len() as u32, h + label + footer);
-    let mut buf = vec![255u8; (size.0 * size.1 * 3) as usize];
-    {
-        crate::plot::register_font();
-        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+    crate::plot::draw_png_over(path, size, vec![255u8; (size.0 * size.1 * 3) as usize], |root| {
         let err = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("drawing: {e:?}");
         let small = ("sans-serif", 14).into_text_style(&root);
         for (k, tile) in tiles.iter().enumerate() {
@@ -242,6 +239,6 @@ fn grid(tiles: &[Tile], path: &Path, scale: u32) -> anyhow::Result<()> {
             }
         }
         root.present().map_err(err)?;
-    }
-    crate::plot::write_png(path, &buf, size)
+        Ok(())
+    })
 }

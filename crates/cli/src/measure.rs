@@ -15,8 +15,9 @@ use crate::memory_budget::{MemoryLimit, measure_needs};
 use crate::plot::{Scale, write_figure};
 use anyhow::Context;
 use fiberlab_compare::maps::{ScatteringMap, table_map};
-use fiberlab_gonio::fiber_slab::{FiberSlab, SurfaceMeasurement, SurfaceSetup, measure_surface};
+use fiberlab_gonio::fiber_slab::{FiberSlab, SurfaceMeasurement, measure_surface};
 use fiberlab_gonio::{Fiber, Measurement, Setup, measure};
+use fiberlab_io::table::{self, TableKind, Tabulated};
 use fiberlab_math::Rgb;
 use fiberlab_render::toml_params::raw_pairs;
 use fiberlab_scatter::params::RawValue;
@@ -189,12 +190,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if stop.load(Ordering::Relaxed) {
         eprintln!("interrupted: writing what was traced so far");
     }
-    write_csv(&measurements, &args.out.with(".csv"))?;
+    write_table(&measurements, TableKind::Fiber, &args.out.with(".csv"))?;
     let first = &measurements[0];
     let params: Vec<String> = args.params.iter().map(ToString::to_string).collect();
     let title = format!("measured fiber {}   θ_i = {}°", params.join(" "), thetas[0].degrees);
     write_figure(&args.out.with(".png"), &figure(first), &title, Scale::Log, 4.0)?;
-    write_exr(first, &args.out.with(".exr"))?;
+    write_exr(first, TableKind::Fiber, &args.out.with(".exr"))?;
     let traced: usize = measurements.iter().map(|m| m.traced).sum();
     println!("traced {traced} rays in {seconds:.2} s: {:.3} Mrays/s", traced as f64 / seconds / 1e6);
     for m in &measurements {
@@ -230,50 +231,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Streams the rows of every measurement into `path` (atomically).
-fn write_csv(measurements: &[Measurement], path: &Path) -> anyhow::Result<()> {
-    stream_atomically(path, |out| {
-        let mut w = csv::Writer::from_writer(out);
-        w.write_record([
-            "lobe", "theta_i", "phi_i", "theta_r", "phi_r", "f_r", "f_g", "f_b", "std_r", "std_g", "std_b",
-        ])?;
-        for m in measurements {
-            write_rows(m, &mut w)?;
-        }
-        w.flush()?;
-        Ok(())
-    })
+/// Streams the table of every measurement into `path` (atomically; [`table::write`]).
+fn write_table<T: Tabulated>(measurements: &[T], kind: TableKind, path: &Path) -> anyhow::Result<()> {
+    stream_atomically(path, |out| Ok(table::write(out, kind, measurements)?))
 }
 
-fn write_rows(m: &Measurement, w: &mut csv::Writer<impl std::io::Write>) -> anyhow::Result<()> {
-    let (ti, pi) = (m.setup.theta_i.to_degrees().to_string(), m.setup.phi_i.to_degrees().to_string());
-    for (name, lobe) in Measurement::LOBE_NAMES.iter().zip(&m.lobes) {
-        for i in 0..m.setup.bins_theta {
-            for j in 0..m.setup.bins_phi {
-                let (tr, p) = m.bin_centre(i, j);
-                let k = i * m.setup.bins_phi + j;
-                let (f, s) = (lobe.f[k], lobe.std[k]);
-                let fields =
-                    [tr.to_degrees(), p.to_degrees(), f[0], f[1], f[2], s[0], s[1], s[2]].map(|x| x.to_string());
-                w.write_record([*name, ti.as_str(), pi.as_str()].into_iter().chain(fields.iter().map(String::as_str)))?;
-            }
-        }
-    }
-    Ok(())
-}
-
-/// The `all` lobe's f_s (linear RGB, sr⁻¹) as an image over (φ, θ_r): φ from −180° left to
-/// 180° right, θ_r from +90° at the top to −90° at the bottom.
-fn write_exr(m: &Measurement, path: &Path) -> anyhow::Result<()> {
-    let (nt, np) = (m.setup.bins_theta, m.setup.bins_phi);
-    let mut img = fiberlab_io::LinearImage::new(np, nt);
-    for i in 0..nt {
-        for j in 0..np {
-            let f = m.lobes[5].f[i * np + j];
-            img.set(j, nt - 1 - i, [f[0] as f32, f[1] as f32, f[2] as f32]);
-        }
-    }
-    img.write_exr(path).with_context(|| format!("writing {}", path.display()))
+/// The `all` lobe (the last) as an EXR image ([`table::lobe_image`]).
+fn write_exr<T: Tabulated>(m: &T, kind: TableKind, path: &Path) -> anyhow::Result<()> {
+    let all = m.lobe_tables().len() - 1;
+    table::lobe_image(m, all, kind).write_exr(path).with_context(|| format!("writing {}", path.display()))
 }
 
 /// The `all` lobe as a figure: image, azimuthal distribution and the specular-cone row.
@@ -326,7 +292,7 @@ fn run_surface(args: &Args) -> anyhow::Result<()> {
         if stop.load(Ordering::Relaxed) {
             break;
         }
-        let setup = SurfaceSetup {
+        let setup = Setup {
             theta_i: t.radians,
             phi_i: args.phi_i.radians,
             rays: args.rays,
@@ -342,8 +308,8 @@ fn run_surface(args: &Args) -> anyhow::Result<()> {
         eprintln!("interrupted: writing what was traced so far");
     }
     let path = args.out.with(".csv");
-    write_surface_csv(&measurements, &path)?;
-    write_surface_exr(&measurements[0], &args.out.with(".exr"))?;
+    write_table(&measurements, TableKind::Surface, &path)?;
+    write_exr(&measurements[0], TableKind::Surface, &args.out.with(".exr"))?;
     let traced: usize = measurements.iter().map(|m| m.traced).sum();
     println!("traced {traced} rays in {seconds:.2} s: {:.3} Mrays/s", traced as f64 / seconds / 1e6);
     for m in &measurements {
@@ -356,53 +322,10 @@ fn run_surface(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The surface table: the header comment, then the rows of every incidence.
-fn write_surface_csv(measurements: &[SurfaceMeasurement], path: &Path) -> anyhow::Result<()> {
-    stream_atomically(path, |out| {
-        writeln!(out, "{}", fiberlab_io::table::SURFACE_HEADER)?;
-        let mut w = csv::Writer::from_writer(out);
-        w.write_record([
-            "lobe", "theta_i", "phi_i", "theta_r", "phi_r", "f_r", "f_g", "f_b", "std_r", "std_g", "std_b",
-        ])?;
-        for m in measurements {
-            let (ti, pi) = (m.setup.theta_i.to_degrees().to_string(), m.setup.phi_i.to_degrees().to_string());
-            for (name, lobe) in SurfaceMeasurement::LOBE_NAMES.iter().zip(&m.lobes) {
-                for i in 0..m.setup.bins_theta {
-                    for j in 0..m.setup.bins_phi {
-                        let (tr, p) = m.bin_centre(i, j);
-                        let k = i * m.setup.bins_phi + j;
-                        let (f, s) = (lobe.f[k], lobe.std[k]);
-                        let fields = [tr.to_degrees(), p.to_degrees(), f[0], f[1], f[2], s[0], s[1], s[2]]
-                            .map(|x| x.to_string());
-                        w.write_record(
-                            [*name, ti.as_str(), pi.as_str()].into_iter().chain(fields.iter().map(String::as_str)),
-                        )?;
-                    }
-                }
-            }
-        }
-        w.flush()?;
-        Ok(())
-    })
-}
-
-/// The `all` class's f_r over (φ_o from −180° left, θ_o from 0° at the top to 90°).
-fn write_surface_exr(m: &SurfaceMeasurement, path: &Path) -> anyhow::Result<()> {
-    let (nt, np) = (m.setup.bins_theta, m.setup.bins_phi);
-    let mut img = fiberlab_io::LinearImage::new(np, nt);
-    for i in 0..nt {
-        for j in 0..np {
-            let f = m.lobes[4].f[i * np + j];
-            img.set(j, i, [f[0] as f32, f[1] as f32, f[2] as f32]);
-        }
-    }
-    img.write_exr(path).with_context(|| format!("writing {}", path.display()))
-}
-
 /// `measure --surface --cloth`: the woven patch's BRDF at every --theta-i into one surface
 /// table (classes `fiber` (one fiber event), `multiple`, `substrate`, `all`).
 fn run_cloth(args: &Args) -> anyhow::Result<()> {
-    use fiberlab_gonio::cloth::{ClothMeasurement, ClothSetup, PeriodicPatch, measure_cloth};
+    use fiberlab_gonio::cloth::{ClothMeasurement, PeriodicPatch, measure_cloth};
     let patch = args.patch.patch()?;
     let pairs: Vec<(String, RawValue)> =
         args.fiber_params.iter().map(|p| (p.key.clone(), RawValue::Text(p.value.clone()))).collect();
@@ -450,7 +373,7 @@ fn run_cloth(args: &Args) -> anyhow::Result<()> {
         if stop.load(Ordering::Relaxed) {
             break;
         }
-        let setup = ClothSetup {
+        let setup = Setup {
             theta_i: t.radians,
             phi_i: args.phi_i.radians,
             rays: args.rays,
@@ -466,31 +389,7 @@ fn run_cloth(args: &Args) -> anyhow::Result<()> {
         eprintln!("interrupted: writing what was traced so far");
     }
     let path = args.out.with(".csv");
-    stream_atomically(&path, |out| {
-        writeln!(out, "{}", fiberlab_io::table::SURFACE_HEADER)?;
-        let mut w = csv::Writer::from_writer(out);
-        w.write_record([
-            "lobe", "theta_i", "phi_i", "theta_r", "phi_r", "f_r", "f_g", "f_b", "std_r", "std_g", "std_b",
-        ])?;
-        for m in &measurements {
-            let (ti, pi) = (m.setup.theta_i.to_degrees().to_string(), m.setup.phi_i.to_degrees().to_string());
-            for (name, lobe) in ClothMeasurement::LOBE_NAMES.iter().zip(&m.lobes) {
-                for i in 0..nt {
-                    for j in 0..np {
-                        let (tr, p) = m.bin_centre(i, j);
-                        let (f, s) = (lobe.f[i * np + j], lobe.std[i * np + j]);
-                        let fields = [tr.to_degrees(), p.to_degrees(), f[0], f[1], f[2], s[0], s[1], s[2]]
-                            .map(|x| x.to_string());
-                        w.write_record(
-                            [*name, ti.as_str(), pi.as_str()].into_iter().chain(fields.iter().map(String::as_str)),
-                        )?;
-                    }
-                }
-            }
-        }
-        w.flush()?;
-        Ok(())
-    })?;
+    write_table(&measurements, TableKind::Surface, &path)?;
     let traced: usize = measurements.iter().map(|m| m.traced).sum();
     println!("traced {traced} paths in {seconds:.2} s: {:.4} Mpaths/s", traced as f64 / seconds / 1e6);
     for m in &measurements {

@@ -56,9 +56,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             buf[i..i + 3].copy_from_slice(&p.0);
         }
     }
-    {
-        crate::plot::register_font();
-        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    crate::plot::draw_png_over(&args.out, size, buf, |root| {
         let err = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("drawing: {e:?}");
         let style = ("sans-serif", 14).into_text_style(&root);
         if let Some(t) = &args.title {
@@ -69,11 +70,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             root.draw_text(text, &style, (x0 as i32, y0 as i32)).map_err(err)?;
         }
         root.present().map_err(err)?;
-    }
-    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    crate::plot::write_png(&args.out, &buf, size)?;
+        Ok(())
+    })?;
     println!("{} ({} images, {}×{})", args.out.display(), tiles.len(), size.0, size.1);
     Ok(())
 }

@@ -146,10 +146,20 @@ pub(crate) fn draw_png(
     size: (u32, u32),
     draw: impl FnOnce(DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
+    draw_png_over(path, size, vec![0u8; (size.0 * size.1 * 3) as usize], draw)
+}
+
+/// [`draw_png`] over a background: `background` holds the `size` pixels (RGB, 8 bits,
+/// row-major) that `draw` draws on.
+pub(crate) fn draw_png_over(
+    path: &Path,
+    size: (u32, u32),
+    mut background: Vec<u8>,
+    draw: impl FnOnce(DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
     register_font();
-    let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
-    draw(BitMapBackend::with_buffer(&mut buf, size).into_drawing_area())?;
-    write_png(path, &buf, size)
+    draw(BitMapBackend::with_buffer(&mut background, size).into_drawing_area())?;
+    write_png(path, &background, size)
 }
 
 pub(crate) fn write_png(path: &Path, rgb: &[u8], (w, h): (u32, u32)) -> anyhow::Result<()> {

@@ -30,6 +30,7 @@
 //! Path classes (named as the slab's): `fiber` (one fiber event, no substrate), `multiple` (two or more fiber
 //! events, no substrate), `substrate` (touched the substrate), `all`.
 
+use crate::Setup;
 use fiberlab_geometry::{CurveSet, Ray};
 use fiberlab_math::split_mix::SplitMix64;
 use fiberlab_math::{DVec3, Rgb};
@@ -62,10 +63,6 @@ pub enum ClothGonioError {
     },
 }
 
-/// What to measure: the slab goniophotometer's setup. Here `theta_i`, `phi_i` are the direction
-/// paths are traced from (the viewer's, as the renderer's camera paths), θ_i in [0, 89.9°).
-pub use crate::fiber_slab::SurfaceSetup as ClothSetup;
-
 /// A periodic fiber sample.
 pub struct PeriodicPatch {
     /// Curves of the cell and its 8 neighbours.
@@ -82,7 +79,7 @@ pub struct PeriodicPatch {
 #[derive(Clone, Debug)]
 pub struct ClothMeasurement {
     /// The setup.
-    pub setup: ClothSetup,
+    pub setup: Setup,
     /// Per class ([`ClothMeasurement::LOBE_NAMES`]): bin values `f_r`, standard errors, albedo.
     pub lobes: Vec<crate::LobeTable>,
     /// Fraction of the power leaving through the bottom (no substrate).
@@ -95,6 +92,25 @@ pub struct ClothMeasurement {
     pub traced: usize,
     /// Mean fiber events per path.
     pub mean_events: f64,
+}
+
+/// Rows of `fiberlab measure`'s table ([`fiberlab_io::table::write`]).
+impl fiberlab_io::table::Tabulated for ClothMeasurement {
+    fn incidence(&self) -> (f64, f64) {
+        (self.setup.theta_i, self.setup.phi_i)
+    }
+
+    fn bins(&self) -> (usize, usize) {
+        (self.setup.bins_theta, self.setup.bins_phi)
+    }
+
+    fn bin_centre(&self, i: usize, j: usize) -> (f64, f64) {
+        ClothMeasurement::bin_centre(self, i, j)
+    }
+
+    fn lobe_tables(&self) -> Vec<(&'static str, &[Rgb], &[Rgb])> {
+        Self::LOBE_NAMES.iter().zip(&self.lobes).map(|(name, l)| (*name, &l.f[..], &l.std[..])).collect()
+    }
 }
 
 impl ClothMeasurement {
@@ -152,18 +168,8 @@ impl PeriodicPatch {
         };
         let mut t_min = 0.0;
         for event in 0..MAX_EVENTS {
-            let q = if weight.max_component() < 0.25 {
-                4.0 * weight.max_component()
-            } else if event >= ROULETTE_AFTER {
-                0.99
-            } else {
-                1.0
-            };
-            if q < 1.0 {
-                if rng.next_f64() >= q {
-                    return Ending::Absorbed;
-                }
-                weight *= 1.0 / q;
+            if !crate::roulette::survives(&mut weight, event, ROULETTE_AFTER, || rng.next_f64()) {
+                return Ending::Absorbed;
             }
             let tx = exit_distance(p.x, d.x, 0.0, px);
             let ty = exit_distance(p.y, d.y, 0.0, py);
@@ -222,7 +228,7 @@ impl PeriodicPatch {
 pub fn measure_cloth(
     patch: &PeriodicPatch,
     model: &Model,
-    setup: &ClothSetup,
+    setup: &Setup,
     stop: &AtomicBool,
     progress: impl Fn(usize) + Sync,
 ) -> Result<ClothMeasurement, ClothGonioError> {
@@ -357,11 +363,11 @@ mod tests {
         PeriodicPatch { curves, period: (1.0, py), z_range: (zmin, radius * 1.01), substrate: None }
     }
 
-    fn setup(theta: f64, phi: f64, rays: usize) -> ClothSetup {
-        ClothSetup { theta_i: theta.to_radians(), phi_i: phi.to_radians(), rays, bins_theta: 9, bins_phi: 16, seed: 7 }
+    fn setup(theta: f64, phi: f64, rays: usize) -> Setup {
+        Setup { theta_i: theta.to_radians(), phi_i: phi.to_radians(), rays, bins_theta: 9, bins_phi: 16, seed: 7 }
     }
 
-    fn run(p: &PeriodicPatch, m: &Model, s: &ClothSetup) -> ClothMeasurement {
+    fn run(p: &PeriodicPatch, m: &Model, s: &Setup) -> ClothMeasurement {
         measure_cloth(p, m, s, &AtomicBool::new(false), |_| {}).unwrap()
     }
 
@@ -435,7 +441,7 @@ mod tests {
     fn single_scatter_of_a_parallel_layer_lies_on_the_specular_cone() {
         let patch = layer(1, 0.05, 1.2);
         let m = model("chiang", &[("sigma_a", "0"), ("beta_m", "0.05"), ("beta_n", "0.3"), ("alpha", "0")]);
-        let s = ClothSetup { bins_theta: 90, bins_phi: 180, ..setup(50.0, 0.0, 40_000) };
+        let s = Setup { bins_theta: 90, bins_phi: 180, ..setup(50.0, 0.0, 40_000) };
         let r = run(&patch, &m, &s);
         let single = &r.lobes[0];
         let (mut on, mut total) = (0.0, 0.0);

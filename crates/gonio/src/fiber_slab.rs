@@ -36,7 +36,7 @@
 //! specular cone), `substrate` (the substrate and no fiber) and `multiple` (the rest,
 //! including every path through a cut face).
 
-use crate::{BinSums, LobeTable};
+use crate::{BinSums, LobeTable, Setup};
 use fiberlab_math::{DVec3, Rgb, fresnel};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -306,28 +306,11 @@ impl Layout {
     }
 }
 
-/// What to measure on a slab.
-#[derive(Clone, Copy, Debug)]
-pub struct SurfaceSetup {
-    /// Light inclination from the normal (radians, [0, π/2)).
-    pub theta_i: f64,
-    /// Light azimuth from `+x` toward `+y` (radians).
-    pub phi_i: f64,
-    /// Rays.
-    pub rays: usize,
-    /// Bins in θ_o over [0, π/2].
-    pub bins_theta: usize,
-    /// Bins in φ_o over [−π, π] (absolute azimuth in the local frame).
-    pub bins_phi: usize,
-    /// Seed of the ray streams.
-    pub seed: u64,
-}
-
 /// A measured surface BRDF.
 #[derive(Clone, Debug)]
 pub struct SurfaceMeasurement {
     /// The setup.
-    pub setup: SurfaceSetup,
+    pub setup: Setup,
     /// Tables in the order of [`SurfaceMeasurement::LOBE_NAMES`]; `f` is `f_r` (sr⁻¹) and the
     /// albedo is the fraction of the incident power leaving in that class.
     pub lobes: Vec<LobeTable>,
@@ -335,6 +318,25 @@ pub struct SurfaceMeasurement {
     pub dropped: usize,
     /// Rays traced.
     pub traced: usize,
+}
+
+/// Rows of `fiberlab measure`'s table ([`fiberlab_io::table::write`]).
+impl fiberlab_io::table::Tabulated for SurfaceMeasurement {
+    fn incidence(&self) -> (f64, f64) {
+        (self.setup.theta_i, self.setup.phi_i)
+    }
+
+    fn bins(&self) -> (usize, usize) {
+        (self.setup.bins_theta, self.setup.bins_phi)
+    }
+
+    fn bin_centre(&self, i: usize, j: usize) -> (f64, f64) {
+        SurfaceMeasurement::bin_centre(self, i, j)
+    }
+
+    fn lobe_tables(&self) -> Vec<(&'static str, &[Rgb], &[Rgb])> {
+        Self::LOBE_NAMES.iter().zip(&self.lobes).map(|(name, l)| (*name, &l.f[..], &l.std[..])).collect()
+    }
 }
 
 impl SurfaceMeasurement {
@@ -438,21 +440,9 @@ impl Tracer<'_> {
             _ => 3,
         };
         for event in 0..MAX_EVENTS {
-            // Russian roulette: paths whose weight fell below 1/4 survive with probability
-            // 4·weight (and are then reweighted), and very long ones (light guided along a
-            // fiber by total internal reflection) with probability 0.99 per event.
-            let q = if weight.max_component() < 0.25 {
-                4.0 * weight.max_component()
-            } else if event >= ROULETTE_AFTER {
-                0.99
-            } else {
-                1.0
-            };
-            if q < 1.0 {
-                if rng.random::<f64>() >= q {
-                    return Ending::Absorbed;
-                }
-                weight *= 1.0 / q;
+            // Russian roulette (`crate::roulette`).
+            if !crate::roulette::survives(&mut weight, event, ROULETTE_AFTER, || rng.random::<f64>()) {
+                return Ending::Absorbed;
             }
             match place {
                 Place::Above => {
@@ -603,7 +593,7 @@ struct Record {
 /// early (what was traced is kept and normalized by the rays traced).
 pub fn measure_surface(
     slab: &FiberSlab,
-    setup: &SurfaceSetup,
+    setup: &Setup,
     stop: &AtomicBool,
     progress: impl Fn(usize) + Sync,
 ) -> Result<SurfaceMeasurement, SlabError> {
@@ -688,7 +678,7 @@ mod tests {
         bins: (usize, usize),
         seed: u64,
     ) -> SurfaceMeasurement {
-        let setup = SurfaceSetup { theta_i, phi_i, rays, bins_theta: bins.0, bins_phi: bins.1, seed };
+        let setup = Setup { theta_i, phi_i, rays, bins_theta: bins.0, bins_phi: bins.1, seed };
         measure_surface(slab, &setup, &AtomicBool::new(false), |_| {}).unwrap()
     }
 

@@ -21,6 +21,7 @@ pub mod fiber_slab;
 pub use bin_sums::BinSums;
 pub mod interface;
 pub mod model_comparison;
+pub mod roulette;
 pub mod surface;
 pub mod trace;
 
@@ -39,18 +40,24 @@ use surface::Surface;
 /// Rays traced per independently seeded chunk.
 const CHUNK: usize = 1 << 16;
 
-/// What to measure.
+/// What to measure, on a fiber ([`measure`]) or on a surface (the slab of
+/// [`fiber_slab::measure_surface`], the woven patch of [`cloth::measure_cloth`]). For the woven
+/// patch `theta_i`, `phi_i` are the direction paths are traced from (the viewer's, as the
+/// renderer's camera paths), θ_i in [0, 89.9°).
 #[derive(Clone, Copy, Debug)]
 pub struct Setup {
-    /// Light inclination θ_i (radians), |θ_i| < π/2.
+    /// Light inclination θ_i (radians): on a fiber from the normal plane, |θ_i| < π/2; on a
+    /// surface from the normal, [0, π/2).
     pub theta_i: f64,
-    /// Light azimuth φ_i (radians) relative to the frame's `y` axis (matters for ellipses).
+    /// Light azimuth φ_i (radians): on a fiber relative to the frame's `y` axis (matters for
+    /// ellipses); on a surface from `+x` toward `+y`.
     pub phi_i: f64,
     /// Number of rays.
     pub rays: usize,
-    /// Bins in θ_r over [−π/2, π/2].
+    /// Bins in θ_r: on a fiber over [−π/2, π/2], on a surface over [0, π/2].
     pub bins_theta: usize,
-    /// Bins in φ = φ_r − φ_i over [−π, π].
+    /// Bins in φ over [−π, π]: on a fiber φ = φ_r − φ_i, on a surface the absolute azimuth in
+    /// the local frame.
     pub bins_phi: usize,
     /// Seed of the ray streams.
     pub seed: u64,
@@ -115,6 +122,25 @@ pub struct Measurement {
     pub masked: usize,
     /// Rays actually traced (fewer than requested if interrupted).
     pub traced: usize,
+}
+
+/// Rows of `fiberlab measure`'s table ([`fiberlab_io::table::write`]).
+impl fiberlab_io::table::Tabulated for Measurement {
+    fn incidence(&self) -> (f64, f64) {
+        (self.setup.theta_i, self.setup.phi_i)
+    }
+
+    fn bins(&self) -> (usize, usize) {
+        (self.setup.bins_theta, self.setup.bins_phi)
+    }
+
+    fn bin_centre(&self, i: usize, j: usize) -> (f64, f64) {
+        Measurement::bin_centre(self, i, j)
+    }
+
+    fn lobe_tables(&self) -> Vec<(&'static str, &[Rgb], &[Rgb])> {
+        Self::LOBE_NAMES.iter().zip(&self.lobes).map(|(name, l)| (*name, &l.f[..], &l.std[..])).collect()
+    }
 }
 
 impl Measurement {

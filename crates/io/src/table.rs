@@ -1,4 +1,4 @@
-//! Reading `fiberlab measure` tables back: CSV rows
+//! Writing and reading `fiberlab measure` tables: CSV rows
 //! `lobe,theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b,std_r,std_g,std_b` (degrees at bin centres;
 //! inclinations θ in [−90°, 90°], azimuths φ in [−360°, 360°], one turn either way, so that
 //! both the (−180°, 180°] and the [0°, 360°) conventions are read). Errors name the file and
@@ -10,8 +10,10 @@
 //! BRDF `f_r` (sr⁻¹), and the lobes are the path classes `finish, fiber, substrate,
 //! multiple, all`. Lines starting with `#` are comments.
 
+use crate::LinearImage;
 use fiberlab_math::Rgb;
 use std::collections::BTreeMap;
+use std::io::Write;
 use std::path::Path;
 
 /// First line of a surface table.
@@ -73,8 +75,7 @@ pub fn read(path: &Path) -> Result<BTreeMap<String, LobeSlices>, TableError> {
 
 /// Parses measurement CSV `text` (named `name` in errors).
 pub fn parse(text: &str, name: &str) -> Result<BTreeMap<String, LobeSlices>, TableError> {
-    const COLS: [&str; 11] =
-        ["lobe", "theta_i", "phi_i", "theta_r", "phi_r", "f_r", "f_g", "f_b", "std_r", "std_g", "std_b"];
+    const COLS: [&str; 11] = COLUMNS;
     let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).comment(Some(b'#')).from_reader(text.as_bytes());
     let header =
         reader.headers().map_err(|e| TableError(format!("{name}: line 1: cannot read the header: {e}")))?.clone();
@@ -158,6 +159,74 @@ pub fn parse(text: &str, name: &str) -> Result<BTreeMap<String, LobeSlices>, Tab
         .collect()
 }
 
+/// The columns of a measurement table, in order.
+pub const COLUMNS: [&str; 11] =
+    ["lobe", "theta_i", "phi_i", "theta_r", "phi_r", "f_r", "f_g", "f_b", "std_r", "std_g", "std_b"];
+
+/// A measurement at one incidence, as the table writer sees it (implemented by the
+/// goniophotometers' measurements).
+pub trait Tabulated {
+    /// Light inclination θ_i and azimuth φ_i (radians).
+    fn incidence(&self) -> (f64, f64);
+    /// Bins in θ and in φ.
+    fn bins(&self) -> (usize, usize);
+    /// Centre `(θ, φ)` (radians) of bin `(i, j)`.
+    fn bin_centre(&self, i: usize, j: usize) -> (f64, f64);
+    /// Each lobe's name, values `f` and standard errors, row-major `[θ][φ]`.
+    fn lobe_tables(&self) -> Vec<(&'static str, &[Rgb], &[Rgb])>;
+}
+
+/// Writes the table of `measurements` to `out`: for [`TableKind::Surface`] the comment line
+/// [`SURFACE_HEADER`] first, then the header [`COLUMNS`] and one row per lobe and bin of
+/// every measurement (angles in degrees at bin centres). [`parse`] reads it back.
+pub fn write<T: Tabulated>(out: &mut dyn Write, kind: TableKind, measurements: &[T]) -> std::io::Result<()> {
+    if kind == TableKind::Surface {
+        writeln!(out, "{SURFACE_HEADER}")?;
+    }
+    let mut w = csv::Writer::from_writer(out);
+    w.write_record(COLUMNS)?;
+    for m in measurements {
+        let (theta_i, phi_i) = m.incidence();
+        let (ti, pi) = (theta_i.to_degrees().to_string(), phi_i.to_degrees().to_string());
+        let (nt, np) = m.bins();
+        for (name, f, std) in m.lobe_tables() {
+            for i in 0..nt {
+                for j in 0..np {
+                    let (tr, p) = m.bin_centre(i, j);
+                    let (f, s) = (f[i * np + j], std[i * np + j]);
+                    let fields =
+                        [tr.to_degrees(), p.to_degrees(), f[0], f[1], f[2], s[0], s[1], s[2]].map(|x| x.to_string());
+                    w.write_record(
+                        [name, ti.as_str(), pi.as_str()].into_iter().chain(fields.iter().map(String::as_str)),
+                    )?;
+                }
+            }
+        }
+    }
+    w.flush()
+}
+
+/// Lobe `lobe` of `m` (`f`, linear RGB) as an image over (φ, θ): φ from −180° left to 180°
+/// right; a fiber table's θ_r from +90° at the top to −90° at the bottom, a surface table's θ
+/// from 0° at the top to 90°.
+#[must_use]
+pub fn lobe_image(m: &impl Tabulated, lobe: usize, kind: TableKind) -> LinearImage {
+    let (nt, np) = m.bins();
+    let f = m.lobe_tables()[lobe].1;
+    let mut img = LinearImage::new(np, nt);
+    for i in 0..nt {
+        let row = match kind {
+            TableKind::Fiber => nt - 1 - i,
+            TableKind::Surface => i,
+        };
+        for j in 0..np {
+            let v = f[i * np + j];
+            img.set(j, row, [v[0] as f32, v[1] as f32, v[2] as f32]);
+        }
+    }
+    img
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -196,5 +265,60 @@ mod tests {
         assert_eq!(kind_of(&surface), TableKind::Surface);
         assert_eq!(kind_of(&text), TableKind::Fiber);
         assert_eq!(parse(&surface, "s.csv").unwrap()["all"].f[1][3], Rgb::new(1.0, 2.0, 3.0));
+    }
+
+    /// A two-incidence measurement on a 2 × 3 grid with distinct values in every bin.
+    struct Grid {
+        theta_i: f64,
+        f: Vec<Rgb>,
+        std: Vec<Rgb>,
+    }
+
+    impl Tabulated for Grid {
+        fn incidence(&self) -> (f64, f64) {
+            (self.theta_i, 0.25)
+        }
+        fn bins(&self) -> (usize, usize) {
+            (2, 3)
+        }
+        fn bin_centre(&self, i: usize, j: usize) -> (f64, f64) {
+            ((i as f64 + 0.5) * 0.5, -3.0 + 2.0 * j as f64)
+        }
+        fn lobe_tables(&self) -> Vec<(&'static str, &[Rgb], &[Rgb])> {
+            vec![("r", &self.f, &self.std), ("all", &self.f, &self.std)]
+        }
+    }
+
+    #[test]
+    fn written_tables_read_back_and_images_orient_by_kind() {
+        let grid = |theta_i: f64| Grid {
+            theta_i,
+            f: (0..6).map(|k| Rgb::new(k as f64, 0.5 + theta_i, 2.0)).collect(),
+            std: (0..6).map(|k| Rgb::splat(0.01 * k as f64)).collect(),
+        };
+        let ms = [grid(0.1), grid(0.6)];
+        for kind in [TableKind::Fiber, TableKind::Surface] {
+            let mut out = Vec::new();
+            write(&mut out, kind, &ms).unwrap();
+            let text = String::from_utf8(out).unwrap();
+            assert_eq!(kind_of(&text), kind);
+            let t = parse(&text, "t.csv").unwrap();
+            for lobe in ["r", "all"] {
+                let l = &t[lobe];
+                assert_eq!((l.bins_theta, l.bins_phi, l.theta_in.len()), (2, 3, 2));
+                for (s, m) in ms.iter().enumerate() {
+                    assert!((l.theta_in[s] - m.theta_i).abs() < 1e-12 && (l.phi_in[s] - 0.25).abs() < 1e-12);
+                    for k in 0..6 {
+                        assert!((l.f[s][k] - m.f[k]).map(f64::abs).max_component() < 1e-12, "{lobe} {s} {k}");
+                        assert!((l.std[s][k] - m.std[k]).map(f64::abs).max_component() < 1e-12);
+                    }
+                }
+            }
+        }
+        let fiber = lobe_image(&ms[0], 1, TableKind::Fiber);
+        let surface = lobe_image(&ms[0], 1, TableKind::Surface);
+        // Bin (θ 0, φ 2) holds f_r = 2: the bottom row of a fiber image, the top of a surface one.
+        assert_eq!(fiber.get(2, 1)[0], 2.0);
+        assert_eq!(surface.get(2, 0)[0], 2.0);
     }
 }

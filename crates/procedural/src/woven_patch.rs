@@ -1,7 +1,7 @@
 //! An explicit woven patch built from its fibers: warp and weft yarns whose centre lines pass
 //! over and under each other, each yarn made of plies of twisted fibers, as polylines (the
 //! "cloth from fibers" of issue 20, the geometry behind the yarn-level models of Irawan and
-//! Marschner 2012 and Sadeghi et al. 2013, `crates/scatter/src/irawan_2012.rs`,
+//! Marschner 2012 and Sadeghi et al. 2013, `crates/scatter/src/irawan_2012/`,
 //! `crates/scatter/src/sadeghi_2013.rs`).
 //!
 //! # Geometry (lengths in one unit, e.g. millimetres; `z` is the cloth normal)

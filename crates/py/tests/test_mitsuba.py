@@ -66,7 +66,7 @@ CHI2_CASES = [
     # Marschner 2003: rejected while its TRT sampling density was infinite on the caustic
     # (this grid quadrature cannot integrate it) and while TRT without glints drew ~4 % of its
     # samples where the lobe is zero (Mitsuba counts those as lost); see
-    # crates/scatter/src/marschner_2003.rs, "Sampling". The defaults pass now.
+    # crates/scatter/src/marschner_2003/sampling.rs. The defaults pass now.
     ({"type": "fiberlab", "model": "marschner"}, 0.3, 0.5),
     # Still rejected (measured with mitsuba 3.9.1: Mitsuba's pdf sum 1.0025, 1.0004, 1.0010 where
     # fiberlab's own quadrature gives 1 to 1e-5); the cause is not the caustic (the sum does not

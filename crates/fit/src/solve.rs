@@ -166,7 +166,7 @@ fn polish<M>(problem: &Problem<M>, mut p: Vec<f64>, progress: impl Fn(u64, Optio
         let jtj: Vec<Vec<f64>> =
             (0..n).map(|a| (0..n).map(|b| jac[a].iter().zip(&jac[b]).map(|(x, y)| x * y).sum()).collect()).collect();
         let jtr: Vec<f64> = (0..n).map(|a| jac[a].iter().zip(&r).map(|(x, y)| x * y).sum()).collect();
-        let mut improved = false;
+        let (mut improved, mut accepted) = (false, false);
         while lambda < 1e12 {
             let damped: Vec<Vec<f64>> = (0..n)
                 .map(|a| {
@@ -185,15 +185,20 @@ fn polish<M>(problem: &Problem<M>, mut p: Vec<f64>, progress: impl Fn(u64, Optio
                     (p, r, cost) = (trial, rt, ct);
                     lambda = (lambda * 0.3).max(1e-12);
                     improved = relative > 1e-9;
+                    accepted = true;
                     break;
                 }
             }
             lambda *= 10.0;
         }
+        // A step taken is reported, also the last one (too small to go on): the trace's last
+        // point is the result.
+        if accepted {
+            progress(step + 1, Some(&p), Some(cost));
+        }
         if !improved {
             break;
         }
-        progress(step + 1, Some(&p), Some(cost));
     }
     p
 }

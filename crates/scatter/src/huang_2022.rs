@@ -410,6 +410,14 @@ impl Huang {
 
     /// Fills `v` with the vertex of (`wo`, `h`).
     fn prepare(&self, wo: DVec3, h: f64, v: &mut Vertex) {
+        // On the fiber axis every offset's scale surface is seen edge-on: the vertex is that of
+        // the nearest direction with cosθ_o = MIN_COS (at the same φ_o, as every model reads
+        // the axis), so that f_s and the pdf approach the axis continuously.
+        let wo = if cos_theta(wo) < MIN_COS {
+            direction_from_sin_cos((1.0 - MIN_COS * MIN_COS).sqrt().copysign(sin_theta(wo)), MIN_COS, phi(wo))
+        } else {
+            wo
+        };
         v.reset(wo);
         let h = if h.is_finite() { h.clamp(-1.0, 1.0) } else { 0.0 };
         let shift = |k: usize| ((h + 2.0) * SHIFT_RATES[k]).fract();

@@ -8,6 +8,11 @@
 //! A colour parameter is fitted per channel when the data has channels (a table, a CSV with
 //! `f_r,f_g,f_b`, a `--target`): see `fiberlab_fit`.
 //!
+//! A signal (Ctrl-C, SIGTERM, SIGHUP) stops the fit after the iteration in flight: the best
+//! parameters so far are written to `PREFIX.partial.toml` (never over a finished
+//! `PREFIX.toml`) and the exit status is 130 (`crate::interrupt`). Data the fit cannot use is
+//! refused (`fiberlab_fit`): all values zero, or values whose scale no parameter can reach.
+//!
 //! A **surface** model (e.g. `sadeghi-2013`, `wood`) is fitted to a surface table (`fiberlab
 //! measure --surface`, lobe `all` unless `--lobe` names a path class): the model is averaged
 //! over each bin (midpoint rule, `--subsamples`² nodes, in the table's cosθ_o dω_o measure)
@@ -148,6 +153,17 @@ fn from_surface_table(
         )
     })?;
     let (nt, np) = (t.bins_theta, t.bins_phi);
+    // The bins' midpoint nodes (a direction and a weight, 32 bytes each), before they are made.
+    let nodes = (nt as u64)
+        .saturating_mul(np as u64)
+        .saturating_mul(t.theta_in.len() as u64)
+        .saturating_mul(sub as u64)
+        .saturating_mul(sub as u64);
+    crate::memory_budget::check(&[crate::memory_budget::Need::items(
+        format!("{nodes} bin nodes (--subsamples {sub}: {sub}² per bin)"),
+        nodes,
+        32,
+    )])?;
     let peak = t.f.iter().flatten().map(|v| v.luminance()).fold(0.0, f64::max);
     if peak <= 0.0 {
         bail!("{}: lobe `{lobe}` is zero in every bin; nothing to fit", path.display());
@@ -242,7 +258,7 @@ const ANGLE_RANGES: [(&str, f64, f64); 4] =
 /// `per_channel` is false), with optional standard errors `std` / `std_r,std_g,std_b`
 /// (default 5 % of the value). Errors name the file, line and column.
 fn from_csv(path: &Path, per_channel: bool) -> anyhow::Result<Vec<Observation>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let text = fiberlab_io::input_file::read_text(path)?;
     let mut r = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
     let header = r.headers()?.clone();
     let col = |c: &str| header.iter().position(|h| h == c);
@@ -376,6 +392,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let options = FitOptions {
         max_iters: args.iterations,
         progress: Some(std::sync::Arc::new(move |i| progress.set_position(i))),
+        stop: Some(crate::interrupt::listen(
+            &format!("fitting {} parameter(s) to {observations} observations", free.len()),
+            "the best point so far",
+        )),
     };
     let (r, grid) = match &data {
         Data::Fiber(d, grid) => (fit_with(&base, &free, d, &options), *grid),
@@ -383,6 +403,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     bar.finish_and_clear();
     let r = r?;
+    crate::interrupt::finishing();
+    let out = if r.interrupted { args.out.partial() } else { args.out.clone() };
+    if r.interrupted {
+        println!("stopped after {} iterations: the best parameters so far", r.iterations);
+    }
     print_result(&args.model, observations, &r);
     let mut toml =
         format!("# fitted by fiberlab fit; use with --params-file\nmodel = \"{}\"\n\n[params]\n", args.model);
@@ -397,7 +422,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             _ => toml.push_str(&format!("{k} = {v:?}\n")),
         }
     }
-    let toml_path = args.out.with(".toml");
+    let toml_path = out.with(".toml");
     write_atomically(&toml_path, toml.as_bytes())?;
     println!("wrote {}", toml_path.display());
     if let Some((nt, np)) = grid {
@@ -407,9 +432,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         let image: Vec<Vec<f64>> = (0..nt).map(|i| (0..np).map(|j| bin(i * np + j)).collect()).collect();
         let azimuthal = (0..np).map(|j| (0..nt).map(|i| image[i][j]).sum()).collect();
         let cone = image[nt / 2].clone();
-        let path = args.out.with("_residuals.png");
+        let path = out.with("_residuals.png");
         write_figure(&path, &Grids { image, azimuthal, cone }, "|residual| / σ (first incidence)", Scale::Log, 3.0)?;
         println!("wrote {}", path.display());
+    }
+    if r.interrupted {
+        return Err(crate::interrupt::Interrupted(format!("wrote {} (the best point so far)", toml_path.display())).into());
     }
     Ok(())
 }

@@ -32,6 +32,7 @@ use fiberlab_scatter::{
 };
 use std::fmt;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use thiserror::Error;
 
 /// What an observation measures of `f_s`.
@@ -125,13 +126,43 @@ pub struct FreeParam {
 }
 
 /// How to run a fit.
-#[derive(Clone)]
+#[derive(Clone, Default)]
 pub struct FitOptions {
     /// Largest number of optimizer iterations.
     pub max_iters: u64,
     /// Called with the iteration number after each optimizer iteration, then with
     /// `max_iters + k` before the k-th of at most [`POLISH_ITERATIONS`] polishing steps.
     pub progress: Option<Arc<dyn Fn(u64) + Send + Sync>>,
+    /// When set, the fit stops after the iteration in flight and returns the best point so
+    /// far, with [`FitResult::interrupted`] (a signal handler's flag).
+    pub stop: Option<&'static AtomicBool>,
+}
+
+/// A solver that also ends when [`FitOptions::stop`] is set.
+struct Stoppable<S> {
+    inner: S,
+    stop: Option<&'static AtomicBool>,
+}
+
+impl<O, I: State, S: argmin::core::Solver<O, I>> argmin::core::Solver<O, I> for Stoppable<S> {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+
+    fn init(&mut self, problem: &mut argmin::core::Problem<O>, state: I) -> Result<(I, Option<KV>), Error> {
+        self.inner.init(problem, state)
+    }
+
+    fn next_iter(&mut self, problem: &mut argmin::core::Problem<O>, state: I) -> Result<(I, Option<KV>), Error> {
+        self.inner.next_iter(problem, state)
+    }
+
+    fn terminate(&mut self, state: &I) -> argmin::core::TerminationStatus {
+        if self.stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
+            return argmin::core::TerminationStatus::Terminated(argmin::core::TerminationReason::Interrupt);
+        }
+        self.inner.terminate(state)
+    }
 }
 
 /// Why a parameter's uncertainty is undefined.
@@ -231,6 +262,8 @@ pub struct FitResult {
     pub residuals: Vec<f64>,
     /// Optimizer iterations.
     pub iterations: u64,
+    /// Stopped by [`FitOptions::stop`] before it converged: the best point so far.
+    pub interrupted: bool,
 }
 
 /// One free number: a parameter, or one channel of a colour parameter.
@@ -349,7 +382,7 @@ pub fn fit(
     max_iters: u64,
 ) -> Result<FitResult, FitError> {
     let free: Vec<FreeParam> = free.iter().map(|(k, v)| FreeParam { key: k.clone(), start: vec![*v] }).collect();
-    fit_with(base, &free, data, &FitOptions { max_iters, progress: None })
+    fit_with(base, &free, data, &FitOptions { max_iters, ..FitOptions::default() })
 }
 
 /// A condition every trial model of a constrained fit must meet (e.g. an energy bound):
@@ -370,7 +403,7 @@ pub fn fit_constrained(
     constraint: Option<Constraint>,
 ) -> Result<FitResult, FitError> {
     let free: Vec<FreeParam> = free.iter().map(|(k, v)| FreeParam { key: k.clone(), start: vec![*v] }).collect();
-    fit_under(base, &free, data, &FitOptions { max_iters, progress: None }, constraint)
+    fit_under(base, &free, data, &FitOptions { max_iters, ..FitOptions::default() }, constraint)
 }
 
 /// Fits the `free` parameters of the model whose other parameters are `base` (validated;
@@ -592,15 +625,24 @@ fn coordinates_of(
     Ok((coordinates, start))
 }
 
-/// Enough observations for the free numbers, each with a finite value and σ > 0.
-fn check_data(observations: usize, free: usize, mut values: impl Iterator<Item = (f64, f64)>) -> Result<(), FitError> {
+/// Enough observations for the free numbers, each with a finite value and σ > 0, not all
+/// values zero (there is nothing to fit to zero data: every model with f_s > 0 is as far
+/// from it, by its scale alone).
+fn check_data(observations: usize, free: usize, values: impl Iterator<Item = (f64, f64)>) -> Result<(), FitError> {
     if observations <= free {
         return Err(FitError::Setup(format!(
             "{observations} observations for {free} free numbers: too few to fit and estimate uncertainties"
         )));
     }
-    if values.any(|(v, s)| s.is_nan() || s <= 0.0 || !v.is_finite()) {
-        return Err(FitError::Setup("every observation needs a finite value and σ > 0".into()));
+    let mut all_zero = true;
+    for (v, s) in values {
+        if s.is_nan() || s <= 0.0 || !v.is_finite() {
+            return Err(FitError::Setup("every observation needs a finite value and σ > 0".into()));
+        }
+        all_zero &= v == 0.0;
+    }
+    if all_zero {
+        return Err(FitError::Setup("every observed value is 0: there is nothing to fit".into()));
     }
     Ok(())
 }
@@ -624,23 +666,44 @@ fn solve<M>(
         simplex.push(p);
     }
     let solver = NelderMead::new(simplex).with_sd_tolerance(1e-9).map_err(|e| FitError::Optimizer(e.to_string()))?;
-    let mut executor = Executor::new(problem.clone(), solver).configure(|s| s.max_iters(options.max_iters));
+    let stoppable = Stoppable { inner: solver, stop: options.stop };
+    let mut executor = Executor::new(problem.clone(), stoppable).configure(|s| s.max_iters(options.max_iters));
     if let Some(progress) = &options.progress {
         executor = executor.add_observer(IterationObserver(progress.clone()), ObserverMode::Always);
     }
     let res = executor.run().map_err(|e| FitError::Optimizer(e.to_string()))?;
     let iterations = res.state().get_iter();
-    let best = polish(problem, res.state().get_best_param().cloned().unwrap_or(start), |step| {
-        if let Some(progress) = &options.progress {
-            progress(options.max_iters + step);
-        }
-    });
+    let stopped = || options.stop.is_some_and(|s| s.load(Ordering::Relaxed));
+    let best = res.state().get_best_param().cloned().unwrap_or(start);
+    let best = if stopped() {
+        best
+    } else {
+        polish(problem, best, |step| {
+            if let Some(progress) = &options.progress {
+                progress(options.max_iters + step);
+            }
+        })
+    };
     let m = problem.model_at(&best)?;
     let residuals = problem.residuals(&m);
     let chi2: f64 = residuals.iter().map(|r| r * r).sum();
     let dof = observations - coordinates.len();
     let at_bound: Vec<Option<AtBound>> = coordinates.iter().zip(&best).map(|(c, &v)| on_bound(v, c.range)).collect();
+    if !chi2.is_finite() {
+        return Err(FitError::Setup(format!(
+            "χ² = {chi2} at the best point: the values and standard errors overflow double precision \
+             (value / σ beyond 1e154); check the data's units"
+        )));
+    }
     let uncertainties = uncertainties(problem, &best, &residuals, &at_bound, chi2 / dof as f64);
+    if uncertainties.iter().all(|u| matches!(u, Uncertainty::Undefined(Undefined::NoEffect))) {
+        return Err(FitError::Setup(
+            "no free parameter changes χ² at all: at the data's scale the model's values make no difference \
+             (e.g. values of 1e300 against an f_s of order 1, or σ far larger than the values); check the \
+             data's units and standard errors"
+                .into(),
+        ));
+    }
     let mut values: Vec<(String, Vec<f64>)> = Vec::new();
     for (c, &v) in coordinates.iter().zip(&best) {
         match values.last_mut() {
@@ -657,6 +720,7 @@ fn solve<M>(
         dof,
         residuals,
         iterations,
+        interrupted: stopped(),
     })
 }
 
@@ -1007,6 +1071,39 @@ mod tests {
         assert!(Undefined::NoEffect.to_string().contains("do not depend"));
     }
 
+    /// Data a fit cannot mean anything for is refused, not "fitted": all zeros, or values so
+    /// large that no parameter changes χ² (the start values would come back as the fit).
+    #[test]
+    fn data_without_information_is_refused() {
+        let spec = find("kajiya-kay").unwrap();
+        let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
+        let data = luminance_data(&build("kajiya-kay", &[("k_d", "0.3")]).unwrap());
+        let zeros: Vec<Observation> = data.iter().map(|o| Observation { value: 0.0, ..*o }).collect();
+        let e = fit(&base, &[("k_d".into(), 0.2)], &zeros, 50).unwrap_err().to_string();
+        assert!(e.contains("every observed value is 0"), "{e}");
+        let huge: Vec<Observation> = data.iter().map(|o| Observation { value: 1e300, sigma: 5e298, ..*o }).collect();
+        let e = fit(&base, &[("k_d".into(), 0.2)], &huge, 50).unwrap_err().to_string();
+        assert!(e.contains("no free parameter changes χ²"), "{e}");
+        let tiny_sigma: Vec<Observation> = data.iter().map(|o| Observation { sigma: 1e-300, ..*o }).collect();
+        let e = fit(&base, &[("k_d".into(), 0.2)], &tiny_sigma, 50).unwrap_err().to_string();
+        assert!(e.contains("overflow double precision"), "{e}");
+    }
+
+    /// A fit whose stop flag is set ends after the iteration in flight with its best point.
+    #[test]
+    fn a_stopped_fit_returns_its_best_point_so_far() {
+        static STOP: AtomicBool = AtomicBool::new(true);
+        let spec = find("kajiya-kay").unwrap();
+        let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
+        let data = luminance_data(&build("kajiya-kay", &[("k_d", "0.3")]).unwrap());
+        let free = [FreeParam { key: "k_d".into(), start: vec![0.2] }];
+        let options = FitOptions { max_iters: 400, stop: Some(&STOP), ..FitOptions::default() };
+        let r = fit_with(&base, &free, &data, &options).unwrap();
+        assert!(r.interrupted && r.iterations <= 1, "{r:?}");
+        let r = fit_with(&base, &free, &data, &FitOptions { max_iters: 400, ..FitOptions::default() }).unwrap();
+        assert!(!r.interrupted && (r.params[0].1 - 0.3).abs() < 1e-3, "{r:?}");
+    }
+
     /// Goldman's f_s is Kajiya–Kay's times `ρ_reflect·a + ρ_transmit·b` (Goldman 1997), so
     /// scaling (k_d, k_s) by c and (ρ_reflect, ρ_transmit) by 1/c fits equally well: the
     /// Jacobian is rank-deficient and every uncertainty is undefined for that reason, while
@@ -1051,7 +1148,7 @@ mod tests {
         let progress: Arc<dyn Fn(u64) + Send + Sync> = Arc::new(move |_| {
             counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         });
-        let options = FitOptions { max_iters: 400, progress: Some(progress) };
+        let options = FitOptions { max_iters: 400, progress: Some(progress), stop: None };
         let r = fit_with(&chiang(&fixed), &free, &data, &options).unwrap();
         let names: Vec<&str> = r.params.iter().map(|(k, _)| k.as_str()).collect();
         assert_eq!(names, ["sigma_a[r]", "sigma_a[g]", "sigma_a[b]"]);
@@ -1113,7 +1210,7 @@ mod surface_tests {
             FreeParam { key: "k_d_1".into(), start: vec![0.2] },
             FreeParam { key: "albedo_1".into(), start: vec![0.5] },
         ];
-        let r = fit_surface(&sadeghi(&[]), &free, &data, &FitOptions { max_iters: 600, progress: None }).unwrap();
+        let r = fit_surface(&sadeghi(&[]), &free, &data, &FitOptions { max_iters: 600, ..FitOptions::default() }).unwrap();
         let expect = [9.0, 0.4, 0.2, 0.45, 0.7];
         for (k, ((key, v), u)) in r.params.iter().zip(&r.uncertainties).enumerate() {
             let u = u.sigma().unwrap_or_else(|| panic!("{key}: {u:?}"));
@@ -1157,7 +1254,7 @@ mod surface_tests {
             &base,
             &[FreeParam { key: "beta_m".into(), start: vec![0.3] }],
             &SurfaceData::default(),
-            &FitOptions { max_iters: 1, progress: None },
+            &FitOptions { max_iters: 1, ..FitOptions::default() },
         )
         .unwrap_err()
         .to_string();

@@ -71,7 +71,7 @@ pub(crate) fn fit<'py>(
         };
         data.push(Observation { wi: a, wo: b, value: value[k], sigma: sigma[k], channel });
     }
-    let options = FitOptions { max_iters, progress: None };
+    let options = FitOptions { max_iters, ..FitOptions::default() };
     let r = py.detach(|| fit_with(&base, &free, &data, &options)).map_err(|e| value_error(&e))?;
     let out = PyDict::new(py);
     let params = PyDict::new(py);

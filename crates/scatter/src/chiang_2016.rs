@@ -8,8 +8,8 @@
 //! | parameter | unit | default | range |
 //! |---|---|---|---|
 //! | `eta` | — | 1.55 | (1, 4] |
-//! | `beta_m` | — | 0.3 | (0, 1] longitudinal roughness |
-//! | `beta_n` | — | 0.3 | (0, 1] azimuthal roughness |
+//! | `beta_m` | — | 0.3 | [0.01, 1] longitudinal roughness |
+//! | `beta_n` | — | 0.3 | [0.01, 1] azimuthal roughness |
 //! | `alpha` | degrees at the edge, radians in [`ChiangParams`] | 2 | [−20, 20] cuticle scale tilt |
 //! | `sigma_a` | 1/radius | — | [0, ∞) per channel |
 //! | `eumelanin` | — | (1.3 if no absorption key is given) | [0, 100] |

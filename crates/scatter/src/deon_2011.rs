@@ -9,8 +9,8 @@
 //! | parameter | unit | default | range |
 //! |---|---|---|---|
 //! | `eta` | — | 1.55 | (1, 4] |
-//! | `beta_m` | — | 0.3 | (0, 1] longitudinal roughness (Chiang's map to v_p) |
-//! | `beta_n` | — | 0.3 | (0, 1] azimuthal roughness (Gaussian std `σ_n = πs/√3`) |
+//! | `beta_m` | — | 0.3 | [0.01, 1] longitudinal roughness (Chiang's map to v_p) |
+//! | `beta_n` | — | 0.3 | [0.01, 1] azimuthal roughness (Gaussian std `σ_n = πs/√3`) |
 //! | `alpha` | degrees at the edge, radians in [`DeonParams`] | 2 | [−20, 20] cuticle scale tilt, sign as `chiang` |
 //! | `p_max` | — | 3 | integer in [1, 16]: explicit lobes p < p_max |
 //! | `theta_n` | — | camera | `camera` (θ_o) or `difference` (θ_d): inclination of N_p |

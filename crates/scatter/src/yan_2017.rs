@@ -18,8 +18,8 @@
 //! | `g` | — | 0 | (−1, 1) medulla Henyey–Greenstein anisotropy |
 //! | `layers` | — | 1 | (0, 1000] cuticle interfaces (see *Cuticle layers*) |
 //! | `alpha` | degrees at the edge, radians in [`YanFurParams`] | 3 | [−20, 20] cuticle tilt, > 0 puts R toward the root |
-//! | `beta_m` | degrees | 10 | (0, 60] longitudinal standard deviation of R |
-//! | `beta_n` | degrees | 10 | (0, 60] azimuthal standard deviation of R |
+//! | `beta_m` | degrees | 10 | [0.5, 60] longitudinal standard deviation of R |
+//! | `beta_n` | degrees | 10 | [0.5, 60] azimuthal standard deviation of R |
 //! | `lobes` | — | r,tt,trt,tts,trts | subset of r, tt, trt, tts, trts |
 //! | `field` | — | near | `near` (value at h) or `far` (average over h, [`YanFur::eval_far`]) |
 //!
@@ -198,8 +198,10 @@ const KAPPA_RANGE: Range = Range::closed_open(0.0, 1.0);
 const G_RANGE: Range = Range::open(-1.0, 1.0);
 /// Valid cuticle interface count.
 const LAYERS_RANGE: Range = Range::open_closed(0.0, 1000.0);
-/// Valid roughness standard deviations, degrees.
-const BETA_RANGE: Range = Range::open_closed(0.0, 60.0);
+/// Valid roughness standard deviations, degrees: [0.5, 60]. Toward 0 the Gaussians become
+/// deltas (a width of 5e−324 degrees is 0 radians); 0.5° is the narrowest the far-field
+/// quadrature and the sampler are tested at (`tests/yan_2017.rs`, `tests/finite_everywhere.rs`).
+const BETA_RANGE: Range = Range::closed(0.5, 60.0);
 /// Valid desired colour per channel.
 const COLOR_RANGE: Range = Range::open_closed(0.0, 1.0);
 /// Gauss–Legendre nodes of the far-field integration per standard deviation of the narrowest

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The cloth row of the README: scenes/cloth.toml (a cloth draped over a sphere, the mesh of
+# The cloth row of the gallery (README and the book): scenes/cloth.toml (a cloth draped over a sphere, the mesh of
 # `fiberlab mesh cloth`) with every preset of irawan-2012 (6, the weave tiled uv_scale = 40
 # times across the cloth) and of sadeghi-2013 (6, no UV dependence), under two sun
 # directions, assembled by `fiberlab montage` into docs/gallery/cloth/presets_light{1,2}.png:

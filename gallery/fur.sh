@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The fur row of the README: scenes/fur.toml rendered three ways with one cortex absorption
+# The fur row of the gallery (README and the book): scenes/fur.toml rendered three ways with one cortex absorption
 # σ_a = (0.25, 0.45, 0.9) per unit radius (the colour of the fibre without a medulla):
 #   medulla     yan-fur, kappa 0.7, sigma_m_s 1.5 (the scene as committed)
 #   no_medulla  yan-fur, kappa 0 (a plain dielectric cylinder: R, TT, TRT only)

@@ -3,7 +3,7 @@
 # Kajiya–Kay (fitted), Marschner, Chiang and the measured table of an explicit fiber, each
 # compared with a high-sample render of the measured table (the "photograph"), with the
 # residual Monte Carlo noise of every render beside each metric (`fiberlab evaluate --help`).
-#   gallery/make.sh                                   # the committed gallery (see README.md for its time)
+#   gallery/make.sh                                   # the committed gallery (see gallery/README.md for its time)
 #   SIZE=256 SPP=256 REF_SPP=2048 RAYS=20000000 gallery/make.sh   # publication quality, hours
 # Every hair gets the scene's absorption (`evaluate` maps it; docs/theory/hair.md, "One
 # absorption for every hair model"), and the explicit fiber is measured with the same σ_a.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The surfaces row of the README: scenes/wood.toml (figured maple, the wood model with the
+# The surfaces row of the gallery (README and the book): scenes/wood.toml (figured maple, the wood model with the
 # procedural fiber map of `fiberlab texture wood`) and scenes/tigers_eye.toml (a cabochon, the
 # tigers-eye preset), each under two light directions, to docs/gallery/wood/*.png:
 #   wood_left / wood_right        distant light from −x / +x (along the grain): the curl

@@ -6,8 +6,10 @@ never part of `cargo test` or CI.
 Every renderer runs in its own process (peer_mitsuba.py per variant, peer_cycles.py,
 bsdf_bench.py); a peer that fails is reported as "not available: <reason>" with its log in
 OUT/logs/. Environment: SPP (16), REF_SPP (512), STRANDS (10000), PEERS_OUT (bench/peers/out),
-SKIP (comma list of mitsuba_llvm, mitsuba_scalar, cycles), CURVES (linear | bspline: the strands'
-16 points as polylines or as uniform cubic B-spline control points).
+SKIP (comma list of mitsuba_llvm, mitsuba_scalar, mitsuba_cuda, cycles), CURVES (linear | bspline: the
+strands' 16 points as polylines or as uniform cubic B-spline control points), FIBERLAB_DEVICE (cpu, gpu
+or auto: where fiberlab renders). mitsuba_cuda (`cuda_ad_rgb`) runs only where a CUDA driver is found
+(`nvidia-smi` or libcuda); bench/gpu/run uses it.
 
 Equal error: every renderer also renders at SPP/4; with the SPP render that gives two points of
 its RMSE-versus-time curve, fitted by RMSE = k t^(-1/2) (least squares in log-log with the slope
@@ -74,8 +76,10 @@ REPO = HERE.parents[1]
 # bench/peers/run points FIBERLAB at a copy of the binary it has just built.
 FIBERLAB = Path(os.environ.get("FIBERLAB", REPO / "target" / "release" / "fiberlab"))
 SCENE = HERE / "scene.toml"
-PEERS = ("mitsuba_llvm", "mitsuba_scalar", "cycles")
-MITSUBA_VARIANTS = {"mitsuba_llvm": "llvm_ad_rgb", "mitsuba_scalar": "scalar_rgb"}
+PEERS = ("mitsuba_llvm", "mitsuba_scalar", "mitsuba_cuda", "cycles")
+MITSUBA_VARIANTS = {"mitsuba_llvm": "llvm_ad_rgb", "mitsuba_scalar": "scalar_rgb", "mitsuba_cuda": "cuda_ad_rgb"}
+# fiberlab renders on this device (`fiberlab render --device`): cpu, gpu or auto.
+FIBERLAB_DEVICE = os.environ.get("FIBERLAB_DEVICE", "cpu")
 REFERENCE_SEED = 1000
 PEER_TIMEOUT_S = 1800
 # CURVES: fiberlab's [[hair]] keys and Mitsuba's shape type per variant.
@@ -142,11 +146,19 @@ def scene_for(cfg):
 def render_fiberlab(hair, spp, seed, prefix, scene=SCENE):
     """Render with fiberlab; returns load (scene) and render seconds and the EXR path."""
     proc = fiberlab("render", scene, "--hair", hair, "--spp", spp, "--seed", seed,
-                    "--out", prefix, "--quiet")
+                    "--out", prefix, "--quiet", "--device", FIBERLAB_DEVICE)
     match = RENDER_LINE.search(proc.stderr)
     if not match:
         raise RuntimeError(f"no timing line in fiberlab's output:\n{proc.stderr}")
     return {"load_s": float(match[1]), "render_s": float(match[2]), "exr": f"{prefix}.exr"}
+
+
+def has_cuda():
+    """True when a CUDA driver is present (for Mitsuba's cuda_ad_rgb)."""
+    if subprocess.run(["sh", "-c", "command -v nvidia-smi"], capture_output=True).returncode == 0:
+        return True
+    libs = subprocess.run(["sh", "-c", "ldconfig -p 2>/dev/null"], capture_output=True, text=True).stdout
+    return "libcuda.so" in libs
 
 
 def failure_reason(log):
@@ -392,7 +404,12 @@ def main():
     peers = {}
     for name in PEERS:
         print(f"{name}", flush=True)
-        peers[name] = {"skipped": True} if name in cfg["skip"] else run_peer(name, hair, cfg)
+        if name in cfg["skip"]:
+            peers[name] = {"skipped": True}
+        elif name == "mitsuba_cuda" and not has_cuda():
+            peers[name] = {"error": "no CUDA driver on this machine (nvidia-smi, libcuda)"}
+        else:
+            peers[name] = run_peer(name, hair, cfg)
     print("equal-time renders", flush=True)
     equal_time_renders(hair, cfg, fl16, peers)
     for res in (fl16, *peers.values()):

@@ -468,18 +468,11 @@ fn mc_furnace(f: &Model, wo: DVec3, h: f64, n: usize, rng: &mut TestRng) -> (Rgb
 }
 
 /// Max relative reciprocity defect of the (h-averaged) f_s over random pairs; also returns
-/// the pairs with their two values for model-specific analysis.
-fn reciprocity(f: &Model, pairs: usize, rng: &mut TestRng) -> (f64, Vec<(DVec3, DVec3, Rgb, Rgb)>) {
-    let near = f.properties().field == Field::Near;
-    let eval_avg = |a: DVec3, b: DVec3| {
-        if near {
-            let n = 32;
-            (0..n).map(|k| f.eval(a, b, -1.0 + (k as f64 + 0.5) * 2.0 / n as f64)).fold(Rgb::ZERO, |s, v| s + v)
-                / n as f64
-        } else {
-            f.eval(a, b, 0.0)
-        }
-    };
+/// the pairs with their two values for model-specific analysis. `fiberlab check` calls it
+/// with `Effort::pairs / 4` pairs from `TestRng::new(0x5eed)` after the finiteness sweep; the
+/// explorer's read-out with a fresh generator.
+pub fn reciprocity(f: &Model, pairs: usize, rng: &mut TestRng) -> (f64, Vec<(DVec3, DVec3, Rgb, Rgb)>) {
+    let eval_avg = |a: DVec3, b: DVec3| f.eval_far(a, b);
     let mut worst: f64 = 0.0;
     let mut samples = Vec::with_capacity(pairs);
     for _ in 0..pairs {

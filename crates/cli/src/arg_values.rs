@@ -259,6 +259,27 @@ pub fn tile(text: &str) -> Result<Tile, String> {
     Ok(Tile { index, count })
 }
 
+/// An image size `W×H` in pixels (`--size`), both at least 1.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageSize {
+    /// W.
+    pub width: u32,
+    /// H.
+    pub height: u32,
+}
+
+/// `WxH` (or `W×H`), two whole numbers of pixels, each at least 1.
+pub fn image_size(text: &str) -> Result<ImageSize, String> {
+    let expected = || format!("expected WxH in pixels, e.g. 256x256, got `{text}`");
+    let (w, h) = text.split_once(['x', 'X', '×']).ok_or_else(expected)?;
+    let side = |s: &str| s.trim().parse::<u32>().map_err(|_| expected());
+    let (width, height) = (side(w)?, side(h)?);
+    if width == 0 || height == 0 {
+        return Err(format!("`{text}`: width and height must be at least 1 pixel"));
+    }
+    Ok(ImageSize { width, height })
+}
+
 /// A non-empty half-open pixel rectangle `x0,y0,x1,y1` (`x0 < x1`, `y0 < y1`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PixelRect(Region);
@@ -374,6 +395,25 @@ mod tests {
         assert_eq!(named_rect("g=0,0,1,1").unwrap().name, "g");
         assert!(named_rect("=0,0,1,1").unwrap_err().contains("non-empty name"));
         assert!(named_rect("0,0,1,1").unwrap_err().contains("NAME=X0,Y0,X1,Y1"));
+    }
+
+    #[test]
+    fn image_sizes_are_two_positive_whole_numbers() {
+        assert_eq!(image_size("320x180"), Ok(ImageSize { width: 320, height: 180 }));
+        assert_eq!(image_size("64×48"), Ok(ImageSize { width: 64, height: 48 }));
+        assert_eq!(image_size("1X1"), Ok(ImageSize { width: 1, height: 1 }));
+        for (bad, expected) in [
+            ("0x10", "at least 1"),
+            ("10x0", "at least 1"),
+            ("256", "WxH"),
+            ("ax4", "WxH"),
+            ("4x-1", "WxH"),
+            ("1.5x2", "WxH"),
+            ("4x4x4", "WxH"),
+            ("99999999999x1", "WxH"),
+        ] {
+            assert!(image_size(bad).unwrap_err().contains(expected), "{bad}");
+        }
     }
 
     #[test]

@@ -126,7 +126,8 @@ pub fn stream_output(
         Some(p) if !fiberlab_io::output_file::is_stream(p) => stream_atomically(p, write),
         Some(p) if p != Path::new("-") => {
             // `/dev/stdout`, `/dev/stderr`: written through (fiberlab_io::output_file).
-            let mut file = fiberlab_io::output_file::AtomicFile::create(p).with_context(|| format!("writing {}", p.display()))?;
+            let mut file =
+                fiberlab_io::output_file::AtomicFile::create(p).with_context(|| format!("writing {}", p.display()))?;
             {
                 let mut out = BufWriter::with_capacity(1 << 16, file.file());
                 write(&mut out)?;

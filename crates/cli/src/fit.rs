@@ -23,14 +23,13 @@
 //! fiber table or no table, are refused with the reason.
 
 use crate::files::write_atomically;
-use crate::plot::{Grids, Scale, write_figure};
+use crate::plot::{Scale, write_figure};
 use anyhow::{Context, bail};
+use fiberlab_compare::maps::ScatteringMap;
 use fiberlab_fit::{
-    BinObservation, Channel, FitOptions, FitResult, FreeParam, Observation, SurfaceData, Uncertainty, fit_surface,
-    fit_with,
+    FitOptions, FitResult, FreeParam, Observation, SurfaceData, Uncertainty, fit_surface, fit_with, observation,
 };
-use fiberlab_io::table::{TableKind, read_kind};
-use fiberlab_math::frame::direction;
+use fiberlab_io::table::{LobeSlices, TableKind, read_kind};
 use fiberlab_scatter::ModelKind;
 use fiberlab_scatter::params::{ParamSet, split_key_value};
 use std::path::{Path, PathBuf};
@@ -93,110 +92,20 @@ pub struct Args {
     out: crate::arg_values::OutPrefix,
 }
 
-/// Observations and, for tables, the `(θ, φ)` bin grid of each incidence.
-type Observations = (Vec<Observation>, Option<(usize, usize)>);
-
-/// What is fitted: point observations of a fiber model, or a surface table's bins.
+/// What is fitted: point observations of a fiber model (with the `(θ, φ)` bin grid of a
+/// table's incidences), or a surface table's bins.
 enum Data {
     Fiber(Vec<Observation>, Option<(usize, usize)>),
     Surface(SurfaceData, (usize, usize)),
 }
 
-/// The channels an observation of colour data is split into: the luminance alone, or r, g, b.
-fn channels(per_channel: bool) -> Vec<Channel> {
-    if per_channel { (0..3).map(Channel::Rgb).collect() } else { vec![Channel::Luminance] }
-}
-
-/// Observations from a table lobe: bin centres, values (per channel or luminance), standard
-/// errors with a floor (empty bins have no spread: 1 % of the largest value).
-fn from_table(path: &Path, lobe: &str, per_channel: bool) -> anyhow::Result<Observations> {
-    let lobes = fiberlab_io::table::read(path)?;
-    let t = lobes.get(lobe).with_context(|| format!("{}: no rows with lobe `{lobe}`", path.display()))?;
-    let (nt, np) = (t.bins_theta, t.bins_phi);
-    let peak = t.f.iter().flatten().map(|v| v.luminance()).fold(0.0, f64::max);
-    let mut obs = Vec::new();
-    for s in 0..t.theta_in.len() {
-        let wi = direction(t.theta_in[s], t.phi_in[s]);
-        for b in 0..nt * np {
-            let tr = -std::f64::consts::FRAC_PI_2 + ((b / np) as f64 + 0.5) * std::f64::consts::PI / nt as f64;
-            let p = -std::f64::consts::PI + ((b % np) as f64 + 0.5) * std::f64::consts::TAU / np as f64;
-            for channel in channels(per_channel) {
-                obs.push(Observation {
-                    wi,
-                    wo: direction(tr, t.phi_in[s] + p),
-                    value: channel.of(t.f[s][b]),
-                    sigma: channel.of(t.std[s][b]).max(0.01 * peak),
-                    channel,
-                });
-            }
-        }
-    }
-    Ok((obs, Some((nt, np))))
-}
-
-/// A surface table's lobe as fit data: the bins of every incidence (see
-/// [`fiberlab_fit::surface_bins`]) with their values per channel (or luminance) and
-/// standard errors (floored at the median positive one); and the `(θ, φ)` bin grid.
-fn from_surface_table(
-    path: &Path,
-    lobe: &str,
-    per_channel: bool,
-    sub: usize,
-    viewer_first: bool,
-) -> anyhow::Result<(SurfaceData, (usize, usize))> {
-    let lobes = fiberlab_io::table::read(path)?;
-    let t = lobes.get(lobe).with_context(|| {
-        format!(
-            "{}: no rows with lobe `{lobe}` (this surface table has: {})",
-            path.display(),
-            lobes.keys().cloned().collect::<Vec<_>>().join(", ")
-        )
-    })?;
-    let (nt, np) = (t.bins_theta, t.bins_phi);
-    // The bins' midpoint nodes (a direction and a weight, 32 bytes each), before they are made.
-    let nodes = (nt as u64)
-        .saturating_mul(np as u64)
-        .saturating_mul(t.theta_in.len() as u64)
-        .saturating_mul(sub as u64)
-        .saturating_mul(sub as u64);
-    crate::memory_budget::check(&[crate::memory_budget::Need::items(
-        format!("{nodes} bin nodes (--subsamples {sub}: {sub}² per bin)"),
-        nodes,
-        32,
-    )])?;
-    let peak = t.f.iter().flatten().map(|v| v.luminance()).fold(0.0, f64::max);
-    if peak <= 0.0 {
-        bail!("{}: lobe `{lobe}` is zero in every bin; nothing to fit", path.display());
-    }
-    let floor = std_floor(t);
-    let mut data = SurfaceData::default();
-    for s in 0..t.theta_in.len() {
-        let first = data.bins.len();
-        data.bins.extend(fiberlab_fit::surface_bins(t.theta_in[s], t.phi_in[s], nt, np, sub, viewer_first));
-        for b in 0..nt * np {
-            for channel in channels(per_channel) {
-                data.observations.push(BinObservation {
-                    bin: first + b,
-                    value: channel.of(t.f[s][b]),
-                    sigma: channel.of(t.std[s][b]).max(floor),
-                    channel,
-                });
-            }
-        }
-    }
-    Ok((data, (nt, np)))
-}
-
-/// The σ of a surface-table bin no path reached (which has no spread): the median of the
-/// positive standard errors of the lobe (about one path's contribution to a bin), or 1 % of
-/// the peak if none is positive. A floor relative to the peak (as for fiber tables) would
-/// drown a cloth's diffuse bins under a sharp highlight, and the smallest σ (one weak path)
-/// would give an empty bin all the weight.
-pub fn std_floor(t: &fiberlab_io::table::LobeSlices) -> f64 {
-    let mut spread: Vec<f64> = t.std.iter().flatten().flat_map(|v| [v[0], v[1], v[2]]).filter(|&v| v > 0.0).collect();
-    spread.sort_by(f64::total_cmp);
-    let peak = t.f.iter().flatten().map(|v| v.luminance()).fold(0.0, f64::max);
-    spread.get(spread.len() / 2).copied().unwrap_or(0.01 * peak)
+/// The lobe `lobe` of the table at `path`, with an error naming the lobes it has.
+fn table_lobe(path: &Path, lobe: &str) -> anyhow::Result<LobeSlices> {
+    let mut lobes = fiberlab_io::table::read(path)?;
+    let names = lobes.keys().cloned().collect::<Vec<_>>().join(", ");
+    lobes
+        .remove(lobe)
+        .with_context(|| format!("{}: no rows with lobe `{lobe}` (the table has: {names})", path.display()))
 }
 
 /// Refuses a table of the wrong kind for the model: a surface table for a fiber model, a
@@ -231,101 +140,6 @@ fn surface_names() -> String {
     fiberlab_scatter::SURFACE_MODELS.iter().map(|m| m.name).collect::<Vec<_>>().join(", ")
 }
 
-/// Observations of a target model on a 10° (θ_i, θ_r) × 15° φ grid, weighted by
-/// cosθ_i cosθ_r: σ = s/sqrt(cosθ_i cosθ_r) with s the grid's mean value; luminances, or
-/// per channel when `per_channel` (each channel's σ from its own mean).
-fn from_model_in(model: &fiberlab_scatter::Model, per_channel: bool) -> Vec<Observation> {
-    let mut obs = Vec::new();
-    for (wi, wo, weight) in fiberlab_fit::model_grid() {
-        let f = fiberlab_fit::width_averaged(model, wi, wo);
-        for channel in channels(per_channel) {
-            obs.push(Observation { wi, wo, value: channel.of(f), sigma: 1.0 / weight, channel });
-        }
-    }
-    for channel in channels(per_channel) {
-        let of_channel = || obs.iter().filter(|o| o.channel == channel);
-        let mean = of_channel().map(|o| o.value).sum::<f64>() / of_channel().count() as f64;
-        obs.iter_mut().filter(|o| o.channel == channel).for_each(|o| o.sigma *= mean.max(1e-12));
-    }
-    obs
-}
-
-/// The angle columns of a CSV and the range each must lie in (degrees).
-const ANGLE_RANGES: [(&str, f64, f64); 4] =
-    [("theta_i", -90.0, 90.0), ("phi_i", -360.0, 360.0), ("theta_r", -90.0, 90.0), ("phi_r", -360.0, 360.0)];
-
-/// A user's CSV: `value` (luminance) or `f_r,f_g,f_b` (per channel, or their luminance when
-/// `per_channel` is false), with optional standard errors `std` / `std_r,std_g,std_b`
-/// (default 5 % of the value). Errors name the file, line and column.
-fn from_csv(path: &Path, per_channel: bool) -> anyhow::Result<Vec<Observation>> {
-    let text = fiberlab_io::input_file::read_text(path)?;
-    let mut r = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
-    let header = r.headers()?.clone();
-    let col = |c: &str| header.iter().position(|h| h == c);
-    let required = |c: &str| col(c).with_context(|| format!("{}: line 1: missing column `{c}`", path.display()));
-    let angles: Vec<usize> = ANGLE_RANGES.iter().map(|(c, _, _)| required(c)).collect::<anyhow::Result<_>>()?;
-    let rgb_cols: Option<Vec<usize>> = ["f_r", "f_g", "f_b"].iter().map(|c| col(c)).collect();
-    // Value columns with their standard-error columns, and the channel each measures.
-    let values: Vec<(usize, Option<usize>, Channel)> = match rgb_cols {
-        Some(v) => {
-            let std: Vec<Option<usize>> = ["std_r", "std_g", "std_b"].iter().map(|c| col(c)).collect();
-            (0..3).map(|c| (v[c], std[c], Channel::Rgb(c))).collect()
-        }
-        None => vec![(required("value")?, col("std"), Channel::Luminance)],
-    };
-    let mut obs = Vec::new();
-    for rec in r.records() {
-        let rec = rec?;
-        let line = rec.position().map_or(0, |p| p.line());
-        let num = |i: usize| -> anyhow::Result<f64> {
-            let t = rec.get(i).unwrap_or("");
-            t.parse::<f64>().ok().filter(|v| v.is_finite()).with_context(|| {
-                format!(
-                    "{}: line {line}, column {} (`{}`): expected a finite number, got `{t}`",
-                    path.display(),
-                    i + 1,
-                    &header[i]
-                )
-            })
-        };
-        let mut a = [0.0; 4];
-        for (k, (&i, (name, lo, hi))) in angles.iter().zip(ANGLE_RANGES).enumerate() {
-            a[k] = num(i)?;
-            if !(lo..=hi).contains(&a[k]) {
-                bail!(
-                    "{}: line {line}, column {} (`{name}`): {:?} degrees is outside [{lo}, {hi}]",
-                    path.display(),
-                    i + 1,
-                    a[k]
-                );
-            }
-        }
-        let (wi, wo) =
-            (direction(a[0].to_radians(), a[1].to_radians()), direction(a[2].to_radians(), a[3].to_radians()));
-        let mut row = Vec::new();
-        for &(i, std, channel) in &values {
-            let value = num(i)?;
-            let sigma = match std {
-                Some(s) => num(s)?,
-                None => 0.05 * value.abs().max(1e-6),
-            };
-            if sigma <= 0.0 {
-                bail!("{}: line {line}, column {}: std must be positive", path.display(), std.map_or(0, |s| s + 1));
-            }
-            row.push(Observation { wi, wo, value, sigma, channel });
-        }
-        if row.len() == 3 && !per_channel {
-            // Luminance of the channels, σ by propagation of independent errors.
-            let weights = [0.2126, 0.7152, 0.0722];
-            let value = (0..3).map(|c| weights[c] * row[c].value).sum();
-            let sigma = (0..3).map(|c| (weights[c] * row[c].sigma).powi(2)).sum::<f64>().sqrt();
-            row = vec![Observation { wi, wo, value, sigma, channel: Channel::Luminance }];
-        }
-        obs.extend(row);
-    }
-    Ok(obs)
-}
-
 /// `KEY=VALUE` of `--init`: one starting number, or three (`r,g,b`) for a colour.
 fn free_param(text: &str) -> anyhow::Result<FreeParam> {
     let (key, value) = split_key_value(text)?;
@@ -351,21 +165,26 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let per_channel = colour_free && !args.luminance;
     let data = match (&args.table, &args.data, &args.target, table_kind) {
         (Some(t), None, None, Some(TableKind::Surface)) => {
-            let (d, grid) = from_surface_table(t, &args.lobe, per_channel, args.subsamples, args.viewer_first)?;
-            Data::Surface(d, grid)
+            let lobe = table_lobe(t, &args.lobe)?;
+            let d = fiberlab_fit::surface::from_surface_table(&lobe, per_channel, args.subsamples, args.viewer_first)
+                .with_context(|| format!("{}: lobe `{}`", t.display(), args.lobe))?;
+            Data::Surface(d, (lobe.bins_theta, lobe.bins_phi))
         }
         (Some(t), None, None, _) => {
-            let (d, grid) = from_table(t, &args.lobe, per_channel)?;
-            Data::Fiber(d, grid)
+            let lobe = table_lobe(t, &args.lobe)?;
+            Data::Fiber(observation::from_fiber_table(&lobe, per_channel), Some((lobe.bins_theta, lobe.bins_phi)))
         }
-        (None, Some(d), None, _) => Data::Fiber(from_csv(d, per_channel)?, None),
+        (None, Some(d), None, _) => {
+            let text = fiberlab_io::input_file::read_text(d)?;
+            Data::Fiber(observation::from_csv(&text, d, per_channel)?, None)
+        }
         (None, None, Some(name), _) => {
             let target = crate::model_args::ModelArgs {
                 model: name.clone(),
                 params: args.target_params.clone(),
                 params_file: None,
             };
-            Data::Fiber(from_model_in(&target.build()?, per_channel), None)
+            Data::Fiber(observation::from_model(&target.build()?, per_channel), None)
         }
         _ => bail!("give exactly one of --table, --data and --target"),
     };
@@ -396,6 +215,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             &format!("fitting {} parameter(s) to {observations} observations", free.len()),
             "the best point so far",
         )),
+        ..FitOptions::default()
     };
     let (r, grid) = match &data {
         Data::Fiber(d, grid) => (fit_with(&base, &free, d, &options), *grid),
@@ -433,11 +253,19 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         let azimuthal = (0..np).map(|j| (0..nt).map(|i| image[i][j]).sum()).collect();
         let cone = image[nt / 2].clone();
         let path = out.with("_residuals.png");
-        write_figure(&path, &Grids { image, azimuthal, cone }, "|residual| / σ (first incidence)", Scale::Log, 3.0)?;
+        write_figure(
+            &path,
+            &ScatteringMap { image, azimuthal, cone },
+            "|residual| / σ (first incidence)",
+            Scale::Log,
+            3.0,
+        )?;
         println!("wrote {}", path.display());
     }
     if r.interrupted {
-        return Err(crate::interrupt::Interrupted(format!("wrote {} (the best point so far)", toml_path.display())).into());
+        return Err(
+            crate::interrupt::Interrupted(format!("wrote {} (the best point so far)", toml_path.display())).into()
+        );
     }
     Ok(())
 }

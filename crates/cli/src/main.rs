@@ -7,9 +7,11 @@ mod bench;
 mod check;
 mod compare;
 mod compare_model;
+mod devices;
 mod dual_tables;
 mod eval;
 mod evaluate;
+mod explore;
 mod files;
 mod fit;
 mod hair;
@@ -30,9 +32,12 @@ mod texture;
 
 use clap::{Parser, Subcommand};
 
+/// `fiberlab --version`: the package version and the commit it was built from (`build.rs`).
+const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (", env!("FIBERLAB_COMMIT"), ")");
+
 /// fiberlab: scattering functions for hair, fur and other fibers.
 #[derive(Parser)]
-#[command(name = "fiberlab", version, about, long_about = None)]
+#[command(name = "fiberlab", version = VERSION, about, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -60,6 +65,8 @@ enum Command {
     MedullaTables(medulla_tables::Args),
     /// Path-trace a scene (default: a head with generated hair) to EXR and PNG.
     Render(render::Args),
+    /// List the GPU adapters `render --device gpu` can use (name, kind, API, memory limits).
+    Devices(devices::Args),
     /// Merge parts rendered with --tile I/N into one image (bit-exact).
     Merge(merge::Args),
     /// Generate or inspect .hair files.
@@ -80,6 +87,8 @@ enum Command {
     Compare(compare::Args),
     /// Render one scene with several models and compare each with a reference.
     Evaluate(evaluate::Args),
+    /// Serve the interactive explorer (models, plots, comparisons, fits, render preview) on localhost.
+    Explore(explore::Args),
 }
 
 impl Command {
@@ -131,6 +140,7 @@ fn main() {
         Command::DualTables(a) => dual_tables::run(a),
         Command::MedullaTables(a) => medulla_tables::run(a),
         Command::Render(a) => render::run(a),
+        Command::Devices(a) => devices::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Hair(a) => hair::run(a),
         Command::Scene(a) => scene::run(a),
@@ -141,6 +151,7 @@ fn main() {
         Command::Fit(a) => fit::run(a),
         Command::Compare(a) => compare::run(a),
         Command::Evaluate(a) => evaluate::run(a),
+        Command::Explore(a) => explore::run(a),
     };
     if let Err(e) = result {
         if let Some(interrupted) = e.downcast_ref::<interrupt::Interrupted>() {

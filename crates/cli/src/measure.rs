@@ -15,19 +15,20 @@
 //! comment [`fiberlab_io::table::SURFACE_HEADER`] and its lobes are the path classes
 //! `finish, fiber, substrate, multiple, all`.
 
+use crate::arg_values::OutPrefix;
 use crate::arg_values::{self, Angle, Bins, KeyValue};
 use crate::files::{read_toml, stream_atomically};
+use crate::interrupt::Interrupted;
 use crate::memory_budget::{MemoryLimit, measure_needs};
-use crate::plot::{Grids, Scale, write_figure};
+use crate::plot::{Scale, write_figure};
 use anyhow::Context;
+use fiberlab_compare::maps::{ScatteringMap, table_map};
 use fiberlab_gonio::fiber_slab::{FiberSlab, SurfaceMeasurement, SurfaceSetup, measure_surface};
 use fiberlab_gonio::{Fiber, Measurement, Setup, measure};
 use fiberlab_math::Rgb;
 use fiberlab_render::toml_params::raw_pairs;
 use fiberlab_scatter::params::RawValue;
 use indicatif::{ProgressBar, ProgressStyle};
-use crate::arg_values::OutPrefix;
-use crate::interrupt::Interrupted;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -219,7 +220,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             );
         }
     }
-    let wrote = format!("wrote {}, {} and {}", out.with(".csv").display(), out.with(".png").display(), out.with(".exr").display());
+    let wrote = format!(
+        "wrote {}, {} and {}",
+        out.with(".csv").display(),
+        out.with(".png").display(),
+        out.with(".exr").display()
+    );
     finish(wrote, measurements.len(), thetas.len())
 }
 
@@ -302,15 +308,9 @@ fn write_exr(m: &Measurement, path: &Path) -> anyhow::Result<()> {
 }
 
 /// The `all` lobe as a figure: image, azimuthal distribution and the specular-cone row.
-fn figure(m: &Measurement) -> Grids {
-    let (nt, np) = (m.setup.bins_theta, m.setup.bins_phi);
-    let all = &m.lobes[5];
-    let image: Vec<Vec<f64>> = (0..nt).map(|i| (0..np).map(|j| all.f[i * np + j].luminance()).collect()).collect();
-    let azimuthal =
-        (0..np).map(|j| (0..nt).map(|i| image[i][j] * m.bin_centre(i, j).0.cos().powi(2)).sum::<f64>()).collect();
-    let cone_row =
-        ((((-m.setup.theta_i) + std::f64::consts::FRAC_PI_2) / std::f64::consts::PI * nt as f64) as usize).min(nt - 1);
-    Grids { azimuthal, cone: image[cone_row].clone(), image }
+fn figure(m: &Measurement) -> ScatteringMap {
+    let values: Vec<f64> = m.lobes[5].f.iter().map(|v| v.luminance()).collect();
+    table_map(&values, m.setup.bins_theta, m.setup.bins_phi, m.setup.theta_i)
 }
 
 /// The sample of `--surface`, from the flags (radius 1: lengths in fiber radii).
@@ -378,7 +378,11 @@ fn run_surface(args: &Args) -> anyhow::Result<()> {
             println!("  albedo {name:<9} {:.6} {:.6} {:.6}", lobe.albedo[0], lobe.albedo[1], lobe.albedo[2]);
         }
     }
-    finish(format!("wrote {} and {}", path.display(), out.with(".exr").display()), measurements.len(), args.theta_i.len())
+    finish(
+        format!("wrote {} and {}", path.display(), out.with(".exr").display()),
+        measurements.len(),
+        args.theta_i.len(),
+    )
 }
 
 /// The surface table: the header comment, then the rows of every incidence.

@@ -4,7 +4,7 @@
 //! also reads the data a model is built from (`measured`'s `table=PATH`).
 
 use anyhow::Context;
-use fiberlab_render::model_loader::{load_model, load_surface_model};
+use fiberlab_render::model_loader::ModelRequest;
 use fiberlab_render::toml_params::raw_pairs;
 use fiberlab_scatter::params::{RawValue, split_key_value};
 use fiberlab_scatter::{Model, ModelKind, SurfaceModel, lookup};
@@ -39,20 +39,15 @@ impl ModelArgs {
         Ok(pairs)
     }
 
-    /// Builds the model, with an error naming the model on failure.
-    pub fn build(&self) -> anyhow::Result<Model> {
-        self.build_with(&[])
+    /// The one validated request the libraries take (relative data paths relative to the
+    /// working directory).
+    pub fn request(&self) -> anyhow::Result<ModelRequest> {
+        Ok(ModelRequest::new(self.model.clone(), self.pairs()?))
     }
 
-    /// Builds the model with `overrides` replacing (or adding to) the given parameters.
-    pub fn build_with(&self, overrides: &[(&str, RawValue)]) -> anyhow::Result<Model> {
-        let mut pairs = self.pairs()?;
-        for (k, v) in overrides {
-            pairs.retain(|(key, _)| key != k);
-            pairs.push(((*k).to_string(), v.clone()));
-        }
-        // Relative table paths are relative to the working directory.
-        load_model(&self.model, &pairs, Path::new("")).with_context(|| format!("model `{}`", self.model))
+    /// Builds the model, with an error naming the model on failure.
+    pub fn build(&self) -> anyhow::Result<Model> {
+        self.request()?.build().with_context(|| format!("model `{}`", self.model))
     }
 
     /// Which registry the model belongs to (an unknown name is an error listing both).
@@ -63,8 +58,7 @@ impl ModelArgs {
     /// Builds a surface model (a fiber model's name is an error saying so) through the one
     /// model loader: a weave-pattern file (`pattern=FILE`) relative to the working directory.
     pub fn build_surface(&self) -> anyhow::Result<SurfaceModel> {
-        load_surface_model(&self.model, &self.pairs()?, Path::new(""))
-            .with_context(|| format!("model `{}`", self.model))
+        self.request()?.build_surface().with_context(|| format!("model `{}`", self.model))
     }
 
     /// Builds the model from whichever registry holds its name.

@@ -6,6 +6,10 @@ pub struct Args {
     /// Show only this model.
     #[arg(long)]
     model: Option<String>,
+    /// Print each model's registry entry as the Markdown of the book's model pages (the
+    /// text between their `registry table` comments).
+    #[arg(long)]
+    markdown: bool,
 }
 
 /// Prints both registries: each model's title line, then `kind: fiber` or `kind: surface`.
@@ -13,8 +17,17 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(name) = &args.model {
         fiberlab_scatter::lookup(name)?;
     }
+    let mut first = true;
     for entry in fiberlab_scatter::registry().filter(|e| args.model.as_deref().is_none_or(|n| n == e.info().name)) {
         let spec = entry.info();
+        if args.markdown {
+            if !first {
+                println!();
+            }
+            first = false;
+            print!("{}", spec.markdown(entry.kind()));
+            continue;
+        }
         println!("{} — {}", spec.name, spec.summary);
         println!("  kind: {}", entry.kind());
         println!("  source: {}", spec.citation);

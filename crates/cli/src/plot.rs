@@ -9,12 +9,10 @@ use crate::files::write_atomically;
 use crate::model_args::AnyModel;
 use crate::model_args::ModelArgs;
 use anyhow::Context;
-use fiberlab_math::DVec3;
-use fiberlab_math::frame::direction;
-use fiberlab_scatter::{Field, Lobes, Model, ScatteringFunction, SurfaceModel, SurfaceScattering};
+use fiberlab_compare::maps::{ScatteringMap as Grids, fiber_map, surface_map};
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 /// Flags of `fiberlab plot`.
@@ -56,94 +54,12 @@ pub enum Scale {
     Log,
 }
 
-const COLS: usize = 180; // 2° in φ
-const ROWS: usize = 90; // 2° in θ_r
-
-/// The far-field value at (ω_i, ω_r): near-field models are averaged over h.
-fn far_field(model: &Model, wi: fiberlab_math::DVec3, wr: fiberlab_math::DVec3) -> f64 {
-    if model.properties().field == Field::Near {
-        let n = 16;
-        (0..n).map(|k| model.eval(wi, wr, -1.0 + (k as f64 + 0.5) * 2.0 / n as f64).luminance()).sum::<f64>() / n as f64
-    } else {
-        model.eval(wi, wr, 0.0).luminance()
-    }
-}
-
-/// What a figure shows; shared with `fiberlab measure`.
-pub(crate) struct Grids {
-    /// f_s luminance, `[row][col]`, row = θ_r from −90° up, col = φ from −180°.
-    pub image: Vec<Vec<f64>>,
-    /// Azimuthal distribution ∫ f_s cos²θ_r dθ_r (scattered power per unit φ).
-    pub azimuthal: Vec<f64>,
-    /// f_s on the specular cone θ_r = −θ_i, over φ from −180°.
-    pub cone: Vec<f64>,
-}
-
-fn compute(model: &Model, theta_i: f64) -> Grids {
-    let wi = direction(theta_i, 0.0);
-    let n_phi = 720;
-    let phi_at = |j: usize, n: usize| -PI + (j as f64 + 0.5) * 2.0 * PI / n as f64;
-    if model.properties().lobes == Lobes::Delta {
-        let cone: Vec<f64> = (0..n_phi).map(|j| model.cone(theta_i, phi_at(j, n_phi)).value.luminance()).collect();
-        return Grids { image: vec![vec![0.0; COLS]; ROWS], azimuthal: cone.clone(), cone };
-    }
-    let image = (0..ROWS)
-        .map(|r| {
-            let tr = -FRAC_PI_2 + (r as f64 + 0.5) * PI / ROWS as f64;
-            (0..COLS).map(|c| far_field(model, wi, direction(tr, phi_at(c, COLS)))).collect()
-        })
-        .collect();
-    let n_theta = 360;
-    let azimuthal = (0..n_phi)
-        .map(|j| {
-            let p = phi_at(j, n_phi);
-            (0..n_theta)
-                .map(|k| {
-                    let tr = -FRAC_PI_2 + (k as f64 + 0.5) * PI / n_theta as f64;
-                    far_field(model, wi, direction(tr, p)) * tr.cos().powi(2) * PI / n_theta as f64
-                })
-                .sum()
-        })
-        .collect();
-    let cone = (0..n_phi).map(|j| far_field(model, wi, direction(-theta_i, phi_at(j, n_phi)))).collect();
-    Grids { image, azimuthal, cone }
-}
-
-/// The surface figure: f_r over (φ_o, θ_o ∈ [0, 90°)), light at (θ_i, φ_i = 0).
-fn compute_surface(model: &SurfaceModel, theta_i: f64) -> Grids {
-    let dir = |t: f64, p: f64| DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
-    let wi = dir(theta_i, 0.0);
-    let n_phi = 720;
-    let phi_at = |j: usize, n: usize| -PI + (j as f64 + 0.5) * 2.0 * PI / n as f64;
-    let f = |wo: DVec3| model.eval(wi, wo).luminance();
-    let image = (0..ROWS)
-        .map(|r| {
-            let t = (r as f64 + 0.5) * FRAC_PI_2 / ROWS as f64;
-            (0..COLS).map(|c| f(dir(t, phi_at(c, COLS)))).collect()
-        })
-        .collect();
-    let n_theta = 360;
-    let azimuthal = (0..n_phi)
-        .map(|j| {
-            let p = phi_at(j, n_phi);
-            (0..n_theta)
-                .map(|k| {
-                    let t = (k as f64 + 0.5) * FRAC_PI_2 / n_theta as f64;
-                    f(dir(t, p)) * t.cos() * t.sin() * FRAC_PI_2 / n_theta as f64
-                })
-                .sum()
-        })
-        .collect();
-    let cone = (0..n_phi).map(|j| f(dir(theta_i, phi_at(j, n_phi)))).collect();
-    Grids { image, azimuthal, cone }
-}
-
 /// Draws the figure.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let title = format!("{}   θ_i = {}°", args.model.label(), args.theta_i.degrees);
     match args.model.build_any()? {
         AnyModel::Fiber(model) => {
-            let grids = compute(&model, args.theta_i.radians);
+            let grids = fiber_map(&model, args.theta_i.radians);
             write_figure(&args.out, &grids, &title, args.scale, args.decades)
         }
         AnyModel::Surface(model) => {
@@ -152,7 +68,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 "--theta-i {}: for a surface model the light's angle from the normal, in [0, 90)",
                 args.theta_i.degrees
             );
-            let grids = compute_surface(&model, args.theta_i.radians);
+            let grids = surface_map(&model, args.theta_i.radians);
             write_figure_with(&args.out, &grids, &title, args.scale, args.decades, &SURFACE_AXES)
         }
     }

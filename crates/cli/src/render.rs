@@ -19,7 +19,7 @@ use fiberlab_io::LinearImage;
 use fiberlab_io::ToneMap;
 use fiberlab_render::accumulation::Accumulation;
 use fiberlab_render::dual_scattering::{DualScatteringSettings, Integrator, integrator_named};
-use fiberlab_render::integrator::{Progress, Region, RenderSettings, render_continuing};
+use fiberlab_render::integrator::{Progress, Region, RenderSettings};
 use fiberlab_render::scene_file::SceneFile;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -66,6 +66,10 @@ pub struct Args {
     /// left out). Repeatable.
     #[arg(long = "dual", value_name = "KEY=VALUE")]
     dual: Vec<String>,
+    /// Image size in pixels instead of the scene camera's (a quick preview: `--size 128x128`);
+    /// the vertical field of view stays the scene's.
+    #[arg(long, value_name = "WxH", value_parser = arg_values::image_size)]
+    size: Option<arg_values::ImageSize>,
     /// Render only part I of N (0-based bands of rows), for `fiberlab merge`.
     #[arg(long, value_name = "I/N", value_parser = arg_values::tile)]
     tile: Option<Tile>,
@@ -83,6 +87,10 @@ pub struct Args {
     /// Exposure for the PNG in stops (default: the scene's).
     #[arg(long, allow_hyphen_values = true, value_parser = arg_values::finite)]
     exposure: Option<f64>,
+    /// Where to render: `cpu`, `gpu` (the GPU path tracer; software Vulkan counts) or `auto`
+    /// (a hardware GPU when there is one, else the CPU). `fiberlab devices` lists the GPUs.
+    #[arg(long, value_name = "cpu|gpu|auto", default_value = "cpu", value_parser = ["cpu", "gpu", "auto"])]
+    device: String,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
@@ -237,6 +245,9 @@ fn scene_hash(args: &Args) -> anyhow::Result<String> {
         h = fnv1a(fnv1a(h, b"hair"), &read(p)?);
     }
     h = fnv1a(h, format!("max_depth={:?}", args.max_depth).as_bytes());
+    if let Some(size) = args.size {
+        h = fnv1a(h, format!("size={}x{}", size.width, size.height).as_bytes());
+    }
     if args.integrator.is_some() || args.fiber_count.is_some() || !args.dual.is_empty() {
         let text = format!("integrator={:?} fiber_count={:?} dual={:?}", args.integrator, args.fiber_count, args.dual);
         h = fnv1a(h, text.as_bytes());
@@ -252,7 +263,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Some(p) => SceneFile::read(p)?,
         None => SceneFile::default_scene(),
     };
-    // Pixels are checked against the camera as written, before hair and BVHs are built.
+    if let Some(size) = args.size {
+        file.override_image_size(size.width, size.height);
+    }
+    // Pixels are checked against the camera's size, before hair and BVHs are built.
     let (w, h) = file.image_size();
     let region = config.pixels.region(w, h)?;
     if let Some(h) = &args.hair {
@@ -300,6 +314,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
     }
     let settings = RenderSettings { integrator, ..settings };
+    let choice = fiberlab_gpu::DeviceChoice::named(&args.device).map_err(anyhow::Error::msg)?;
+    let (gpu, note) =
+        fiberlab_gpu::render_device::open(choice).map_err(|e| anyhow::anyhow!("--device {}: {e}", args.device))?;
+    if let Some(note) = note {
+        eprintln!("{note}");
+    }
     let build_seconds = t0.elapsed().as_secs_f64();
     let deadline = config.time_limit.and_then(|limit| Instant::now().checked_add(limit));
     let settings = RenderSettings { deadline, ..settings };
@@ -308,12 +328,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         eprintln!("--threads {}: rendering with {threads}, the cores of this machine", args.threads);
     }
     let doing = format!(
-        "rendering {w}×{h}{} to {} spp (scene built in {build_seconds:.2} s)",
+        "rendering {w}×{h}{} to {} spp on {} (scene built in {build_seconds:.2} s)",
         match config.pixels {
             Pixels::All => String::new(),
             p => format!(", {p}"),
         },
-        settings.spp
+        settings.spp,
+        gpu.as_ref().map_or("the CPU".to_string(), |g| format!("{} ({})", g.adapter().name, g.adapter().backend))
     );
     let stop = crate::interrupt::listen(&doing, "what is done");
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(0) };
@@ -321,7 +342,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent}% pass {msg}, ETA {eta}")
             .expect("valid template"),
     );
-    let out = render_continuing(
+    let out = fiberlab_gpu::render_device::render_continuing(
+        gpu.as_ref(),
         &scene,
         &settings,
         start,
@@ -331,7 +353,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             bar.set_message(format!("{} to {}/{} spp", p.pass, p.pass_spp, settings.spp));
         },
         stop,
-    )?;
+    )?
+    .output;
     crate::interrupt::finishing();
     bar.finish_and_clear();
     let s = &out.stats;

@@ -84,7 +84,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 wo.z,
                 args.model.model,
                 args.count,
-                if below { " (ω_o is below the surface: z ≤ 0 in the local frame, where a surface model scatters nothing)" } else { "" }
+                if below {
+                    " (ω_o is below the surface: z ≤ 0 in the local frame, where a surface model scatters nothing)"
+                } else {
+                    ""
+                }
             );
         }
         Ok(())

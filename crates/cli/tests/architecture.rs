@@ -28,8 +28,11 @@ const LAYERS: &[(&str, u32)] = &[
     ("fiberlab-fit", 3),
     ("fiberlab-procedural", 3),
     ("fiberlab-render", 4),
-    ("fiberlab-cli", 5),
-    ("fiberlab-py", 5),
+    ("fiberlab-compare", 5),
+    ("fiberlab-gpu", 5),
+    ("fiberlab-explorer", 6),
+    ("fiberlab-cli", 7),
+    ("fiberlab-py", 7),
 ];
 
 fn layer(name: &str) -> u32 {

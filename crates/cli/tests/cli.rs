@@ -446,10 +446,10 @@ radiance = [1.0, 1.0, 1.0]
     assert!(!res.status.success() && err.contains("nope.csv"), "{err}");
 }
 
-/// Every model `fiberlab models` lists has a row in README.md's model table (a row is a line
-/// `| `name` | …` in the "## Models" section).
+/// Every model `fiberlab models` lists has a row in the book's table of models (a line
+/// `| [`name`](models/name.md) | …` of `docs/book/src/models.md`), linking to its page.
 #[test]
-fn readme_model_table_lists_every_model() {
+fn the_books_model_table_lists_every_model() {
     let out = stdout_of(fiberlab().arg("models"));
     let names: Vec<&str> = out
         .lines()
@@ -457,10 +457,47 @@ fn readme_model_table_lists_every_model() {
         .map(|l| l.split(" — ").next().unwrap().trim())
         .collect();
     assert!(names.len() >= 9 && names.contains(&"marschner"), "{names:?}");
-    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md")).unwrap();
-    let section = readme.split("\n## Models").nth(1).expect("a Models section").split("\n## ").next().unwrap();
+    let book = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/book/src/models.md");
+    let table = std::fs::read_to_string(book).unwrap();
     for name in names {
-        let row = format!("| `{name}` |");
-        assert!(section.lines().any(|l| l.starts_with(&row)), "README's model table has no row {row}");
+        let row = format!("| [`{name}`](models/{name}.md) |");
+        assert!(table.lines().any(|l| l.starts_with(&row)), "docs/book/src/models.md has no row {row}");
     }
+}
+
+/// `fiberlab --version` names the package version and the commit the binary was built from
+/// (`build.rs`; "unknown commit" where git or `.git` is absent).
+#[test]
+fn version_names_the_commit() {
+    let out = stdout_of(fiberlab().arg("--version"));
+    let version = env!("CARGO_PKG_VERSION");
+    let head = std::process::Command::new("git")
+        .args(["rev-parse", "--short=9", "HEAD"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
+    let commit = match std::env::var("FIBERLAB_COMMIT") {
+        Ok(c) if !c.trim().is_empty() => c.trim().to_string(),
+        _ => head.unwrap_or_else(|| "unknown commit".into()),
+    };
+    assert_eq!(out.trim(), format!("fiberlab {version} ({commit})"));
+}
+
+/// `fiberlab models --markdown --model NAME` prints exactly the generated block of the book's
+/// page of that model (the pages are checked against the registry in
+/// `crates/scatter/tests/registry_is_the_one_table.rs`).
+#[test]
+fn models_markdown_prints_the_books_table() {
+    for name in ["chiang", "wood", "irawan-2012"] {
+        let out = stdout_of(fiberlab().args(["models", "--markdown", "--model", name]));
+        assert!(out.starts_with(&format!("**`{name}`**")), "{out}");
+        assert!(out.lines().any(|l| l.starts_with("| parameter |")), "{out}");
+        let page = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/book/src/models/");
+        let page = std::fs::read_to_string(format!("{page}{name}.md")).unwrap();
+        assert!(page.contains(&out), "docs/book/src/models/{name}.md does not hold the output of models --markdown");
+    }
+    let all = stdout_of(fiberlab().args(["models", "--markdown"]));
+    assert!(all.matches("| parameter |").count() >= 15, "{all}");
 }

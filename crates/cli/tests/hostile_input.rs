@@ -567,7 +567,6 @@ fn marschner_at_the_poles_is_finite_through_eval() {
     }
 }
 
-
 // =======================================================================================
 // Issue 36: no input may crash, hang, exhaust memory or overwrite what is not ours.
 
@@ -616,6 +615,32 @@ fn a_huge_time_limit_and_an_obj_line_element_do_not_panic() {
 // ---------------------------------------------------------------------------------------
 // 2. allocations outside the memory check
 
+/// `--subsamples` sets the nodes of every bin of a surface table (`sub`² each): `fit` and
+/// `compare-model` check them against the memory budget before making them (`compare-model
+/// --subsamples 100000` asked for 320 GB for its first bin and aborted, exit 134).
+#[test]
+fn surface_bin_nodes_go_through_the_memory_check() {
+    let dir = Dir::new();
+    let mut table = String::from(fiberlab_io::table::SURFACE_HEADER);
+    table.push_str("\nlobe,theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b,std_r,std_g,std_b\n");
+    for i in 0..9 {
+        for j in 0..12 {
+            let (t, p) = (5.0 + 10.0 * f64::from(i), -165.0 + 30.0 * f64::from(j));
+            table.push_str(&format!("all,40,0,{t},{p},0.15,0.15,0.15,0.01,0.01,0.01\n"));
+        }
+    }
+    dir.write("lambert.csv", table);
+    let huge = ["--subsamples", "100000"];
+    let mut compare = vec!["compare-model", "--table", "lambert.csv", "--model", "lambertian"];
+    compare.extend_from_slice(&huge);
+    dir.refused(&compare, &["1080000000000 bin nodes (100000² per bin) needs ~"]);
+    let mut fit = vec!["fit", "--model", "lambertian", "--table", "lambert.csv", "--init", "k_d=0.3", "-q", "--out", "f"];
+    fit.extend_from_slice(&huge);
+    dir.refused(&fit, &["1080000000000 bin nodes (100000² per bin) needs ~"]);
+    // The same table with the default nodes is compared and fitted.
+    dir.ok(&["compare-model", "--table", "lambert.csv", "--model", "lambertian"]);
+}
+
 /// Sizes that a command allocates in proportion to are checked before any work, naming the
 /// quantity and its estimate (each of these aborted the process, or filled the machine).
 #[test]
@@ -624,18 +649,32 @@ fn sizes_in_proportion_to_the_input_go_through_the_memory_check() {
     dir.write("s.toml", SCENE);
     for (args, says) in [
         (
-            &["render", "s.toml", "--integrator", "dual-scattering", "--fiber-count", "grid", "--dual", "grid=100000",
-                "--quiet", "--out", "out"][..],
+            &[
+                "render",
+                "s.toml",
+                "--integrator",
+                "dual-scattering",
+                "--fiber-count",
+                "grid",
+                "--dual",
+                "grid=100000",
+                "--quiet",
+                "--out",
+                "out",
+            ][..],
             &["fiber density grid", "(--dual grid=100000) needs ~"][..],
         ),
-        (&["texture", "wood", "--width", "1000000", "--height", "1000000", "--out", "tex"], &["texture 1000000×1000000 (three maps) needs ~"]),
+        (
+            &["texture", "wood", "--width", "1000000", "--height", "1000000", "--out", "tex"],
+            &["texture 1000000×1000000 (three maps) needs ~"],
+        ),
         (&["mesh", "cloth", "--resolution", "100000000", "--out", "cloth.obj"], &["(--resolution 100000000) needs ~"]),
         (&["mesh", "cloth-patch", "--periods", "10000", "--out", "p.usda"], &["10000 × 10000 periods", "needs ~"]),
-        (&["dual-tables", "--model", "chiang", "--inclinations", "1000000000000", "--out", "t"], &["1000000000000 table rows (--inclinations) needs ~"]),
         (
-            &["render", "s.toml", "--memory-limit", "1K", "--quiet", "--out", "out"],
-            &["above --memory-limit 1.00 KiB"],
+            &["dual-tables", "--model", "chiang", "--inclinations", "1000000000000", "--out", "t"],
+            &["1000000000000 table rows (--inclinations) needs ~"],
         ),
+        (&["render", "s.toml", "--memory-limit", "1K", "--quiet", "--out", "out"], &["above --memory-limit 1.00 KiB"]),
     ] {
         dir.refused(args, says);
     }
@@ -688,8 +727,14 @@ fn fifos_and_devices_given_as_inputs_are_refused_at_once() {
         (vec!["eval", "--model", "measured", "--param", "table=f.csv"], vec!["f.csv", fifo]),
         (vec!["eval", "--model", "irawan-2012", "--param", "pattern=f.weave"], vec!["f.weave", fifo]),
         (vec!["eval", "--model", "chiang", "--params-file", "f.toml"], vec!["f.toml", fifo]),
-        (vec!["fit", "--model", "kajiya-kay", "--data", "f.csv", "--init", "k_d=0.2", "--out", "fo"], vec!["f.csv", fifo]),
-        (vec!["fit", "--model", "kajiya-kay", "--table", "f.csv", "--init", "k_d=0.2", "--out", "fo"], vec!["f.csv", fifo]),
+        (
+            vec!["fit", "--model", "kajiya-kay", "--data", "f.csv", "--init", "k_d=0.2", "--out", "fo"],
+            vec!["f.csv", fifo],
+        ),
+        (
+            vec!["fit", "--model", "kajiya-kay", "--table", "f.csv", "--init", "k_d=0.2", "--out", "fo"],
+            vec!["f.csv", fifo],
+        ),
         (vec!["measure", "--fiber", "f.toml", "--theta-i", "0", "--rays", "10", "--out", "mo"], vec!["f.toml", fifo]),
         (vec!["compare", "f.png", "f.png"], vec!["f.png", fifo]),
         (vec!["montage", "f.png", "--out", "mont.png"], vec!["f.png", fifo]),
@@ -736,7 +781,15 @@ fn outputs_never_replace_links_fifos_or_devices() {
     dir.ok(&["render", "s.toml", "--quiet", "--tile", "0/2", "--out", "p0"]);
     dir.ok(&["render", "s.toml", "--quiet", "--tile", "1/2", "--out", "p1"]);
     for name in [
-        "link.hair", "link.usda", "link.csv", "link.toml", "link.png", "link.obj", "lk.exr", "lk.csv", "lk.toml",
+        "link.hair",
+        "link.usda",
+        "link.csv",
+        "link.toml",
+        "link.png",
+        "link.obj",
+        "lk.exr",
+        "lk.csv",
+        "lk.toml",
         "lk.png",
     ] {
         symlink(&precious, &dir.path(name));
@@ -750,15 +803,49 @@ fn outputs_never_replace_links_fifos_or_devices() {
         (vec!["hair", "convert", "good.hair", "link.usda"], link),
         (vec!["eval", "--model", "diffuse", "--input", "in.csv", "--output", "link.csv"], link),
         (vec!["sample", "--model", "diffuse", "--wo", "0,0,1", "--count", "3", "--output", "link.csv"], link),
-        (vec!["sample", "--model", "diffuse", "--wo", "0,0,1", "--count", "3", "--output", "fifo.csv"], "a FIFO (named pipe)"),
+        (
+            vec!["sample", "--model", "diffuse", "--wo", "0,0,1", "--count", "3", "--output", "fifo.csv"],
+            "a FIFO (named pipe)",
+        ),
         (vec!["scene", "--default", "--out", "link.toml"], link),
         (vec!["plot", "--model", "diffuse", "--theta-i", "30", "--out", "link.png"], link),
         (vec!["mesh", "cloth", "--resolution", "32", "--out", "link.obj"], link),
         (vec!["render", "s.toml", "--quiet", "--out", "lk"], link),
         (vec!["merge", "p0.exr", "p1.exr", "--out", "lk"], link),
         (vec!["measure", "--theta-i", "0", "--rays", "100", "--bins", "4,8", "--out", "lk"], link),
-        (vec!["fit", "--model", "kajiya-kay", "--target", "kajiya-kay", "--init", "k_d=0.2", "--quiet", "--out", "lk"], link),
-        (vec!["dual-tables", "--model", "chiang", "--inclinations", "4", "--outgoing", "8", "--incident", "2", "--offsets", "2", "--out", "lk"], link),
+        (
+            vec![
+                "fit",
+                "--model",
+                "kajiya-kay",
+                "--target",
+                "kajiya-kay",
+                "--init",
+                "k_d=0.2",
+                "--quiet",
+                "--out",
+                "lk",
+            ],
+            link,
+        ),
+        (
+            vec![
+                "dual-tables",
+                "--model",
+                "chiang",
+                "--inclinations",
+                "4",
+                "--outgoing",
+                "8",
+                "--incident",
+                "2",
+                "--offsets",
+                "2",
+                "--out",
+                "lk",
+            ],
+            link,
+        ),
         (vec!["compare", "p0.png", "p0.png", "--out", "lk"], link),
         (vec!["montage", "p0.png", "--out", "link.png"], link),
     ];
@@ -795,7 +882,10 @@ fn thread_counts_include_fan_out_and_usd_nesting_are_bounded() {
     dir.write("f25.pbrt", "Shape \"curve\" \"point3 P\" [0 0 0 0 0.3 0 0 0.6 0 0 1 0] \"float width\" 0.01\n");
     let text = SCENE.replace("generator = { strands = 30, segments = 4 }", "file = \"f0.pbrt\"");
     dir.write("fan.toml", &text);
-    let err = dir.refused(&["render", "fan.toml", "--quiet", "--out", "out"], &["fan.toml:", "more than 4096 files read in all"]);
+    let err = dir.refused(
+        &["render", "fan.toml", "--quiet", "--out", "out"],
+        &["fan.toml:", "more than 4096 files read in all"],
+    );
     names_line_in_section(&err, "fan.toml", &text, "f0.pbrt");
     let depth = 8000;
     let mut usd = String::from("#usda 1.0\n");
@@ -894,7 +984,12 @@ fn stops_and_keeps_what_is_done(dir: &Dir, args: &[&str], signal: &str, partial:
 fn render_stopped_by_sigterm_keeps_its_samples() {
     let dir = Dir::new();
     dir.write("s.toml", SCENE.replace("spp = 1", "spp = 100000"));
-    stops_and_keeps_what_is_done(&dir, &["render", "s.toml", "--quiet", "--out", "r"], "TERM", &["r.partial.exr", "r.partial.png"]);
+    stops_and_keeps_what_is_done(
+        &dir,
+        &["render", "s.toml", "--quiet", "--out", "r"],
+        "TERM",
+        &["r.partial.exr", "r.partial.png"],
+    );
     assert!(!dir.path("r.exr").exists());
 }
 
@@ -912,8 +1007,22 @@ fn measure_stopped_by_sigint_writes_a_partial_table() {
 fn fit_stopped_by_sighup_writes_its_best_point_so_far() {
     let dir = Dir::new();
     let args = [
-        "fit", "--model", "chiang", "--target", "marschner", "--init", "beta_m=0.5", "--init", "beta_n=0.5",
-        "--init", "alpha=0", "--iterations", "1000000", "--quiet", "--out", "f",
+        "fit",
+        "--model",
+        "chiang",
+        "--target",
+        "marschner",
+        "--init",
+        "beta_m=0.5",
+        "--init",
+        "beta_n=0.5",
+        "--init",
+        "alpha=0",
+        "--iterations",
+        "1000000",
+        "--quiet",
+        "--out",
+        "f",
     ];
     stops_and_keeps_what_is_done(&dir, &args, "HUP", &["f.partial.toml"]);
     let toml = std::fs::read_to_string(dir.path("f.partial.toml")).expect("reads");
@@ -994,7 +1103,19 @@ fn model_parameters_arrays_and_flags_that_made_nonsense_are_refused() {
     );
     dir.write("s.toml", SCENE);
     dir.refused(
-        &["render", "s.toml", "--integrator", "dual-scattering", "--fiber-count", "grid", "--dual", "grid=0", "--quiet", "--out", "out"],
+        &[
+            "render",
+            "s.toml",
+            "--integrator",
+            "dual-scattering",
+            "--fiber-count",
+            "grid",
+            "--dual",
+            "grid=0",
+            "--quiet",
+            "--out",
+            "out",
+        ],
         &["--dual grid = 0: expected a whole number of cells ≥ 1"],
     );
     // A fourth number where three are meant, in each array of three.
@@ -1029,9 +1150,17 @@ fn model_parameters_arrays_and_flags_that_made_nonsense_are_refused() {
 fn files_that_made_silent_nonsense_are_refused_at_their_place() {
     let dir = Dir::new();
     let row = |v: &str| format!("0,0,10,180,{v}\n");
-    dir.write("huge.csv", format!("theta_i,phi_i,theta_r,phi_r,value\n{}", (0..20).map(|_| row("1e300")).collect::<String>()));
-    dir.write("zero.csv", format!("theta_i,phi_i,theta_r,phi_r,value\n{}", (0..20).map(|_| row("0")).collect::<String>()));
-    let fit = |data: &'static str| vec!["fit", "--model", "kajiya-kay", "--data", data, "--init", "k_d=0.2", "--quiet", "--out", "f"];
+    dir.write(
+        "huge.csv",
+        format!("theta_i,phi_i,theta_r,phi_r,value\n{}", (0..20).map(|_| row("1e300")).collect::<String>()),
+    );
+    dir.write(
+        "zero.csv",
+        format!("theta_i,phi_i,theta_r,phi_r,value\n{}", (0..20).map(|_| row("0")).collect::<String>()),
+    );
+    let fit = |data: &'static str| {
+        vec!["fit", "--model", "kajiya-kay", "--data", data, "--init", "k_d=0.2", "--quiet", "--out", "f"]
+    };
     dir.refused(&fit("huge.csv"), &["no free parameter changes χ²"]);
     dir.refused(&fit("zero.csv"), &["every observed value is 0"]);
     // USD references are refused, not left out (an empty groom rendered).
@@ -1044,16 +1173,27 @@ fn files_that_made_silent_nonsense_are_refused_at_their_place() {
                  pattern\n1 2\n2 1\n";
     dir.write("a.weave", weave);
     let pair = "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n";
-    let err = dir.refused_with_input(&["eval", "--model", "irawan-2012", "--param", "pattern=a.weave"], pair, &["a.weave:2:", "alpha"]);
+    let err = dir.refused_with_input(
+        &["eval", "--model", "irawan-2012", "--param", "pattern=a.weave"],
+        pair,
+        &["a.weave:2:", "alpha"],
+    );
     assert_eq!(err.matches("is not valid").count(), 1, "said once: {err}");
     dir.write("t.weave", weave.replace("alpha 50\n", "alpha 0.015\ntile 2 2\n"));
-    dir.refused_with_input(&["eval", "--model", "irawan-2012", "--param", "pattern=t.weave"], pair, &["t.weave:3:", "given twice"]);
+    dir.refused_with_input(
+        &["eval", "--model", "irawan-2012", "--param", "pattern=t.weave"],
+        pair,
+        &["t.weave:3:", "given twice"],
+    );
     // The OBJ reader's own errors name their line.
     dir.write("u.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\nusemtl\n");
     dir.write("u.toml", format!("{SCENE}\n[[mesh]]\nfile = \"u.obj\"\nmaterial = \"skin\"\n"));
     dir.refused(&["render", "u.toml", "--quiet", "--out", "out"], &["u.obj", "line 5"]);
     // A pbrt `Scale 0 0 0` makes every width 0 (a width of 0 is refused).
-    dir.write("z.pbrt", "Scale 0 0 0\nShape \"curve\" \"point3 P\" [0 0 0 0 0.3 0 0 0.6 0 0 1 0] \"float width\" 0.01\n");
+    dir.write(
+        "z.pbrt",
+        "Scale 0 0 0\nShape \"curve\" \"point3 P\" [0 0 0 0 0.3 0 0 0.6 0 0 1 0] \"float width\" 0.01\n",
+    );
     dir.write("z.toml", SCENE.replace("generator = { strands = 30, segments = 4 }", "file = \"z.pbrt\""));
     dir.refused(&["render", "z.toml", "--quiet", "--out", "out"], &["z.pbrt:2:", "singular"]);
 }

@@ -216,3 +216,38 @@ fn ctrl_c_stops_a_billion_spp_render_with_status_130_and_a_partial_image() {
     assert_eq!(partial.attribute("target_spp"), Some("1000000000"));
     assert!(d.join("r.partial.png").exists());
 }
+
+/// `--size WxH` renders that many pixels instead of the camera's (a quick preview): the scene's
+/// own size gives the scene's image, another size another image of that size; a render at one
+/// size is not continued at another, and a malformed size is refused when the command line is
+/// read.
+#[test]
+fn size_overrides_the_camera_image_size() {
+    let dir = scene_dir();
+    let d = dir.path();
+    let read = |name: &str| fiberlab_io::LinearImage::read_exr(&d.join(name)).unwrap();
+    stderr_of(fiberlab_in(d).args(["render", "s.toml", "--quiet", "--spp", "1", "--out", "own"]));
+    stderr_of(fiberlab_in(d).args(["render", "s.toml", "--quiet", "--spp", "1", "--size", "20x14", "--out", "same"]));
+    assert_eq!(read("same.exr").pixels(), read("own.exr").pixels());
+    let err = stderr_of(
+        fiberlab_in(d).args(["render", "s.toml", "--quiet", "--spp", "1", "--size", "9×5", "--out", "small"]),
+    );
+    assert!(err.contains("9×5"), "{err}");
+    let small = read("small.exr");
+    assert_eq!((small.width(), small.height()), (9, 5));
+    assert!(small.pixels().iter().flatten().any(|&v| v > 0.0));
+    let png = image::open(d.join("small.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (9, 5));
+    let out = fiberlab_in(d)
+        .args(["render", "s.toml", "--quiet", "--spp", "2", "--resume", "small.exr", "--size", "20x14", "--out", "x"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.code() == Some(1) && err.contains("another scene"), "{err}");
+    for (bad, says) in [("0x5", "at least 1"), ("12", "WxH"), ("12x", "WxH"), ("3x4.5", "WxH")] {
+        let out = fiberlab_in(d).args(["render", "s.toml", "--quiet", "--size", bad]).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.code() == Some(2) && err.contains("--size") && err.contains(says), "{bad}: {err}");
+    }
+    assert!(!d.join("render.exr").exists() && !d.join("x.exr").exists());
+}

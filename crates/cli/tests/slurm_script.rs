@@ -1,5 +1,5 @@
-//! The Slurm job script has one source of truth, `bench/slurm/render_tiles.sbatch`: the README shows
-//! it whole and `bench/slurm/run` submits that file. These checks keep the three in step (they read
+//! The Slurm job script has one source of truth, `bench/slurm/render_tiles.sbatch`: the book's page
+//! on farms includes that file whole and `bench/slurm/run` submits it. These checks keep the three in step (they read
 //! files only; the runner itself needs root and minutes and is not part of the test suite).
 
 use std::path::{Path, PathBuf};
@@ -13,7 +13,7 @@ fn read(relative: &str) -> String {
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-/// The bodies of the README's fenced code blocks whose info string is `lang`.
+/// The bodies of a Markdown text's fenced code blocks whose info string is `lang`.
 fn fenced_blocks(markdown: &str, lang: &str) -> Vec<String> {
     let (mut blocks, mut current): (Vec<String>, Option<String>) = (Vec::new(), None);
     for line in markdown.lines() {
@@ -30,21 +30,20 @@ fn fenced_blocks(markdown: &str, lang: &str) -> Vec<String> {
     blocks
 }
 
+/// The book shows the job script through mdBook's `{{#include}}` of the file itself, in a `bash`
+/// block of its own (so it cannot show a stale copy), and the included path is the script.
 #[test]
-fn the_readme_shows_the_job_script_as_it_is() {
-    let script = read("bench/slurm/render_tiles.sbatch");
-    let readme = read("README.md");
+fn the_book_shows_the_job_script_by_including_the_file() {
+    let page_path = "docs/book/src/rendering/farms.md";
+    let page = read(page_path);
     let shown: Vec<String> =
-        fenced_blocks(&readme, "bash").into_iter().filter(|b| b.lines().any(|l| l.starts_with("#SBATCH"))).collect();
-    assert_eq!(shown.len(), 1, "the README should show exactly one sbatch script, found {}", shown.len());
-    if shown[0] != script {
-        let line = shown[0].lines().zip(script.lines()).position(|(a, b)| a != b);
-        panic!(
-            "README.md's copy of bench/slurm/render_tiles.sbatch is out of date (first difference at line {}); \
-             paste the file into the README again",
-            line.map_or("end".to_string(), |l| (l + 1).to_string())
-        );
-    }
+        fenced_blocks(&page, "bash").into_iter().filter(|b| b.trim_start().starts_with("{{#include")).collect();
+    assert_eq!(shown.len(), 1, "{page_path} should include exactly one file in a bash block, found {}", shown.len());
+    let target = shown[0].trim().trim_start_matches("{{#include").trim_end_matches("}}").trim();
+    let included = workspace().join("docs/book/src/rendering").join(target);
+    let included = included.canonicalize().unwrap_or_else(|e| panic!("{page_path} includes {target}: {e}"));
+    assert_eq!(included, workspace().join("bench/slurm/render_tiles.sbatch"));
+    assert!(read("bench/slurm/render_tiles.sbatch").lines().any(|l| l.starts_with("#SBATCH --array")));
 }
 
 #[test]

@@ -48,7 +48,7 @@ const MIN_MITER_COS: f64 = 0.5;
 /// boxed tightly, along the segment where its node is oriented): long thin primitives make
 /// boxes that overlap and rays enter many of them. Measured on the peer scene (segments of
 /// about 55 radii; render instructions against one piece per segment): 1.63 G at one piece,
-/// 1.36 G at 32 radii, 1.26 G at 20, 1.20 G at 16, 1.18 G at 12 (README, "Oriented boxes").
+/// 1.36 G at 32 radii, 1.26 G at 20, 1.20 G at 16, 1.18 G at 12 (the book's "Performance history", "Oriented boxes").
 const PIECE_IN_RADII: f64 = 16.0;
 /// At most this many BVH pieces per segment.
 const MAX_PIECES: usize = 8;
@@ -364,6 +364,29 @@ impl CurveSet {
     #[must_use]
     pub fn bytes(&self) -> usize {
         self.segments.len() * std::mem::size_of::<Segment>() + self.bvh.bytes()
+    }
+
+    /// The tree over the segments' pieces (its leaves list segment indices).
+    #[must_use]
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    /// The segments as 16 little-endian words each, the 64-byte record the walks read (for a
+    /// GPU): `p0` (3 × `f32` bits), unit `axis` (3), `length`, `radius`, the miter normals `n0`
+    /// (3) and `n1` (3), the curve parameters of the two ends (two `u16`, the root-side one in
+    /// the low half, in units of 1/65535) and the strand index.
+    #[must_use]
+    pub fn segment_words(&self) -> Vec<u32> {
+        let mut out = Vec::with_capacity(16 * self.segments.len());
+        for s in &self.segments {
+            let floats = [s.p0.to_array(), s.axis.to_array()].concat();
+            out.extend(floats.iter().chain(&[s.length, s.radius]).map(|x| x.to_bits()));
+            out.extend([s.n0.to_array(), s.n1.to_array()].concat().iter().map(|x| x.to_bits()));
+            out.push(u32::from(s.v[0]) | (u32::from(s.v[1]) << 16));
+            out.push(s.strand);
+        }
+        out
     }
 
     /// Bounds of all tubes.

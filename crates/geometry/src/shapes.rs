@@ -116,6 +116,24 @@ impl TriangleMesh {
         self.intersect_point(ray).map(|(t, n, _)| (t, n))
     }
 
+    /// The triangles (corners in order; the geometric normal is `(b − a) × (c − a)`).
+    #[must_use]
+    pub fn triangles(&self) -> &[[DVec3; 3]] {
+        &self.triangles
+    }
+
+    /// Per-corner texture coordinates (empty: none).
+    #[must_use]
+    pub fn uvs(&self) -> &[[[f64; 2]; 3]] {
+        &self.uvs
+    }
+
+    /// The tree over the triangles (its leaves list triangle indices).
+    #[must_use]
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
     /// Nearest hit: `(t, geometric unit normal, shading point)`. The shading normal is the
     /// barycentric interpolation of the vertex normals (the geometric normal without them, or
     /// where they cancel), on the geometric normal's side of the vertex normals' winding.

@@ -53,7 +53,7 @@ pub struct BlockError {
 }
 
 fn lum(v: [f64; 3]) -> f64 {
-    0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]
+    fiberlab_math::Rgb(v).luminance()
 }
 
 fn check(what: &str, a: &LinearImage, reference: &LinearImage) -> Result<(), BlockErrorError> {

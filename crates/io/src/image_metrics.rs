@@ -68,7 +68,7 @@ fn alignment(a: &Image, b: &Image, mask: &[bool]) -> [f64; 3] {
 }
 
 fn luminance_srgb(p: &[f64; 3]) -> f64 {
-    let l = 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    let l = fiberlab_math::Rgb(*p).luminance();
     f64::from(encode_srgb8(l)) / 255.0
 }
 

@@ -19,7 +19,8 @@ pub struct ObjError {
 
 /// Loads every object of a Wavefront OBJ file (triangulated), scaled and translated.
 pub fn read_obj(path: &Path, scale: f64, translate: DVec3) -> Result<TriangleMesh, ObjError> {
-    let text = crate::input_file::read_text(path).map_err(|e| ObjError { path: path.into(), message: without_path(&e) })?;
+    let text =
+        crate::input_file::read_text(path).map_err(|e| ObjError { path: path.into(), message: without_path(&e) })?;
     parse_obj(&text, path, scale, translate)
 }
 
@@ -89,7 +90,10 @@ pub fn parse_obj(text: &str, path: &Path, scale: f64, translate: DVec3) -> Resul
         // and faces could hand back indices of one array for another).
         let fits = |len: usize, width: usize| m.mesh.indices.iter().all(|&i| (i as usize + 1) * width <= len);
         if !fits(p.len(), 3) || (!tc.is_empty() && !fits(tc.len(), 2)) || (!nv.is_empty() && !fits(nv.len(), 3)) {
-            return Err(ObjError { path: path.into(), message: format!("object `{}`: an index is out of range", m.name) });
+            return Err(ObjError {
+                path: path.into(),
+                message: format!("object `{}`: an index is out of range", m.name),
+            });
         }
         for t in m.mesh.indices.chunks_exact(3) {
             triangles.push([vertex(t[0]), vertex(t[1]), vertex(t[2])]);

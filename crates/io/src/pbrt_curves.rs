@@ -424,7 +424,9 @@ impl Parser {
             Err(StrandsError::Input(e)) if from.is_some() => {
                 use crate::input_file::InputError;
                 return Err(at(match e {
-                    InputError::Io { error, .. } => format!("cannot read the included file {}: {error}", path.display()),
+                    InputError::Io { error, .. } => {
+                        format!("cannot read the included file {}: {error}", path.display())
+                    }
                     InputError::TooLarge { .. } => format!(
                         "the included files come to more than the memory budget ({}) in all, at {}",
                         crate::memory_budget::budget().describe(),
@@ -594,7 +596,7 @@ impl Parser {
                     }
                     let m = self.state.ctm;
                     let ws = width_scale(&m);
-                    if !object.points.is_empty() && !(ws > 0.0 && ws.is_finite()) {
+                    if !(object.points.is_empty() || ws > 0.0 && ws.is_finite()) {
                         return Err(Failure::from((
                             t.offset,
                             "ObjectInstance: the current transform is singular (a scale of 0 along some axis); the \

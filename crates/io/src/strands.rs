@@ -282,7 +282,7 @@ impl Strands {
         let steps = segments_per_span.max(1);
         // Each span becomes `steps` points of 16 bytes (point and width): checked against the
         // memory budget before they are made (a large cubic file times 1024 steps would not fit).
-        let points = (self.span_count() as u64).saturating_mul(steps as u64).saturating_add(self.counts.len() as u64);
+        let points = self.span_count().saturating_mul(steps as u64).saturating_add(self.counts.len() as u64);
         crate::memory_budget::check_needs(&[crate::memory_budget::Need::items(
             format!("{points} polyline points ({steps} per span)"),
             points,

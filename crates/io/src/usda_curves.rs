@@ -459,7 +459,10 @@ impl<'a> Parser<'a> {
 
     /// [`Self::skip_balanced`], handing every token inside the brackets to `inside` with its
     /// bracket depth (1: directly inside the first bracket).
-    fn scan_balanced(&mut self, mut inside: impl FnMut(usize, Token<'a>) -> Result<(), Located>) -> Result<(), Located> {
+    fn scan_balanced(
+        &mut self,
+        mut inside: impl FnMut(usize, Token<'a>) -> Result<(), Located>,
+    ) -> Result<(), Located> {
         let first = self.lx.expect("a value")?;
         let close = match first.text {
             "(" if first.kind == Kind::Punct => ")",

@@ -219,7 +219,12 @@ pub fn parse_weave_pattern(text: &str, file: &str) -> Result<WeavePattern, Weave
     }
     let (width, height) = tile.ok_or_else(|| r.err(0, "tile", "missing"))?;
     let scalar = |name: &str| {
-        scalars.iter().find(|(n, _)| *n == name).and_then(|(_, v)| *v).map(|(x, _)| x).ok_or_else(|| r.err(0, name, "missing"))
+        scalars
+            .iter()
+            .find(|(n, _)| *n == name)
+            .and_then(|(_, v)| *v)
+            .map(|(x, _)| x)
+            .ok_or_else(|| r.err(0, name, "missing"))
     };
     if !in_pattern {
         return Err(r.err(0, "pattern", "missing"));

@@ -477,11 +477,22 @@ fn usda_composition_is_refused_at_its_place() {
     let prim = "def BasisCurves \"c\" {\n    uniform token type = \"linear\"\n    int[] curveVertexCounts = [2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n}\n";
     for (text, at, what) in [
         (format!("#usda 1.0\n(\n    subLayers = [@groom.usda@]\n)\n{prim}"), "hair.usda:3:5:", "`subLayers`"),
-        (format!("#usda 1.0\ndef Xform \"g\" (\n    prepend references = @groom.usda@\n)\n{{\n}}\n{prim}"), "hair.usda:3:13:", "`references`"),
-        (format!("#usda 1.0\ndef Xform \"g\" (\n    payload = @big.usda@</hair>\n)\n{{\n}}\n{prim}"), "hair.usda:3:5:", "`payload`"),
+        (
+            format!("#usda 1.0\ndef Xform \"g\" (\n    prepend references = @groom.usda@\n)\n{{\n}}\n{prim}"),
+            "hair.usda:3:13:",
+            "`references`",
+        ),
+        (
+            format!("#usda 1.0\ndef Xform \"g\" (\n    payload = @big.usda@</hair>\n)\n{{\n}}\n{prim}"),
+            "hair.usda:3:5:",
+            "`payload`",
+        ),
         (format!("#usda 1.0\ndef Xform \"g\" ( inherits = </c> )\n{{\n}}\n{prim}"), "hair.usda:2:17:", "`inherits`"),
         (
-            format!("#usda 1.0\ndef Xform \"g\"\n{{\n    variantSet \"v\" = {{ \"a\" {{ {} }} }}\n}}\n", prim.replace('\n', " ")),
+            format!(
+                "#usda 1.0\ndef Xform \"g\"\n{{\n    variantSet \"v\" = {{ \"a\" {{ {} }} }}\n}}\n",
+                prim.replace('\n', " ")
+            ),
             "hair.usda:4:30:",
             "a prim inside a variant set",
         ),
@@ -530,9 +541,8 @@ fn pbrt_include_fan_out_and_instancing_are_bounded() {
     // Each level instances the previous one 1000 times: 4·1000² points at the third level,
     // more than a budget of 32 MiB (set for this test binary, whose other reads are small).
     fiberlab_io::memory_budget::set_limit(Some(32 << 20));
-    let mut text = String::from(
-        "ObjectBegin \"o0\"\nShape \"curve\" \"point3 P\" [0 0 0 1 0 0 2 0 0 3 0 0]\nObjectEnd\n",
-    );
+    let mut text =
+        String::from("ObjectBegin \"o0\"\nShape \"curve\" \"point3 P\" [0 0 0 1 0 0 2 0 0 3 0 0]\nObjectEnd\n");
     for level in 1..4 {
         text.push_str(&format!("ObjectBegin \"o{level}\"\n"));
         text.push_str(&format!("ObjectInstance \"o{}\"\n", level - 1).repeat(1000));

@@ -1,6 +1,7 @@
 //! Pure mathematics shared by every fiberlab model: the fiber frame and its angles,
 //! the RGB spectrum type, special functions (stable `i0e`, logistic, Gaussian),
-//! dielectric Fresnel and Bravais' modified indices. No I/O, no allocation.
+//! dielectric Fresnel and Bravais' modified indices, quadrature rules (Gauss–Legendre and the
+//! one width average of near-field quantities). No I/O, no allocation on hot paths.
 //!
 //! # Conventions (docs/theory/conventions.md), used by every crate
 //! Directions are unit vectors in the **fiber frame**: `x` = tangent `u` (root → tip),
@@ -19,7 +20,9 @@
 pub mod bravais;
 pub mod frame;
 pub mod fresnel;
+pub mod noise;
 pub mod phase;
+pub mod quadrature;
 pub mod special;
 pub mod spectrum;
 pub mod split_mix;

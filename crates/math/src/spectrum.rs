@@ -3,6 +3,9 @@
 
 use std::ops::{Add, AddAssign, Div, Index, Mul, MulAssign, Sub};
 
+/// Rec. 709 luminance weights of linear r, g, b (the one copy: images, fits and models use it).
+pub const LUMINANCE_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];
+
 /// The spectral type the models use (linear Rec. 709 RGB today).
 pub type Spectrum = Rgb;
 
@@ -28,10 +31,11 @@ impl Rgb {
         Self([x; 3])
     }
 
-    /// Rec. 709 luminance `0.2126 r + 0.7152 g + 0.0722 b`.
+    /// Rec. 709 luminance `0.2126 r + 0.7152 g + 0.0722 b` ([`LUMINANCE_WEIGHTS`]).
     #[must_use]
     pub fn luminance(self) -> f64 {
-        0.2126 * self.0[0] + 0.7152 * self.0[1] + 0.0722 * self.0[2]
+        let [r, g, b] = LUMINANCE_WEIGHTS;
+        r * self.0[0] + g * self.0[1] + b * self.0[2]
     }
 
     /// Arithmetic mean of the channels.

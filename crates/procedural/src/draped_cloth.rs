@@ -27,6 +27,7 @@
 
 use fiberlab_geometry::TriangleMesh;
 use fiberlab_math::DVec3;
+use fiberlab_math::special::smoothstep;
 use std::fmt::Write;
 
 /// Why a draped cloth cannot be made.
@@ -86,11 +87,6 @@ pub struct ClothGrid {
 
 /// The coarsest grid accepted (cells per side).
 pub const MIN_RESOLUTION: usize = 32;
-
-fn smoothstep(e0: f64, e1: f64, x: f64) -> f64 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
-}
 
 impl DrapedCloth {
     /// Checks the parameters: every length finite and > 0 (the floor offset ≥ 0 and below

@@ -15,7 +15,7 @@
 //! writes them as linear 16-bit PNGs over ±90° and the colour as an sRGB PNG.
 
 use fiberlab_io::LinearImage;
-use fiberlab_math::split_mix::mix64;
+use fiberlab_math::noise::value_noise;
 use std::f64::consts::TAU;
 
 /// What the figure looks like.
@@ -63,31 +63,6 @@ pub struct MapleMaps {
     pub fiber_dip: LinearImage,
     /// Diffuse colour, linear RGB.
     pub k_d: LinearImage,
-}
-
-/// A smooth value noise in `[−1, 1]`: lattice values hashed from `(seed, i, j)`, smoothstep
-/// interpolation, `octaves` octaves of halving amplitude at doubling frequency.
-#[must_use]
-pub fn value_noise(seed: u64, x: f64, y: f64, octaves: u32) -> f64 {
-    let lattice = |i: i64, j: i64, o: u32| {
-        let h = mix64(seed ^ mix64((i as u64).wrapping_mul(0x9E37_79B9) ^ mix64(j as u64 ^ (u64::from(o) << 40))));
-        (h >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
-    let (mut sum, mut norm, mut amplitude, mut frequency) = (0.0, 0.0, 1.0, 1.0);
-    for o in 0..octaves {
-        let (px, py) = (x * frequency, y * frequency);
-        let (i, j) = (px.floor(), py.floor());
-        let (fx, fy) = (px - i, py - j);
-        let (sx, sy) = (fx * fx * (3.0 - 2.0 * fx), fy * fy * (3.0 - 2.0 * fy));
-        let (i, j) = (i as i64, j as i64);
-        let a = lattice(i, j, o) + (lattice(i + 1, j, o) - lattice(i, j, o)) * sx;
-        let b = lattice(i, j + 1, o) + (lattice(i + 1, j + 1, o) - lattice(i, j + 1, o)) * sx;
-        sum += amplitude * (a + (b - a) * sy);
-        norm += amplitude;
-        amplitude *= 0.5;
-        frequency *= 2.0;
-    }
-    sum / norm
 }
 
 impl MapleFigure {

@@ -484,10 +484,11 @@ fn read_exr<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'p
 /// total)` (pixel samples) is called as tiles finish; Ctrl-C (KeyboardInterrupt) stops the
 /// render and raises it. `integrator` (`path` or `dual-scattering`) and `fiber_count`
 /// (`exact` or `grid`) override the scene's `[render]` entries; `dual` holds `KEY=VALUE`
-/// dual-scattering options, as `fiberlab render --dual`.
+/// dual-scattering options, as `fiberlab render --dual`. `device` is `cpu` (the default),
+/// `gpu` or `auto`, as `fiberlab render --device`.
 #[pyfunction]
 #[pyo3(signature = (path = None, text = None, spp = None, seed = None, max_depth = None, threads = 0, progress = None,
-                    integrator = None, fiber_count = None, dual = Vec::new()))]
+                    integrator = None, fiber_count = None, dual = Vec::new(), device = "cpu".to_string()))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -501,6 +502,7 @@ fn render<'py>(
     integrator: Option<String>,
     fiber_count: Option<String>,
     dual: Vec<String>,
+    device: String,
 ) -> PyResult<Bound<'py, numpy::PyArray3<f32>>> {
     use fiberlab_render::scene_file::SceneFile;
     use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -517,6 +519,8 @@ fn render<'py>(
     if spp == Some(0) {
         return Err(PyValueError::new_err("render: spp must be at least 1"));
     }
+    let device =
+        fiberlab_gpu::DeviceChoice::named(&device).map_err(|e| PyValueError::new_err(format!("render: {e}")))?;
     let integrator = integrator.unwrap_or_else(|| file.render_settings().integrator.clone());
     let fiber_count = fiber_count.unwrap_or_else(|| file.render_settings().fiber_count.clone());
     let dual = fiberlab_render::dual_scattering::DualScatteringSettings::from_options(&fiber_count, &dual)
@@ -532,50 +536,66 @@ fn render<'py>(
     let stop = AtomicBool::new(false);
     let (done, total, finished) = (AtomicU64::new(0), AtomicU64::new(0), AtomicBool::new(false));
     let mut interrupt: Option<PyErr> = None;
-    let out = py.detach(|| -> Result<_, PyErr> {
-        let (scene, _) = file.build().map_err(scene_error)?;
-        let integrator = fiberlab_render::dual_scattering::integrator_named(&scene, &integrator, dual).map_err(|e| {
-            use fiberlab_render::dual_scattering::{DualScatteringError, IntegratorError};
-            match e {
-                IntegratorError::DualScattering(DualScatteringError::Memory(_)) => {
-                    PyMemoryError::new_err(format!("render: {e}"))
-                }
-                _ => PyValueError::new_err(format!("render: {e}")),
-            }
-        })?;
-        let settings = fiberlab_render::integrator::RenderSettings { integrator, ..settings };
-        let report = |p: &fiberlab_render::integrator::Progress| {
-            done.store(p.samples_done, Ordering::Relaxed);
-            total.store(p.samples_total, Ordering::Relaxed);
-        };
-        // The render runs on its own threads; this (the calling) thread reports progress and
-        // watches for Ctrl-C, which Python only delivers to its main thread.
-        Ok(std::thread::scope(|threads| {
-            let worker = threads.spawn(|| {
-                let out = fiberlab_render::integrator::render(&scene, &settings, &report, &stop);
-                finished.store(true, Ordering::Release);
-                out
-            });
-            while !finished.load(Ordering::Acquire) {
-                std::thread::sleep(std::time::Duration::from_millis(50));
-                Python::attach(|py| {
-                    let result = py.check_signals().and_then(|()| match &progress {
-                        Some(cb) => {
-                            cb.call1(py, (done.load(Ordering::Relaxed), total.load(Ordering::Relaxed))).map(drop)
+    let out = py
+        .detach(|| -> Result<_, PyErr> {
+            let (scene, _) = file.build().map_err(scene_error)?;
+            let integrator =
+                fiberlab_render::dual_scattering::integrator_named(&scene, &integrator, dual).map_err(|e| {
+                    use fiberlab_render::dual_scattering::{DualScatteringError, IntegratorError};
+                    match e {
+                        // The density grid is checked against the memory budget: MemoryError.
+                        IntegratorError::DualScattering(DualScatteringError::Memory(_)) => {
+                            PyMemoryError::new_err(format!("render: {e}"))
                         }
-                        None => Ok(()),
-                    });
-                    if let Err(e) = result
-                        && interrupt.is_none()
-                    {
-                        stop.store(true, Ordering::Relaxed);
-                        interrupt = Some(e);
+                        _ => PyValueError::new_err(format!("render: {e}")),
                     }
+                })?;
+            let settings = fiberlab_render::integrator::RenderSettings { integrator, ..settings };
+            let (gpu, _note) = fiberlab_gpu::render_device::open(device)
+                .map_err(|e| PyValueError::new_err(format!("render: device: {e}")))?;
+            let (w, h) = (scene.camera().width, scene.camera().height);
+            let report = |p: &fiberlab_render::integrator::Progress| {
+                done.store(p.samples_done, Ordering::Relaxed);
+                total.store(p.samples_total, Ordering::Relaxed);
+            };
+            // The render runs on its own threads; this (the calling) thread reports progress and
+            // watches for Ctrl-C, which Python only delivers to its main thread.
+            Ok(std::thread::scope(|threads| {
+                let worker = threads.spawn(|| {
+                    let start = fiberlab_render::accumulation::Accumulation::new(w, h);
+                    let out = fiberlab_gpu::render_device::render_continuing(
+                        gpu.as_ref(),
+                        &scene,
+                        &settings,
+                        start,
+                        &report,
+                        &stop,
+                    );
+                    finished.store(true, Ordering::Release);
+                    out
                 });
-            }
-            worker.join().expect("the render thread does not panic")
-        }))
-    })?;
+                while !finished.load(Ordering::Acquire) {
+                    std::thread::sleep(std::time::Duration::from_millis(50));
+                    Python::attach(|py| {
+                        let result = py.check_signals().and_then(|()| match &progress {
+                            Some(cb) => {
+                                cb.call1(py, (done.load(Ordering::Relaxed), total.load(Ordering::Relaxed))).map(drop)
+                            }
+                            None => Ok(()),
+                        });
+                        if let Err(e) = result
+                            && interrupt.is_none()
+                        {
+                            stop.store(true, Ordering::Relaxed);
+                            interrupt = Some(e);
+                        }
+                    });
+                }
+                worker.join().expect("the render thread does not panic")
+            }))
+        })?
+        .map_err(|e| PyValueError::new_err(format!("render: {e}")))?
+        .output;
     if let Some(e) = interrupt {
         return Err(e);
     }

@@ -94,3 +94,22 @@ def test_dual_scattering_errors_raise_value_error():
     no_fibers = {k: v for k, v in SCENE.items() if k != "hair"}
     with pytest.raises(ValueError, match="needs fibers"):
         fl.render(no_fibers, integrator="dual-scattering")
+
+
+def test_a_gpu_render_equals_the_command_line_gpu_render_bit_for_bit(tmp_path):
+    """`device="gpu"` runs the GPU path tracer (software Vulkan in CI): the same image as
+    `fiberlab render --device gpu`, close to the CPU's."""
+    import os
+    if os.environ.get("FIBERLAB_GPU_TESTS") == "skip":
+        pytest.skip("FIBERLAB_GPU_TESTS=skip")
+    scene = tmp_path / "s.toml"
+    scene.write_text(fl.scene_toml(SCENE))
+    out = subprocess.run([str(cli_binary()), "render", str(scene), "--quiet", "--device", "gpu", "--out",
+                          str(tmp_path / "g")], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    image = fl.render(SCENE, device="gpu")
+    np.testing.assert_array_equal(image, fl.read_exr(tmp_path / "g.exr"))
+    cpu = fl.render(SCENE)
+    assert abs(image.mean() / cpu.mean() - 1) < 0.05
+    with pytest.raises(ValueError, match="expected cpu, gpu or auto"):
+        fl.render(SCENE, device="tpu")

@@ -29,6 +29,13 @@ impl Camera {
         ok.then(|| Self { eye, forward, right, up, tan_half: (0.5 * fov_deg.to_radians()).tan(), width, height })
     }
 
+    /// The eye, the unit forward, right and up vectors and tan(fov/2): what [`Camera::ray`]
+    /// computes with (for a GPU that makes the same rays).
+    #[must_use]
+    pub fn basis(&self) -> (DVec3, DVec3, DVec3, DVec3, f64) {
+        (self.eye, self.forward, self.right, self.up, self.tan_half)
+    }
+
     /// The ray through image position `(px, py)` in pixels (continuous; pixel centres at +0.5).
     #[must_use]
     pub fn ray(&self, px: f64, py: f64) -> Ray {

@@ -46,6 +46,75 @@ pub enum LoadError {
     },
 }
 
+/// A model as a user asks for it: a registered name (fiber or surface) and `(key, value)`
+/// pairs — from `--param` and `--params-file`, a scene's table, Python keywords or the
+/// explorer's JSON — with the directory relative data paths are resolved against. The
+/// command line, Python and the explorer build this one type and build models through it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelRequest {
+    /// Registered name (`fiberlab models` lists them).
+    pub name: String,
+    /// Parameters, later pairs overriding earlier ones with the same key.
+    pub params: Vec<(String, RawValue)>,
+    /// Directory of relative data paths (a table, a weave pattern); empty: the working
+    /// directory.
+    pub base: PathBuf,
+}
+
+impl ModelRequest {
+    /// Model `name` with `params`, data paths relative to the working directory.
+    #[must_use]
+    pub fn new(name: impl Into<String>, params: Vec<(String, RawValue)>) -> Self {
+        Self { name: name.into(), params, base: PathBuf::new() }
+    }
+
+    /// The same request with `key` set to `value` (replacing a given value).
+    #[must_use]
+    pub fn with(&self, key: &str, value: RawValue) -> Self {
+        let mut params: Vec<(String, RawValue)> = self.params.iter().filter(|(k, _)| k != key).cloned().collect();
+        params.push((key.to_string(), value));
+        Self { params, ..self.clone() }
+    }
+
+    /// The registry the name belongs to (an unknown name is an error listing both).
+    pub fn kind(&self) -> Result<fiberlab_scatter::ModelKind, ModelError> {
+        Ok(fiberlab_scatter::lookup(&self.name)?.kind())
+    }
+
+    /// The fiber model ([`load_model`]).
+    pub fn build(&self) -> Result<Model, LoadError> {
+        load_model(&self.name, &self.params, &self.base)
+    }
+
+    /// The surface model ([`load_surface_model`]).
+    pub fn build_surface(&self) -> Result<SurfaceModel, LoadError> {
+        load_surface_model(&self.name, &self.params, &self.base)
+    }
+
+    /// The fiber model reduced to the lobes `lobes` (a `lobes=` value such as `r` or
+    /// `tts,trts`), or `None` when the model has no `lobes` parameter or does not know those
+    /// names (a hair model without a medulla has no `tts`).
+    pub fn build_lobes(&self, lobes: &str) -> Result<Option<Model>, LoadError> {
+        let spec = fiberlab_scatter::find(&self.name)?;
+        let Some(param) = spec.params.iter().find(|p| p.key == "lobes") else { return Ok(None) };
+        if let fiberlab_scatter::params::ParamKind::Subset(names) = param.kind
+            && !lobes.split(',').all(|l| names.contains(&l))
+        {
+            return Ok(None);
+        }
+        self.with("lobes", RawValue::from(lobes)).build().map(Some)
+    }
+
+    /// `name key=value …`, for titles and labels.
+    #[must_use]
+    pub fn label(&self) -> String {
+        std::iter::once(self.name.clone())
+            .chain(self.params.iter().map(|(k, v)| format!("{k}={v}")))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
 /// Builds model `name` from `pairs` (converted and validated against its specification);
 /// a model built from data reads it, relative paths resolved against `base` (the scene
 /// file's directory; an empty path for the working directory).

@@ -412,7 +412,9 @@ impl SceneFile {
             InputError::NotUtf8 { line, column, byte, .. } => {
                 SceneError { path: path.into(), line, column, message: format!("byte {byte}: not UTF-8 text") }
             }
-            InputError::Io { error, .. } => SceneError { path: path.into(), line: 0, column: 0, message: error.to_string() },
+            InputError::Io { error, .. } => {
+                SceneError { path: path.into(), line: 0, column: 0, message: error.to_string() }
+            }
             other => {
                 let text = other.to_string();
                 let message = text.strip_prefix(&format!("{}: ", path.display())).unwrap_or(&text).to_string();
@@ -490,6 +492,14 @@ impl SceneFile {
         (c.width, c.height)
     }
 
+    /// Renders `width × height` pixels instead of the camera's own size (`fiberlab render
+    /// --size`, for quick previews): the vertical field of view is kept, so a different aspect
+    /// ratio shows more or less of the scene at the sides.
+    pub fn override_image_size(&mut self, width: u32, height: u32) {
+        let c = self.desc.camera.get_mut();
+        (c.width, c.height) = (width, height);
+    }
+
     /// The memory [`SceneFile::build`] and a render of the scene will take, estimated before
     /// anything is built: the image from the camera's size, the strands of each `[[hair]]`
     /// from its generator's counts or its `.hair` file's header (the `--hair` override's
@@ -564,7 +574,8 @@ impl SceneFile {
         let d = &self.desc.camera;
         let c = d.get_ref();
         // Each error at the line of the key it is about.
-        let fail = |key: &str, message: String| Err(self.error(self.key_span(d.span(), key), format!("camera: {message}")));
+        let fail =
+            |key: &str, message: String| Err(self.error(self.key_span(d.span(), key), format!("camera: {message}")));
         for (key, v) in [("eye", c.eye), ("target", c.target), ("up", c.up)] {
             if !v.iter().all(|x| x.is_finite()) {
                 return fail(key, format!("{key} = {v:?} must be finite"));
@@ -605,11 +616,8 @@ impl SceneFile {
         let start = table.start.min(self.text.len());
         let rest = &self.text[start..];
         // An inline table `{ … }` is searched within its span; a `[header]` table to the next header.
-        let body = if rest.starts_with('[') {
-            rest
-        } else {
-            rest.get(..table.end.saturating_sub(start)).unwrap_or(rest)
-        };
+        let body =
+            if rest.starts_with('[') { rest } else { rest.get(..table.end.saturating_sub(start)).unwrap_or(rest) };
         let mut offset = start;
         for (k, line) in body.split_inclusive('\n').enumerate() {
             let trimmed = line.trim_start();
@@ -724,9 +732,8 @@ impl SceneFile {
             ModelMaterial::new(spec.name, spec.params, built, &textures).map_err(|e| fail(e.to_string()))?;
         if let Some(scale) = uv_scale {
             let fail = |message: String| self.error(scale.span(), format!("material `{name}`: {message}"));
-            let pair = <[f64; 2]>::try_from(scale.get_ref().as_slice()).map_err(|_| {
-                fail(format!("uv_scale: expected two numbers [su, sv], got {}", scale.get_ref().len()))
-            })?;
+            let pair = <[f64; 2]>::try_from(scale.get_ref().as_slice())
+                .map_err(|_| fail(format!("uv_scale: expected two numbers [su, sv], got {}", scale.get_ref().len())))?;
             material = material.with_uv_scale(pair).map_err(|e| fail(e.to_string()))?;
         }
         Ok(SurfaceMaterial::Model(Box::new(material)))
@@ -1321,7 +1328,10 @@ mod tests {
         }
         // A fourth number where three are meant is refused at its place, not dropped.
         let e = camera("[0, 0, 5, 7]", up, "30", "8");
-        assert!(e.starts_with("s.toml:2:") && e.contains("invalid length 4, expected an array of three numbers"), "{e}");
+        assert!(
+            e.starts_with("s.toml:2:") && e.contains("invalid length 4, expected an array of three numbers"),
+            "{e}"
+        );
     }
 
     /// Strand diameters outside the accepted range (see `strand_diameters`) are errors naming

@@ -5,16 +5,10 @@
 //! mathematics is in `docs/theory/hair.md`, the peers' differences in
 //! `docs/theory/peer-discrepancies.md`. Equations are cited by the quantity they define.
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `eta` | — | 1.55 | (1, 4] |
-//! | `beta_m` | — | 0.3 | [0.01, 1] longitudinal roughness |
-//! | `beta_n` | — | 0.3 | [0.01, 1] azimuthal roughness |
-//! | `alpha` | degrees at the edge, radians in [`ChiangParams`] | 2 | [−20, 20] cuticle scale tilt |
-//! | `sigma_a` | 1/radius | — | [0, ∞) per channel |
-//! | `eumelanin` | — | (1.3 if no absorption key is given) | [0, 100] |
-//! | `pheomelanin` | — | (0) | [0, 100] |
-//! | `color` | — | — | (0, 1] per channel |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model chiang` prints it and the
+//! book's page `docs/book/src/models/chiang.md` shows it. `alpha` is given in degrees and held in
+//! radians in [`ChiangParams`].
 //!
 //! Absorption comes from exactly one of: `sigma_a`; the melanin concentrations
 //! (`eumelanin` and/or `pheomelanin`, the missing one 0); or a desired `color`
@@ -283,6 +277,16 @@ impl ScatteringFunction for Chiang {
 
     fn eval(&self, wi: DVec3, wo: DVec3, h: f64) -> Rgb {
         self.at_vertex(wo, h).eval_and_pdf(wi).0
+    }
+
+    fn chord_absorption(&self) -> Option<Rgb> {
+        Some(self.sigma_a)
+    }
+
+    /// Half the standard deviation of the azimuthal logistic, `πs/(2√3)`: the lobes sit at
+    /// `Φ(p, h) = 2pγ_t − 2γ + pπ`, which moves twice as fast as γ for the R lobe.
+    fn width_feature(&self) -> f64 {
+        0.5 * std::f64::consts::PI * self.s / 3f64.sqrt()
     }
 
     fn pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> f64 {

@@ -6,15 +6,10 @@
 //! peers' differences in `docs/theory/peer-discrepancies.md`. Equations are cited by the
 //! quantity they define.
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `eta` | — | 1.55 | (1, 4] |
-//! | `beta_m` | — | 0.3 | [0.01, 1] longitudinal roughness (Chiang's map to v_p) |
-//! | `beta_n` | — | 0.3 | [0.01, 1] azimuthal roughness (Gaussian std `σ_n = πs/√3`) |
-//! | `alpha` | degrees at the edge, radians in [`DeonParams`] | 2 | [−20, 20] cuticle scale tilt, sign as `chiang` |
-//! | `p_max` | — | 3 | integer in [1, 16]: explicit lobes p < p_max |
-//! | `theta_n` | — | camera | `camera` (θ_o) or `difference` (θ_d): inclination of N_p |
-//! | `sigma_a`, `eumelanin`, `pheomelanin`, `color` | | | as `chiang` ([`crate::hair::absorption::Absorption`]) |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model deon` prints it and the book's
+//! page `docs/book/src/models/deon.md` shows it. `alpha` is given in degrees and held in radians in
+//! [`DeonParams`].
 //!
 //! # Formula
 //! Backward form (as Tungsten's `HairBcsdf`, [`crate::hair::backward_form`]): with
@@ -620,6 +615,10 @@ impl Deon {
 }
 
 impl ScatteringFunction for Deon {
+    fn chord_absorption(&self) -> Option<Rgb> {
+        Some(self.sigma_a())
+    }
+
     fn properties(&self) -> Properties {
         Properties { reciprocal: false, energy_conserving: false, field: Field::Far, lobes: Lobes::Smooth }
     }

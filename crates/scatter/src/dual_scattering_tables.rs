@@ -273,15 +273,8 @@ impl DualTables {
             )));
         }
         let offsets: Vec<(f64, f64)> = if props.field == Field::Near {
-            // h = sin u, u midpoints over (−π/2, π/2): the path lengths inside the fiber go as
-            // √(1 − h²) near the edges, which midpoints in h resolve slowly; in u they are smooth.
-            let du = PI / r.offsets as f64;
-            (0..r.offsets)
-                .map(|k| {
-                    let u = -FRAC_PI_2 + (k as f64 + 0.5) * du;
-                    (u.sin(), 0.5 * u.cos() * du)
-                })
-                .collect()
+            // The one width-average rule, Gauss–Legendre in γ = asin h (smooth at the edges).
+            fiberlab_math::quadrature::width_nodes(r.offsets.div_ceil(4))
         } else {
             vec![(0.0, 1.0)]
         };

@@ -97,6 +97,46 @@ pub trait ScatteringFunction: Send + Sync {
     /// `f_s(ω_i, ω_o; h)` in sr⁻¹ per colour channel.
     fn eval(&self, wi: DVec3, wo: DVec3, h: f64) -> Rgb;
 
+    /// The far-field `f_s(ω_i, ω_o)`: for a near-field model its average over the fiber's width,
+    /// `½∫_{−1}^{1} f_s(ω_i, ω_o; h) dh`, by the one width-average rule of
+    /// [`fiberlab_math::quadrature::width_average`] with panels as wide as
+    /// [`ScatteringFunction::width_feature`]; for a far-field model `eval` itself. Every
+    /// comparison of a model with a width-averaged quantity (a goniophotometer table, a fit, a
+    /// plot, a reciprocity test) goes through this; models with an exact or cheaper far field
+    /// override it.
+    fn eval_far(&self, wi: DVec3, wo: DVec3) -> Rgb {
+        match self.properties().field {
+            Field::Far => self.eval(wi, wo, 0.0),
+            Field::Near => {
+                let panels = fiberlab_math::quadrature::width_panels(self.width_feature());
+                fiberlab_math::quadrature::width_average(panels, |h| self.eval(wi, wo, h))
+            }
+        }
+    }
+
+    /// Width (radians of the angle of incidence γ = asin h) of the narrowest feature of a
+    /// near-field `eval` across the fiber, e.g. an azimuthal lobe's standard deviation mapped
+    /// to γ; [`ScatteringFunction::eval_far`] resolves it with one panel of four nodes. The
+    /// default, π/16, suits lobes at least that wide.
+    fn width_feature(&self) -> f64 {
+        std::f64::consts::PI / fiberlab_math::quadrature::WIDTH_PANELS as f64
+    }
+
+    /// The fiber's absorption per unit radius in the chord convention — light crossing the fiber
+    /// once at normal incidence is attenuated by `exp(−2σ_a)` — for models with an absorbing
+    /// interior; `None` for models without one (the default). Lets one hair be given to every
+    /// model in its own parametrization (`fiberlab evaluate`).
+    fn chord_absorption(&self) -> Option<Rgb> {
+        None
+    }
+
+    /// The value of this model's `sigma_a` parameter that gives it the chord-convention
+    /// absorption `chord` ([`ScatteringFunction::chord_absorption`]): the identity (the default)
+    /// for models whose `sigma_a` is in that convention.
+    fn sigma_a_for_chord(&self, chord: Rgb) -> Rgb {
+        chord
+    }
+
     /// Density (sr⁻¹) with which [`ScatteringFunction::sample`] draws `wi` given `wo`, `h`.
     fn pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> f64;
 

@@ -2,11 +2,9 @@
 //! factor, as a fiber scattering function (`docs/theory/radiometry.md`, "Goldman's directional
 //! factor").
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `k_d`, `k_s`, `p` | as [`crate::kajiya_kay_1989`] | | |
-//! | `rho_reflect` | — | 1 | [0, 1] per channel |
-//! | `rho_transmit` | — | 0.5 | [0, 1] per channel |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model goldman` prints it and the
+//! book's page `docs/book/src/models/goldman.md` shows it.
 //!
 //! # Formula
 //! `κ = cos φ` (+1 backscatter, −1 straight through), `f_dir = ρ_reflect·(1 + κ)/2 +

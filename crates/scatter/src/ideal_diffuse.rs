@@ -1,9 +1,9 @@
 //! The ideal diffuse fiber (Marschner, *Scattering from fibers*, course notes; theory in
 //! `docs/theory/radiometry.md`, "Ideal diffuse fiber").
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `albedo` ρ | — | 0.8 | [0, 1] per channel |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model diffuse` prints it and the
+//! book's page `docs/book/src/models/diffuse.md` shows it. The formulas below write `albedo` as ρ.
 //!
 //! # Formula
 //! `f_s(ω_i, ω_r) = ρ/π²` (constant), so `ρ(ω_i) = ∫ f_s cosθ_r dω_r = ρ` because

@@ -1,11 +1,9 @@
 //! The ideal specular fiber: all light leaves on the specular cone θ_r = −θ_i
 //! (`docs/theory/radiometry.md`, "Ideal specular fiber").
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `azimuth` | — | mirror | `uniform` \| `mirror` |
-//! | `fresnel` | — | off | `on` \| `off` |
-//! | `eta` η | — | 1.55 | (1, 4] |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model specular` prints it and the
+//! book's page `docs/book/src/models/specular.md` shows it. The formulas below write `eta` as η.
 //!
 //! # Formula
 //! `f_s(ω_i, ω_r) = δ(θ_i + θ_r)·n(φ)·F / cos²θ_i`, with `∫ n dφ = 1`:

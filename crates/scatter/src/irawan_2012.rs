@@ -532,19 +532,6 @@ fn hashed_unit(seed: u64, keys: &[i64]) -> f64 {
     ((h >> 11) as f64 + 0.5) * (1.0 / (1u64 << 53) as f64)
 }
 
-/// Smooth value noise in [−1, 1]: hashed values on the integer lattice, blended with the
-/// quintic fade `6t⁵ − 15t⁴ + 10t³` (continuous with its first two derivatives).
-fn value_noise(seed: u64, x: f64, y: f64) -> f64 {
-    let (x0, y0) = (x.floor(), y.floor());
-    let fade = |t: f64| t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
-    let (fx, fy) = (fade(x - x0), fade(y - y0));
-    let (i, j) = (x0 as i64, y0 as i64);
-    let at = |di: i64, dj: i64| 2.0 * hashed_unit(seed, &[i + di, j + dj]) - 1.0;
-    let bottom = at(0, 0) + (at(1, 0) - at(0, 0)) * fx;
-    let top = at(0, 1) + (at(1, 1) - at(0, 1)) * fx;
-    bottom + (top - bottom) * fy
-}
-
 impl Variation {
     /// The segment's `u_max` at UV `(u, v)`: plus the noise (one field for warps, one for
     /// wefts), held in `UMAX_LIMITS`.
@@ -553,7 +540,7 @@ impl Variation {
             return yarn.u_max;
         }
         let seed = UMAX_SEED ^ u64::from(yarn.kind == YarnKind::Weft);
-        let n = value_noise(seed, u / self.umax_noise_period, v / self.umax_noise_period);
+        let n = fiberlab_math::noise::value_noise(seed, u / self.umax_noise_period, v / self.umax_noise_period, 1);
         (yarn.u_max + self.umax_noise * n).clamp(UMAX_LIMITS.0, UMAX_LIMITS.1)
     }
 
@@ -759,7 +746,7 @@ pub const IRAWAN_PARAMS: [ParamSpec; 12] = [
         kind: ParamKind::Text,
         unit: "path",
         default: "",
-        doc: "weave-pattern file (README: pattern files) instead of a preset; relative to the scene file or the working directory",
+        doc: "weave-pattern file (the book's irawan-2012 page, section Pattern files) instead of a preset; relative to the scene file or the working directory",
     },
     ParamSpec {
         key: "spine",

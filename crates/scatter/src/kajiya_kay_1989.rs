@@ -1,11 +1,9 @@
 //! Kajiya & Kay 1989, *Rendering fur with three dimensional textures*, written as a fiber
 //! scattering function (`docs/theory/radiometry.md`, "Kajiya–Kay as a scattering function").
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `k_d` | sr⁻¹ | 0.05 | [0, 10] per channel |
-//! | `k_s` | sr⁻¹ | 0.1 | [0, 10] per channel |
-//! | `p` | — | 30 | [0.5, 10⁴] |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model kajiya-kay` prints it and the
+//! book's page `docs/book/src/models/kajiya-kay.md` shows it.
 //!
 //! # Formula
 //! `f_s(ω_i, ω_r) = k_d + k_s·max(0, cos(θ_i + θ_r))^p / cosθ_i` (clamped before the power).

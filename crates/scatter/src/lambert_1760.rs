@@ -1,9 +1,9 @@
 //! The Lambertian surface (Lambert, *Photometria*, 1760): a constant BRDF, the simplest
 //! surface model and the reference the surface pipeline is tested with.
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `k_d` | — | 0.8 | [0, 1] per channel |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model lambertian` prints it and the
+//! book's page `docs/book/src/models/lambertian.md` shows it.
 //!
 //! # Formula
 //! `f_r(ω_i, ω_o) = k_d/π` for `ω_i`, `ω_o` above the surface (`z > 0`), else 0; the albedo

@@ -2,9 +2,10 @@
 //! (`docs/theory/radiometry.md`, "Lambertian cylinder"; equal to Tungsten's
 //! `LambertianFiberBcsdf`).
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `albedo` ρ | — | 0.8 | [0, 1] per channel |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model lambertian-cylinder` prints it
+//! and the book's page `docs/book/src/models/lambertian-cylinder.md` shows it. The formulas below
+//! write `albedo` as ρ.
 //!
 //! # Formula
 //! `f_s = (ρ/(4π))·[(π − |φ|)·cosφ + sin|φ|]`, `|φ| ≤ π`, φ = φ_r − φ_i (0 = backscatter),

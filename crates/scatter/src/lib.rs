@@ -37,8 +37,8 @@ pub mod yan_2017;
 pub use error::ModelError;
 pub use function::{ConeValue, Field, LobeInfo, Lobes, MIN_COS, Properties, Sample, ScatteringFunction};
 pub use model::{ALL_MODELS, MODELS, Model, ModelSpec, build, build_raw, find};
-pub use spec::{ExternalData, ModelInfo, Registered};
-pub use surface::{SurfaceProperties, SurfaceScattering, not_texturable};
+pub use spec::{ExternalData, MARKDOWN_BEGIN, MARKDOWN_END, ModelInfo, Registered};
+pub use surface::{FiberHighlight, SurfaceProperties, SurfaceScattering, not_texturable};
 pub use surface_model::{
     ModelKind, RegistryEntry, SURFACE_MODELS, SurfaceModel, SurfaceModelSpec, build_surface, build_surface_raw,
     find_surface, lookup, registry,

@@ -5,22 +5,12 @@
 //! differences in `docs/theory/peer-discrepancies.md`. Equations are cited by the quantity
 //! they define and by the paper's Table 1 (equation numbers are not quoted: unchecked).
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `eta` η | — | 1.55 | (1, 4] |
-//! | `sigma_a` σ_a | 1/radius | 0.2,0.3,0.5 | [0, ∞) per channel |
-//! | `alpha_r` α_R | degrees at the edge, radians in [`MarschnerParams`] | −7.5 | [−20, 20] |
-//! | `beta_r` β_R | degrees | 7.5 | [1, 20] |
-//! | `k_g` k_G | — | 2.5 | [0, 10] |
-//! | `w_c` w_c | degrees | 15 | [1, 45] |
-//! | `delta_eta` Δη′ | — | 0.3 | [0.01, 2] |
-//! | `delta_h_m` Δh_M | — | 0.5 | (0, 2] |
-//! | `eccentricity` a | — | 1 | [0.75, 1] |
-//! | `roots` | — | exact | `exact` \| `cubic` |
-//! | `glints` | — | on | `on` \| `off` |
-//! | `normalization` | — | energy | `energy` \| `paper` |
-//! | `absorption` | — | chord | `chord` \| `paper` |
-//! | `lobes` | — | r,tt,trt | subset of r, tt, trt |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model marschner` prints it and the
+//! book's page `docs/book/src/models/marschner.md` shows it. The formulas below write `eta` as η,
+//! `sigma_a` as σ_a, `alpha_r` as α_R, `beta_r` as β_R, `k_g` as k_G, `w_c` as w_c, `delta_eta` as
+//! Δη′, `delta_h_m` as Δh_M, `eccentricity` as a. `alpha_r` is given in degrees and held in radians
+//! in [`MarschnerParams`].
 //!
 //! # Formula
 //! The paper's scattering function
@@ -916,7 +906,26 @@ impl Marschner {
     }
 }
 
+impl Marschner {
+    /// The factor turning this model's σ_a into the chord convention's with the same
+    /// attenuation at normal incidence: its path length there over the chord's (2 radii).
+    fn chord_equivalent(&self) -> f64 {
+        use crate::hair::attenuation::PathLength;
+        self.params.absorption.length(1.0, 1.0) / PathLength::Chord.length(1.0, 1.0)
+    }
+}
+
 impl ScatteringFunction for Marschner {
+    /// σ_a in the chord convention: the printed path (`absorption=paper`, 4 radii at normal
+    /// incidence) makes the same attenuation with twice the chord's σ_a.
+    fn chord_absorption(&self) -> Option<Rgb> {
+        Some(self.params.sigma_a * self.chord_equivalent())
+    }
+
+    fn sigma_a_for_chord(&self, chord: Rgb) -> Rgb {
+        chord / self.chord_equivalent()
+    }
+
     fn properties(&self) -> Properties {
         Properties {
             reciprocal: true,

@@ -2,16 +2,10 @@
 //! modeling the appearance of finished wood* (SIGGRAPH 2005): the subsurface fiber highlight
 //! seen through a clear finish.
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `preset` | — | none | `none` \| `tigers-eye` \| `cats-eye` |
-//! | `eta` η | — | 1.5 | [1, 3] |
-//! | `roughness` α | — | 0 | [0, 1] |
-//! | `k_d` | — | 0.35,0.2,0.1 | [0, 1] per channel |
-//! | `k_f` | — | 0.1,0.07,0.04 | [0, 10] per channel |
-//! | `beta` β | degrees | 10 | [0.5, 45] |
-//! | `fiber_angle` | degrees | 0 | [−360, 360] |
-//! | `fiber_dip` | degrees | 0 | [−90, 90] |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model wood` prints it and the book's
+//! page `docs/book/src/models/wood.md` shows it. The formulas below write `eta` as η, `roughness`
+//! as α, `beta` as β.
 //!
 //! # Geometry
 //! A clear finish of index η lies over a matrix of aligned fibers whose unit axis, in the
@@ -79,7 +73,9 @@
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::cosine_hemisphere;
 use crate::surface::not_texturable;
-use crate::{LobeInfo, MIN_COS, ModelError, ModelInfo, Registered, Sample, SurfaceProperties, SurfaceScattering};
+use crate::{
+    FiberHighlight, LobeInfo, MIN_COS, ModelError, ModelInfo, Registered, Sample, SurfaceProperties, SurfaceScattering,
+};
 use fiberlab_math::special::{gaussian, normal_mass, sample_truncated_normal};
 use fiberlab_math::{DVec3, Rgb, fresnel};
 use std::f64::consts::{FRAC_1_PI, FRAC_PI_2, PI, TAU};
@@ -509,7 +505,34 @@ impl Wood {
     }
 }
 
+impl FiberHighlight for Wood {
+    fn axis(&self) -> DVec3 {
+        self.u
+    }
+
+    fn refract_in(&self, w: DVec3) -> DVec3 {
+        Wood::refract_in(self, w)
+    }
+
+    fn fiber_strength(&self) -> Rgb {
+        self.k_f
+    }
+
+    /// The subsurface fiber lobe through the smooth finish (`k_d = 0`, no rough reflection).
+    fn fiber_term(&self, wi: DVec3, wo: DVec3) -> Rgb {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let fibers_only = Wood { k_d: Rgb::ZERO, ..*self };
+        fibers_only.through_finish(wi, wo)
+    }
+}
+
 impl SurfaceScattering for Wood {
+    fn fiber_highlight(&self) -> Option<&dyn FiberHighlight> {
+        Some(self)
+    }
+
     fn properties(&self) -> SurfaceProperties {
         SurfaceProperties {
             reciprocal: true,

@@ -1,9 +1,9 @@
 //! A measured (tabulated) scattering function, e.g. from the virtual goniophotometer: bin
 //! values of `f_s` over (θ_r, φ) for a set of incidence inclinations, usable like any model.
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `table` | path | — | a `fiberlab measure` CSV (loaded by the command line or scene loader) |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model measured` prints it and the
+//! book's page `docs/book/src/models/measured.md` shows it.
 //!
 //! # Formula
 //! Bins are uniform in θ_out ∈ [−π/2, π/2] and φ = φ_out − φ_in ∈ [−π, π]; slice `k` holds

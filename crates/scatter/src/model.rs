@@ -63,6 +63,14 @@ macro_rules! models {
             )*
         }
 
+        impl Model {
+            /// The registry name of the model (`fiberlab models` lists them).
+            #[must_use]
+            pub fn name(&self) -> &'static str {
+                match self { $(Model::$variant(_) => <$ty as Registered>::INFO.name,)* }
+            }
+        }
+
         $(
             impl From<$ty> for Model {
                 fn from(m: $ty) -> Self {
@@ -79,6 +87,20 @@ macro_rules! models {
             #[inline]
             fn eval(&self, wi: DVec3, wo: DVec3, h: f64) -> Rgb {
                 match self { $(Model::$variant(m) => m.eval(wi, wo, h),)* }
+            }
+            #[inline]
+            fn eval_far(&self, wi: DVec3, wo: DVec3) -> Rgb {
+                match self { $(Model::$variant(m) => m.eval_far(wi, wo),)* }
+            }
+            #[inline]
+            fn width_feature(&self) -> f64 {
+                match self { $(Model::$variant(m) => m.width_feature(),)* }
+            }
+            fn chord_absorption(&self) -> Option<Rgb> {
+                match self { $(Model::$variant(m) => m.chord_absorption(),)* }
+            }
+            fn sigma_a_for_chord(&self, chord: Rgb) -> Rgb {
+                match self { $(Model::$variant(m) => m.sigma_a_for_chord(chord),)* }
             }
             #[inline]
             fn pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> f64 {

@@ -376,6 +376,17 @@ impl ParamSpec {
             ParamKind::Text => "text".into(),
         }
     }
+
+    /// [`ParamSpec::valid`] for a Markdown table: the words of a choice or subset as code.
+    #[must_use]
+    pub fn valid_markdown(&self) -> String {
+        let words = |c: &[&str]| c.iter().map(|w| format!("`{w}`")).collect::<Vec<_>>().join(", ");
+        match self.kind {
+            ParamKind::Choice(c) => format!("one of {}", words(c)),
+            ParamKind::Subset(c) => format!("any of {}", words(c)),
+            _ => self.valid(),
+        }
+    }
 }
 
 /// Validated parameters of one model: every key known, every value converted, defaults

@@ -9,6 +9,7 @@
 
 use crate::{Field, Lobes, ModelError, ScatteringFunction, params::Range};
 use fiberlab_math::frame::{cos_theta, direction, direction_from_sin_cos, phi, theta};
+use fiberlab_math::quadrature::width_nodes;
 use fiberlab_math::{DVec3, Rgb};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -68,15 +69,16 @@ impl CrossSection {
     }
 }
 
-/// Resolution of the midpoint quadratures below: θ cells over [−π/2, π/2], φ cells over
-/// [−π, π], and h cells over [−1, 1] (used only for near-field models).
+/// Resolution of the quadratures below: midpoint θ cells over [−π/2, π/2] and φ cells over
+/// [−π, π], and `h` nodes of the width average (near-field models only).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Quadrature {
     /// Cells in θ.
     pub theta: usize,
     /// Cells in φ.
     pub phi: usize,
-    /// Cells in h (near-field models only).
+    /// Nodes of the width average, rounded up to whole panels of four (near-field models
+    /// only; [`fiberlab_math::quadrature::width_nodes`]).
     pub h: usize,
 }
 
@@ -100,11 +102,11 @@ impl Quadrature {
         }
     }
 
-    /// The h nodes (and weight ½·dh each, so the weights sum to 1) for `f`'s field.
-    fn h_nodes(&self, field: Field) -> impl Iterator<Item = (f64, f64)> {
-        let n = if field == Field::Near { self.h.max(1) } else { 1 };
-        (0..n)
-            .map(move |k| if n == 1 { (0.0, 1.0) } else { (-1.0 + (k as f64 + 0.5) * 2.0 / n as f64, 1.0 / n as f64) })
+    /// The h nodes and weights (summing to 1) for `f`'s field: the width-average rule of
+    /// [`fiberlab_math::quadrature::width_nodes`] with about `h` nodes (four per panel) for a
+    /// near-field model, `h = 0` for a far-field one.
+    fn h_nodes(&self, field: Field) -> Vec<(f64, f64)> {
+        if field == Field::Near { width_nodes(self.h.max(1).div_ceil(4)) } else { vec![(0.0, 1.0)] }
     }
 }
 
@@ -189,6 +191,30 @@ pub fn albedo(f: &impl ScatteringFunction, wi: DVec3, quadrature: &Quadrature) -
     sum
 }
 
+/// Light-side albedo of each lobe, `ρ_p(ω_i) = ∫ f_p(ω_i, ω_r) cosθ_r dω_r`, by the quadrature
+/// of [`albedo`], for a model that separates its lobes ([`ScatteringFunction::eval_lobes`]);
+/// in the order of [`ScatteringFunction::lobes`], summing to [`albedo`]. `None` for a model
+/// that does not separate them (or a delta model).
+pub fn lobe_albedos(f: &impl ScatteringFunction, wi: DVec3, quadrature: &Quadrature) -> Option<Vec<Rgb>> {
+    let props = f.properties();
+    let n = f.lobes().len();
+    let mut values = vec![Rgb::ZERO; n];
+    if props.lobes == Lobes::Delta || !f.eval_lobes(wi, wi, 0.0, &mut values) {
+        return None;
+    }
+    let mut sums = vec![Rgb::ZERO; n];
+    for (h, wh) in quadrature.h_nodes(props.field) {
+        quadrature.for_each_direction(|wr, dw| {
+            f.eval_lobes(wi, wr, h, &mut values);
+            let w = cos_theta(wr) * dw * wh;
+            for (s, v) in sums.iter_mut().zip(&values) {
+                *s += *v * w;
+            }
+        });
+    }
+    Some(sums)
+}
+
 /// Camera-side albedo (white furnace) `∫ f_s(ω_i, ω_o) cosθ_i dω_i`: the radiance
 /// leaving toward `wo` under uniform unit illumination.
 pub fn furnace(f: &impl ScatteringFunction, wo: DVec3, quadrature: &Quadrature) -> Rgb {
@@ -229,6 +255,28 @@ mod tests {
         }
         let l = e.curve_to_radiance(Rgb::splat(3.0), DVec3::Y);
         assert_relative_eq!(e.radiance_to_curve(l, DVec3::Y)[0], 3.0);
+    }
+
+    /// The lobes' albedos sum to the model's albedo (Chiang, near field; Marschner, far
+    /// field); a model that does not separate its lobes has none.
+    #[test]
+    fn lobe_albedos_sum_to_the_albedo() {
+        let q = Quadrature { theta: 96, phi: 192, h: 6 };
+        for name in ["chiang", "marschner"] {
+            let f = crate::build::<&str, &str>(name, &[]).unwrap();
+            let wi = direction(0.4, 0.2);
+            let lobes = lobe_albedos(&f, wi, &q).unwrap();
+            assert_eq!(lobes.len(), f.lobes().len());
+            let sum = lobes.iter().fold(Rgb::ZERO, |a, &b| a + b);
+            let total = albedo(&f, wi, &q);
+            for c in 0..3 {
+                assert_relative_eq!(sum[c], total[c], max_relative = 1e-12);
+                assert!(lobes.iter().all(|l| l[c] >= 0.0));
+            }
+            assert!(lobes[0].luminance() > 0.0, "{name}: R carries energy");
+        }
+        let diffuse = crate::build::<&str, &str>("diffuse", &[]).unwrap();
+        assert!(lobe_albedos(&diffuse, direction(0.1, 0.0), &q).is_none());
     }
 
     #[test]

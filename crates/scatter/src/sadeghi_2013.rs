@@ -5,13 +5,10 @@
 //!
 //! # Thread scattering function (`sadeghi-thread`)
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `eta` η | — | 1.46 | [1, 3] |
-//! | `k_d` | — | 0.3 | [0, 1] (isotropic share of the volume lobe) |
-//! | `albedo` A | — | 0.3 | [0, 1] per channel (volume albedo) |
-//! | `gamma_s` γ_s | degrees | 12 | [0.5, 90] (surface lobe width) |
-//! | `gamma_v` γ_v | degrees | 24 | [0.5, 90] (volume lobe width) |
+//! Parameters: the registry entry (`THREAD_PARAMS`; the cloth's are `SURFACE_PARAMS`) is the one
+//! table of keys, units, defaults and valid ranges; `fiberlab models --model sadeghi-thread` prints
+//! it and the book's page `docs/book/src/models/sadeghi-thread.md` shows it. The formulas below
+//! write `eta` as η, `albedo` as A, `gamma_s` as γ_s, `gamma_v` as γ_v.
 //!
 //! In the fiber frame (θ from the thread's normal plane, φ about the thread from its normal,
 //! `θ_h = (θ_i + θ_r)/2`, `θ_d = (θ_i − θ_r)/2`, `φ_d = φ_i − φ_r` wrapped to (−π, π]) the

@@ -70,6 +70,27 @@ pub trait SurfaceScattering: Send + Sync {
     /// library uses: radians for angles) by a texel value; scalar parameters read `value.r`.
     /// Must not allocate. An unknown or non-texturable key is an error.
     fn set_parameter(&mut self, key: &str, value: Rgb) -> Result<(), ModelError>;
+
+    /// The fiber highlight of a surface whose shine comes from fibers under a finish
+    /// (Marschner et al. 2005's wood), for comparisons with the single-fiber paths of a
+    /// measured surface table; `None` for other surfaces (the default).
+    fn fiber_highlight(&self) -> Option<&dyn FiberHighlight> {
+        None
+    }
+}
+
+/// A surface whose highlight comes from fibers below a dielectric finish: what a comparison
+/// of its fiber term with a goniophotometer's single-fiber class needs.
+pub trait FiberHighlight: Send + Sync {
+    /// The unit fiber axis in the local frame.
+    fn axis(&self) -> DVec3;
+    /// A direction outside refracted through the finish (pointing back up).
+    fn refract_in(&self, w: DVec3) -> DVec3;
+    /// The fiber term's strength `k_f` (sr⁻¹ scale of its lobe).
+    fn fiber_strength(&self) -> Rgb;
+    /// `f_r` of the fiber term alone (through the finish, without the diffuse term and the
+    /// finish's own reflection): what light scattered once by the fibers contributes.
+    fn fiber_term(&self, wi: DVec3, wo: DVec3) -> Rgb;
 }
 
 /// The error [`SurfaceScattering::set_parameter`] returns for a key the model `info` cannot

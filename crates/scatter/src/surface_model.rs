@@ -86,6 +86,9 @@ macro_rules! surface_models {
             fn set_parameter(&mut self, key: &str, value: Rgb) -> Result<(), ModelError> {
                 match self { $(SurfaceModel::$variant(m) => m.set_parameter(key, value),)* }
             }
+            fn fiber_highlight(&self) -> Option<&dyn crate::FiberHighlight> {
+                match self { $(SurfaceModel::$variant(m) => m.fiber_highlight(),)* }
+            }
         }
     };
 }

@@ -7,21 +7,10 @@
 //! cuticle of `layers` layers. Built from the hair core ([`crate::hair`]). Equation numbers of
 //! the papers are not quoted (not checked against the papers); each quantity is described.
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `eta` | — | 1.55 | (1, 4] |
-//! | `sigma_c_a` | 1/radius | (0.3,0.5,0.9 if `color` is not given) | [0, ∞) per channel, cortex absorption |
-//! | `color` | — | — | (0, 1] per channel, instead of `sigma_c_a` (see *Colour*) |
-//! | `kappa` | — | 0.5 | [0, 1) medulla radius / fiber radius |
-//! | `sigma_m_s` | 1/radius | 1 | [0, 40] medulla scattering (σ_m^s κ within the tables' range) |
-//! | `sigma_m_a` | 1/radius | 0 | [0, 10⁶] medulla absorption |
-//! | `g` | — | 0 | (−1, 1) medulla Henyey–Greenstein anisotropy |
-//! | `layers` | — | 1 | (0, 1000] cuticle interfaces (see *Cuticle layers*) |
-//! | `alpha` | degrees at the edge, radians in [`YanFurParams`] | 3 | [−20, 20] cuticle tilt, > 0 puts R toward the root |
-//! | `beta_m` | degrees | 10 | [0.5, 60] longitudinal standard deviation of R |
-//! | `beta_n` | degrees | 10 | [0.5, 60] azimuthal standard deviation of R |
-//! | `lobes` | — | r,tt,trt,tts,trts | subset of r, tt, trt, tts, trts |
-//! | `field` | — | near | `near` (value at h) or `far` (average over h, [`YanFur::eval_far`]) |
+//! Parameters: the registry entry (the `params` of `Registered::INFO` below) is the one table of
+//! keys, units, defaults and valid ranges; `fiberlab models --model yan-fur` prints it and the
+//! book's page `docs/book/src/models/yan-fur.md` shows it. `alpha` is given in degrees and held in
+//! radians in [`YanFurParams`].
 //!
 //! No preset: no published table of per-animal parameters has been checked here, so the
 //! defaults are documented choices (a medium medulla, moderately rough), not a fit.
@@ -599,7 +588,7 @@ impl YanFur {
             tilt: marschner_ratio_tilts(params.alpha),
             enabled,
             medulla,
-            gauss_legendre: gauss_legendre(n),
+            gauss_legendre: fiberlab_math::quadrature::gauss_legendre(n),
         })
     }
 
@@ -761,8 +750,7 @@ impl YanFur {
     /// inside it in ψ with `h′ = κ sinψ` (the medulla chord `√(κ² − h′²)` is smooth in ψ);
     /// `n = clamp(⌈8π/β_n⌉, 32, 4096)` nodes per piece (4 per standard deviation of the R lobe's
     /// azimuthal Gaussian in the integration variable).
-    #[must_use]
-    pub fn eval_far(&self, wi: DVec3, wo: DVec3) -> Rgb {
+    fn far_eval(&self, wi: DVec3, wo: DVec3) -> Rgb {
         self.far_integral(wo, |h| self.near_eval_and_pdf(wi, wo, h).0)
     }
 
@@ -841,35 +829,6 @@ fn geo(x: f64, r: f64) -> f64 {
     if r < 1.0 { x / (1.0 - r) } else { 0.0 }
 }
 
-/// Gauss–Legendre nodes and weights on [−1, 1] (`n` nodes, exact for polynomials of degree
-/// 2n − 1): Newton's method on the Legendre polynomial `P_n` from the asymptotic guesses
-/// `cos(π(i + 3/4)/(n + 1/2))`, weights `2/((1 − x²)P_n′(x)²)`.
-fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    let nf = n as f64;
-    (0..n)
-        .map(|i| {
-            let mut x = (PI * (i as f64 + 0.75) / (nf + 0.5)).cos();
-            let mut dp = 1.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let kf = k as f64;
-                    let p2 = ((2.0 * kf - 1.0) * x * p1 - (kf - 1.0) * p0) / kf;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = nf * (x * p1 - p0) / (x * x - 1.0);
-                let dx = p1 / dp;
-                x -= dx;
-                if dx.abs() < 1e-15 {
-                    break;
-                }
-            }
-            (x, 2.0 / ((1.0 - x * x) * dp * dp))
-        })
-        .collect()
-}
-
 impl ScatteringFunction for YanFur {
     fn properties(&self) -> Properties {
         Properties { reciprocal: false, energy_conserving: false, field: self.params.field, lobes: Lobes::Smooth }
@@ -892,8 +851,14 @@ impl ScatteringFunction for YanFur {
     fn eval_and_pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> (Rgb, f64) {
         match self.params.field {
             Field::Near => self.near_eval_and_pdf(wi, wo, h),
-            Field::Far => (self.eval_far(wi, wo), self.far_pdf(wi, wo)),
+            Field::Far => (self.far_eval(wi, wo), self.far_pdf(wi, wo)),
         }
+    }
+
+    /// The width average by this model's own rule (Gauss–Legendre on the pieces where the
+    /// integrand is smooth: outside and inside the medulla), whatever `field` is.
+    fn eval_far(&self, wi: DVec3, wo: DVec3) -> Rgb {
+        self.far_eval(wi, wo)
     }
 
     /// `R`, `TT`, `TRT`, and the medulla-scattered `TTs`, `TRTs` (index p of [`LOBE_NAMES`]).
@@ -914,23 +879,6 @@ impl ScatteringFunction for YanFur {
                 let (f, pdf) = self.eval_and_pdf(wi, wo, 0.0);
                 (pdf > 0.0).then(|| Sample { wi, weight: f * (cos_theta(wi) / pdf), pdf, delta: false, lobe })
             }
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn gauss_legendre_integrates_polynomials_of_degree_2n_minus_1_exactly() {
-        for n in [1, 2, 5, 48, 300] {
-            let nodes = gauss_legendre(n);
-            let total: f64 = nodes.iter().map(|&(_, w)| w).sum();
-            assert!((total - 2.0).abs() < 1e-12, "n {n}: Σw = {total}");
-            let d = 2 * n - 2; // even degree 2n − 2: ∫ x^d = 2/(d + 1)
-            let got: f64 = nodes.iter().map(|&(x, w)| w * x.powi(d as i32)).sum();
-            assert!((got - 2.0 / (d as f64 + 1.0)).abs() < 1e-11, "n {n}: {got}");
         }
     }
 }

@@ -195,7 +195,8 @@ fn first_problem(model: &fiberlab_scatter::Model, dirs: &[DVec3], uniforms: &[[f
             }
             for &u in uniforms {
                 let Some(s) = model.sample(wi, h, u) else { continue };
-                let finite = s.weight.is_finite() && s.weight.min_component() >= 0.0 && s.pdf.is_finite() && s.pdf >= 0.0;
+                let finite =
+                    s.weight.is_finite() && s.weight.min_component() >= 0.0 && s.pdf.is_finite() && s.pdf >= 0.0;
                 if !finite || (s.wi.length() - 1.0).abs() >= UNIT_LENGTH_ABS {
                     return Some(format!("sample {s:?} for ωo {wi} h={h}"));
                 }

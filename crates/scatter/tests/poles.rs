@@ -49,7 +49,13 @@ fn every_roughness_at_the_ends_of_its_range_approaches_the_poles_without_jumping
             let ParamKind::Number(r) = p.kind else { continue };
             let ends = [
                 if r.min_inclusive { r.min } else { r.min.next_up() },
-                if !r.max.is_finite() { 1e12 } else if r.max_inclusive { r.max } else { r.max.next_down() },
+                if !r.max.is_finite() {
+                    1e12
+                } else if r.max_inclusive {
+                    r.max
+                } else {
+                    r.max.next_down()
+                },
             ];
             for x in ends {
                 let value = format!("{x:e}");

@@ -40,7 +40,9 @@
 //! default head 243.9 → 137.4 bytes per segment (4-wide: 204.8), 3 % fewer render
 //! instructions on the peer scene, the same image.
 
+mod flat;
 mod oriented;
+pub use flat::FlatBvh;
 
 /// Walk counters for measurements (`RUSTFLAGS="--cfg fiberlab_stats"`; printed at exit).
 #[cfg(fiberlab_stats)]

@@ -285,7 +285,8 @@ def _is_table_list(v: Any) -> bool:
 
 def render(scene=None, *, text: Optional[str] = None, spp: Optional[int] = None, seed: Optional[int] = None,
            max_depth: Optional[int] = None, threads: int = 0, progress=None, integrator: Optional[str] = None,
-           fiber_count: Optional[str] = None, dual: Optional[Mapping[str, Any]] = None) -> np.ndarray:
+           fiber_count: Optional[str] = None, dual: Optional[Mapping[str, Any]] = None,
+           device: str = "cpu") -> np.ndarray:
     """Renders a scene like ``fiberlab render`` and returns ``(H, W, 3)`` float32 linear RGB.
 
     ``scene``: a TOML file path, a dict with the scene file's structure (see
@@ -294,6 +295,8 @@ def render(scene=None, *, text: Optional[str] = None, spp: Optional[int] = None,
     ``"dual-scattering"``) and ``fiber_count`` (``"exact"`` or ``"grid"``) override its
     ``[render]`` entries; ``dual`` maps dual-scattering options to values, the keys and values
     of ``fiberlab render --dual KEY=VALUE`` (e.g. ``{"d_f": 0.5, "surface_bounce": "on"}``).
+    ``device``: ``"cpu"`` (default), ``"gpu"`` (the GPU path tracer; software Vulkan counts) or
+    ``"auto"`` (a hardware GPU when there is one, else the CPU), as ``fiberlab render --device``.
     ``progress(done, total)`` is called
     about every 50 ms with the pixel samples done (e.g. to drive tqdm); ``progress=True`` prints
     the percentage done to standard error instead. Ctrl-C raises KeyboardInterrupt after stopping
@@ -310,7 +313,7 @@ def render(scene=None, *, text: Optional[str] = None, spp: Optional[int] = None,
         path = str(scene)
     options = [f"{k}={_option_text(v)}" for k, v in (dual or {}).items()]
     return _native.render(path, text, spp, seed, max_depth, threads, _progress_callback(progress), integrator,
-                          fiber_count, options)
+                          fiber_count, options, device)
 
 
 def _progress_callback(progress):

@@ -13,7 +13,7 @@
 //! the asymmetry, which [`max_relative_non_reciprocity`] measures.
 
 use super::longitudinal::Longitudinal;
-use crate::{Field, ScatteringFunction};
+use crate::ScatteringFunction;
 use fiberlab_math::DVec3;
 use fiberlab_math::frame::direction_from_sin_cos;
 use fiberlab_math::special::safe_sqrt;
@@ -39,8 +39,8 @@ pub fn single_lobe_light_side_albedo(v: f64, theta_i: f64) -> f64 {
     sum / cos_i.max(1e-300)
 }
 
-/// `max |f̄(i, r) − f̄(r, i)| / max(f̄(i, r), f̄(r, i))` (luminance, h-averaged with 64
-/// midpoint cells) over `pairs` directions uniform on the sphere (SplitMix64 from `seed`);
+/// `max |f̄(i, r) − f̄(r, i)| / max(f̄(i, r), f̄(r, i))` (luminance of the width average
+/// [`ScatteringFunction::eval_far`]) over `pairs` directions uniform on the sphere (SplitMix64 from `seed`);
 /// pairs where both values are below 1e−6 of the largest value seen are skipped.
 #[must_use]
 pub fn max_relative_non_reciprocity(f: &impl ScatteringFunction, pairs: usize, seed: u64) -> f64 {
@@ -56,11 +56,7 @@ pub fn max_relative_non_reciprocity(f: &impl ScatteringFunction, pairs: usize, s
         let s: f64 = 2.0 * uniform() - 1.0;
         direction_from_sin_cos(s, safe_sqrt(1.0 - s * s), TAU * uniform())
     };
-    let n_h = if f.properties().field == Field::Near { 64 } else { 1 };
-    let averaged = |wi: DVec3, wr: DVec3| -> f64 {
-        (0..n_h).map(|j| f.eval(wi, wr, -1.0 + (j as f64 + 0.5) * 2.0 / n_h as f64).luminance()).sum::<f64>()
-            / n_h as f64
-    };
+    let averaged = |wi: DVec3, wr: DVec3| -> f64 { f.eval_far(wi, wr).luminance() };
     let (mut worst, mut largest) = (0.0f64, 0.0f64);
     for _ in 0..pairs {
         let (a, b) = (sphere(), sphere());

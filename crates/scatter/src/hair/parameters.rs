@@ -1,16 +1,9 @@
 //! Parameter-table entries shared by the hair models (`chiang`, `deon`), named, so that a
 //! model lists them by name and never by position in another model's table.
 //!
-//! | parameter | unit | default | range |
-//! |---|---|---|---|
-//! | `eta` | — | 1.55 | (1, 4] |
-//! | `beta_m` | — | 0.3 | [0.01, 1] longitudinal roughness |
-//! | `beta_n` | — | 0.3 | [0.01, 1] azimuthal roughness |
-//! | `alpha` | degrees (radians inside) | 2 | [−20, 20] cuticle scale tilt |
-//! | `sigma_a` | 1/radius | — | [0, ∞) per channel |
-//! | `eumelanin` | — | (1.3 if no absorption key is given) | [0, 100] |
-//! | `pheomelanin` | — | (0) | [0, 100] |
-//! | `color` | — | — | (0, 1] per channel |
+//! The entries below are the one statement of these parameters: the tables users read are
+//! generated from the models' registry entries that list them (`fiberlab models --model chiang`,
+//! the book's pages `docs/book/src/models/chiang.md` and `deon.md`).
 
 use crate::params::{ParamKind, ParamSpec, Range};
 

@@ -1,0 +1,128 @@
+//! The GPU's scattering code and sampler run on given inputs, for comparing them with the
+//! CPU's (the tests in `tests/`): each case is evaluated, and sampled, by one GPU thread.
+
+use crate::device::Gpu;
+use crate::scene_buffers::chiang_words;
+use crate::wavefront::GpuRenderError;
+use fiberlab_scatter::chiang_2016::Chiang;
+use glam::Vec3;
+use wgpu::util::DeviceExt;
+
+const PROBE: [&str; 3] =
+    [include_str!("shaders/sampler.wgsl"), include_str!("shaders/chiang.wgsl"), include_str!("shaders/probe.wgsl")];
+
+/// One evaluation and one sample at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChiangCase {
+    /// Camera direction, local fiber frame.
+    pub wo: Vec3,
+    /// Offset across the fiber.
+    pub h: f32,
+    /// Light direction to evaluate, local.
+    pub wi: Vec3,
+    /// Uniforms for the sample.
+    pub u: [f32; 4],
+}
+
+/// What the GPU computed for a [`ChiangCase`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChiangResult {
+    /// `f_s(ω_i, ω_o; h)`.
+    pub f: [f32; 3],
+    /// The sampling density of `ω_i`.
+    pub pdf: f32,
+    /// The sampled direction (when `sample_pdf > 0`).
+    pub sample_wi: Vec3,
+    /// Its density (≤ 0: no sample).
+    pub sample_pdf: f32,
+    /// Its weight `f_s cosθ_i/pdf`.
+    pub sample_weight: [f32; 3],
+}
+
+fn run_probe(gpu: &Gpu, entry: &str, material: &[u32], input: &[[f32; 4]]) -> Result<Vec<[f32; 4]>, GpuRenderError> {
+    let device = &gpu.device;
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("fiberlab probe"),
+        source: wgpu::ShaderSource::Wgsl(PROBE.concat().into()),
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: None,
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: wgpu::PipelineCompilationOptions::default(),
+        cache: None,
+    });
+    let init = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytes, usage })
+    };
+    let storage = wgpu::BufferUsages::STORAGE;
+    let material = init("material", bytemuck::cast_slice(material), storage);
+    let inputs = init("in", bytemuck::cast_slice(input), storage);
+    let bytes = std::mem::size_of_val(input) as u64;
+    let output = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("out"),
+        size: bytes,
+        usage: storage | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let sobol = init("sobol", bytemuck::cast_slice(&crate::wavefront::sobol_byte_tables()), storage);
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("read back"),
+        size: bytes,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let layout = pipeline.get_bind_group_layout(0);
+    let buffers = [&material, &inputs, &output, &sobol];
+    // Entry points bind what they use: the layout of `probe_sampler_cases` has no material.
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !(entry == "probe_sampler_cases" && *i == 0 || entry == "probe_chiang_cases" && *i == 3))
+        .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+        .collect();
+    let bind_group =
+        device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout, entries: &entries });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups((input.len() as u32 / 3).div_ceil(64), 1, 1);
+    }
+    encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, bytes);
+    gpu.queue.submit([encoder.finish()]);
+    let words = crate::wavefront::read_back(gpu, &readback, bytes)?;
+    Ok(words.chunks_exact(4).map(|c| [0, 1, 2, 3].map(|k| f32::from_bits(c[k]))).collect())
+}
+
+/// The GPU's Chiang model on each case.
+pub fn chiang(gpu: &Gpu, model: &Chiang, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let out = run_probe(gpu, "probe_chiang_cases", &chiang_words(model), &input)?;
+    Ok(out
+        .chunks_exact(3)
+        .map(|o| ChiangResult {
+            f: [o[0][0], o[0][1], o[0][2]],
+            pdf: o[0][3],
+            sample_wi: Vec3::new(o[1][0], o[1][1], o[1][2]),
+            sample_pdf: o[1][3],
+            sample_weight: [o[2][0], o[2][1], o[2][2]],
+        })
+        .collect())
+}
+
+/// The GPU sampler's dimension pair `pair` of sample `index` of pixel (x, y) for `seed`, per
+/// case (the CPU's `PixelSampler` to 24 bits).
+pub fn sampler(gpu: &Gpu, seed: u64, cases: &[(u32, u32, u32, u32)]) -> Result<Vec<[f32; 2]>, GpuRenderError> {
+    let hash = fiberlab_math::split_mix::mix64(seed ^ 0xA076_1D64_78BD_642F);
+    let bits = |v: [u32; 4]| v.map(f32::from_bits);
+    let input: Vec<[f32; 4]> = cases
+        .iter()
+        .flat_map(|&(x, y, i, p)| [bits([x, y, i, p]), bits([hash as u32, (hash >> 32) as u32, 0, 0]), [0.0; 4]])
+        .collect();
+    let out = run_probe(gpu, "probe_sampler_cases", &[0; 4], &input)?;
+    Ok(out.chunks_exact(3).map(|o| [o[0][0], o[0][1]]).collect())
+}

@@ -1,0 +1,288 @@
+//! A render scene as the GPU reads it: the BVHs of every fiber set and mesh flattened into one
+//! node buffer (geometry's `FlatBvh`, references shifted), segment and triangle records,
+//! and a table of words for spheres, materials, lights and the light picker's emitters
+//! (layouts in the shaders' comments). What the GPU path tracer cannot render yet is refused
+//! here, with the material or light named.
+
+use fiberlab_geometry::bvh::FlatBvh;
+use fiberlab_math::Rgb;
+use fiberlab_render::light::Light;
+use fiberlab_render::scene::{Scene, SurfaceMaterial};
+use fiberlab_scatter::Model;
+use fiberlab_scatter::chiang_2016::Chiang;
+use fiberlab_scatter::hair::roughness::lobe_variances;
+use fiberlab_scatter::hair::tilt::lobe_tilts;
+use std::f64::consts::PI;
+
+/// Why a scene cannot be rendered on the GPU.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum Unsupported {
+    /// A fiber model without a GPU implementation.
+    #[error("fiber model `{0}` is not implemented on the GPU (supported: chiang); render with --device cpu")]
+    FiberModel(String),
+    /// A surface material without a GPU implementation.
+    #[error(
+        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror); render with --device cpu"
+    )]
+    SurfaceModel(String),
+    /// A light without a GPU implementation.
+    #[error(
+        "{0} lights are not implemented on the GPU (supported: constant environment, sun, distant, emitting spheres); render with --device cpu"
+    )]
+    Light(&'static str),
+    /// The dual-scattering integrator.
+    #[error(
+        "the dual-scattering integrator is not implemented on the GPU (path tracing only); render with --device cpu"
+    )]
+    Integrator,
+    /// Too much geometry for one buffer of this adapter.
+    #[error("the scene's {what} take {bytes} bytes, more than the {limit} bytes this GPU binds in one buffer")]
+    TooLarge {
+        /// Which buffer.
+        what: &'static str,
+        /// Its size.
+        bytes: u64,
+        /// The adapter's limit.
+        limit: u64,
+    },
+}
+
+/// Words per material (`MATERIAL_*` in the shaders).
+const MATERIAL_WORDS: usize = 32;
+const MATERIAL_LAMBERT: u32 = 0;
+const MATERIAL_MIRROR: u32 = 1;
+const MATERIAL_CHIANG: u32 = 2;
+/// Primitive kinds of the objects (as the shaders' `KIND_*`).
+const KIND_SEGMENT: u32 = 1;
+const KIND_TRIANGLE: u32 = 3;
+
+/// The scene's GPU buffers' contents.
+#[derive(Clone, Debug, Default)]
+pub struct SceneBuffers {
+    /// Axis-aligned then oriented nodes.
+    pub nodes: Vec<u32>,
+    /// Where the oriented nodes start, in words.
+    pub oriented_base: u32,
+    /// Leaf primitive lists.
+    pub prims: Vec<u32>,
+    /// Segments, 16 words each.
+    pub segments: Vec<u32>,
+    /// Triangles, 12 words each.
+    pub triangles: Vec<u32>,
+    /// Spheres, objects, materials, lights, emitters.
+    pub words: Vec<u32>,
+    /// Offsets (in words) and counts of the tables in `words`.
+    pub sphere_base: u32,
+    /// Spheres.
+    pub sphere_count: u32,
+    /// Objects (one per fiber set and mesh: kind, root).
+    pub object_base: u32,
+    /// Objects.
+    pub object_count: u32,
+    /// Materials.
+    pub material_base: u32,
+    /// Lights at infinity.
+    pub light_base: u32,
+    /// Lights at infinity.
+    pub light_count: u32,
+    /// Next-event emitters in the picker's order.
+    pub emitter_base: u32,
+    /// Emitters.
+    pub emitter_count: u32,
+}
+
+fn f(x: f64) -> u32 {
+    (x as f32).to_bits()
+}
+
+fn rgb(c: Rgb) -> [u32; 3] {
+    [f(c[0]), f(c[1]), f(c[2])]
+}
+
+/// The words of a Chiang material (the order of `load_chiang` in the shaders).
+#[must_use]
+pub fn chiang_words(c: &Chiang) -> [u32; MATERIAL_WORDS] {
+    let p = c.params();
+    let s = c.logistic_scale();
+    let cdf = |x: f64| fiberlab_math::special::logistic_cdf(x, s);
+    let v = lobe_variances(p.beta_m);
+    let tilt = lobe_tilts(p.alpha);
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_CHIANG;
+    w[1] = f(p.eta);
+    w[2..5].copy_from_slice(&rgb(c.sigma_a()));
+    w[5] = f(s);
+    w[6] = f(1.0 / (cdf(PI) - cdf(-PI)));
+    w[7] = f(cdf(-PI));
+    w[8] = f(cdf(PI));
+    for k in 0..4 {
+        let expm1 = (-2.0 / v[k]).exp_m1();
+        w[9 + k] = f(v[k]);
+        w[13 + k] = f(1.0 / (v[k] * -expm1));
+        w[17 + k] = f(expm1);
+        w[21 + k] = f(tilt[k].0);
+        w[25 + k] = f(tilt[k].1);
+    }
+    w
+}
+
+fn fiber_material(model: &Model) -> Result<[u32; MATERIAL_WORDS], Unsupported> {
+    match model {
+        Model::Chiang(c) => Ok(chiang_words(c)),
+        other => {
+            let debug = format!("{other:?}");
+            Err(Unsupported::FiberModel(debug.split(['(', ' ', '{']).next().unwrap_or("?").to_lowercase()))
+        }
+    }
+}
+
+fn surface_material(m: &SurfaceMaterial) -> Result<[u32; MATERIAL_WORDS], Unsupported> {
+    let mut w = [0u32; MATERIAL_WORDS];
+    match m {
+        SurfaceMaterial::Lambert(albedo) => {
+            w[0] = MATERIAL_LAMBERT;
+            w[1..4].copy_from_slice(&rgb(*albedo));
+        }
+        SurfaceMaterial::Mirror(r) => {
+            w[0] = MATERIAL_MIRROR;
+            w[1..4].copy_from_slice(&rgb(*r));
+        }
+        SurfaceMaterial::Model(m) => return Err(Unsupported::SurfaceModel(m.model_name().to_string())),
+    }
+    Ok(w)
+}
+
+/// Appends a tree: nodes (references shifted), its primitives offset by `prim_offset`; returns
+/// the shifted root.
+fn append_tree(
+    flat: FlatBvh,
+    prim_offset: u32,
+    aabb: &mut Vec<u32>,
+    oriented: &mut Vec<u32>,
+    prims: &mut Vec<u32>,
+) -> u32 {
+    let shift_aabb = (aabb.len() / FlatBvh::AABB_WORDS) as u32;
+    let shift_oriented = (oriented.len() / FlatBvh::ORIENTED_WORDS) as u32;
+    let shift_prims = prims.len() as u32;
+    let shift = |r: u32| FlatBvh::shift(r, shift_aabb, shift_oriented, shift_prims);
+    for (k, node) in flat.aabb.chunks_exact(FlatBvh::AABB_WORDS).enumerate() {
+        let _ = k;
+        let start = aabb.len();
+        aabb.extend_from_slice(node);
+        for r in &mut aabb[start + 20..start + 28] {
+            *r = shift(*r);
+        }
+    }
+    for node in flat.oriented.chunks_exact(FlatBvh::ORIENTED_WORDS) {
+        let start = oriented.len();
+        oriented.extend_from_slice(node);
+        for r in &mut oriented[start + 70..start + 78] {
+            *r = shift(*r);
+        }
+    }
+    prims.extend(flat.prims.iter().map(|p| p + prim_offset));
+    shift(flat.root)
+}
+
+impl SceneBuffers {
+    /// The scene's buffers; an error names what the GPU cannot render.
+    pub fn new(scene: &Scene) -> Result<Self, Unsupported> {
+        let mut b = SceneBuffers::default();
+        let (mut aabb, mut oriented) = (Vec::new(), Vec::new());
+        let mut materials: Vec<[u32; MATERIAL_WORDS]> = Vec::new();
+        let mut objects: Vec<[u32; 2]> = Vec::new();
+        for fibers in scene.fibers() {
+            let material = materials.len() as u32;
+            materials.push(fiber_material(scene.fiber_model(fibers.material()))?);
+            let curves = fibers.curves();
+            let base = (b.segments.len() / 16) as u32;
+            let mut words = curves.segment_words();
+            for seg in words.chunks_exact_mut(16) {
+                seg[15] = material;
+            }
+            b.segments.extend_from_slice(&words);
+            let root = append_tree(curves.bvh().flatten(), base, &mut aabb, &mut oriented, &mut b.prims);
+            objects.push([KIND_SEGMENT, root]);
+        }
+        for mesh in scene.meshes() {
+            let material = materials.len() as u32;
+            materials.push(surface_material(scene.surface_material(mesh.material()))?);
+            let base = (b.triangles.len() / 12) as u32;
+            for tri in mesh.mesh().triangles() {
+                for (k, corner) in tri.iter().enumerate() {
+                    let w = if k == 0 { material } else { 0 };
+                    b.triangles.extend([f(corner.x), f(corner.y), f(corner.z), w]);
+                }
+            }
+            let root = append_tree(mesh.mesh().bvh().flatten(), base, &mut aabb, &mut oriented, &mut b.prims);
+            objects.push([KIND_TRIANGLE, root]);
+        }
+        let picker = scene.light_picker();
+        let mut spheres = Vec::new();
+        let mut emitters: Vec<[u32; 2]> = Vec::new();
+        for i in 0..scene.lights().len() {
+            emitters.push([0, i as u32]);
+        }
+        for (i, s) in scene.spheres().iter().enumerate() {
+            let material = materials.len() as u32;
+            materials.push(surface_material(scene.surface_material(s.material()))?);
+            let c = s.center();
+            let light = s.light();
+            let emission = light.map_or(Rgb::ZERO, |l| l.radiance);
+            let e = rgb(emission);
+            spheres.extend([f(c.x), f(c.y), f(c.z), f(s.radius()), e[0], e[1], e[2], material]);
+            spheres.extend([u32::from(light.is_some()), f(picker.sphere_probability(i)), 0, 0]);
+            if light.is_some() {
+                emitters.push([1, i as u32]);
+            }
+        }
+        let mut lights = Vec::new();
+        for (i, light) in scene.lights().iter().enumerate() {
+            let p = f(picker.light_probability(i));
+            let words: [u32; 12] = match light {
+                Light::Constant { radiance } => {
+                    let r = rgb(*radiance);
+                    [0, p, 0, 0, r[0], r[1], r[2], 0, 0, 0, 0, 0]
+                }
+                Light::Sun { direction, cos_max, radiance } => {
+                    let r = rgb(*radiance);
+                    let d = direction.normalize();
+                    [1, p, 0, 0, r[0], r[1], r[2], f(*cos_max), f(d.x), f(d.y), f(d.z), f(1.0 - cos_max)]
+                }
+                Light::Distant { direction, irradiance } => {
+                    let r = rgb(*irradiance);
+                    let d = direction.normalize();
+                    [2, p, 0, 0, r[0], r[1], r[2], 0, f(d.x), f(d.y), f(d.z), 0]
+                }
+                Light::Map(_) => return Err(Unsupported::Light("environment-map")),
+            };
+            lights.extend(words);
+        }
+        b.oriented_base = aabb.len() as u32;
+        b.nodes = aabb;
+        b.nodes.extend_from_slice(&oriented);
+        let mut words = Vec::new();
+        b.sphere_base = words.len() as u32;
+        b.sphere_count = scene.spheres().len() as u32;
+        words.extend_from_slice(&spheres);
+        b.object_base = words.len() as u32;
+        b.object_count = objects.len() as u32;
+        words.extend(objects.iter().flatten());
+        b.material_base = words.len() as u32;
+        words.extend(materials.iter().flatten());
+        b.light_base = words.len() as u32;
+        b.light_count = scene.lights().len() as u32;
+        words.extend_from_slice(&lights);
+        b.emitter_base = words.len() as u32;
+        b.emitter_count = emitters.len() as u32;
+        words.extend(emitters.iter().flatten());
+        b.words = words;
+        Ok(b)
+    }
+
+    /// Bytes of all the scene's buffers.
+    #[must_use]
+    pub fn bytes(&self) -> u64 {
+        4 * (self.nodes.len() + self.prims.len() + self.segments.len() + self.triangles.len() + self.words.len()) as u64
+    }
+}

@@ -1,0 +1,219 @@
+// Lights as render/src/light.rs has them: a constant environment, a sun (a disc of directions)
+// and a delta distant light at infinity, and emitting spheres; the next-event picker's
+// emitters in its order with their probabilities.
+//
+// Words: a light at infinity is 12 words at `light_base + 12 i`: kind, its picker probability,
+// 0, 0 | radiance (or irradiance) rgb, cos_max | unit direction xyz, 1 − cos_max. A sphere is 12
+// words at `sphere_base + 12 i`: centre, radius | emission rgb, material | emits (0/1), its
+// picker probability, 0, 0. An emitter is 2 words at `emitter_base + 2 k`: kind (0: light at
+// infinity, 1: sphere), index.
+
+const LIGHT_CONSTANT: u32 = 0u;
+const LIGHT_SUN: u32 = 1u;
+const LIGHT_DISTANT: u32 = 2u;
+const INF: f32 = 3.4028235e38;
+
+fn word_f(i: u32) -> f32 {
+    return bitcast<f32>(scene_words[i]);
+}
+
+fn word_v3(i: u32) -> vec3<f32> {
+    return vec3<f32>(word_f(i), word_f(i + 1u), word_f(i + 2u));
+}
+
+struct LightSample {
+    wi: vec3<f32>,
+    /// Distance to the emitting surface (INF at infinity).
+    distance: f32,
+    radiance: vec3<f32>,
+    /// Density per steradian (1 for a delta light); ≤ 0: no sample.
+    pdf: f32,
+    delta: bool,
+    /// The sphere aimed at (`prim_id`), NONE for lights at infinity.
+    aim: u32,
+}
+
+/// glam's `any_orthonormal_pair` (Duff et al. 2017), as the CPU samples cones with it.
+fn orthonormal_pair(n: vec3<f32>) -> array<vec3<f32>, 2> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return array<vec3<f32>, 2>(
+        vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        vec3<f32>(b, sign + n.y * n.y * a, -n.y),
+    );
+}
+
+/// A uniform direction in the cone around `axis` with 1 − cos of its half-angle `omc`.
+fn sample_cone(axis: vec3<f32>, omc: f32, u: vec2<f32>) -> vec3<f32> {
+    let x = u.x * omc;
+    let cos_t = 1.0 - x;
+    let sin_t = safe_sqrt(x * (2.0 - x));
+    let b = orthonormal_pair(axis);
+    let sc = sin_cos_f(TAU * u.y);
+    return normalize(axis * cos_t + (b[0] * sc.y + b[1] * sc.x) * sin_t);
+}
+
+fn cone_pdf(omc: f32) -> f32 {
+    return 1.0 / (TAU * omc);
+}
+
+fn light_kind(i: u32) -> u32 {
+    return scene_words[params.light_base + 12u * i];
+}
+
+fn light_probability(i: u32) -> f32 {
+    return word_f(params.light_base + 12u * i + 1u);
+}
+
+/// Radiance from light `i` at infinity along the escaping direction `d`.
+fn light_escaped(i: u32, d: vec3<f32>) -> vec3<f32> {
+    let b = params.light_base + 12u * i;
+    let kind = scene_words[b];
+    let radiance = word_v3(b + 4u);
+    if kind == LIGHT_CONSTANT {
+        return radiance;
+    }
+    if kind == LIGHT_SUN && dot(d, word_v3(b + 8u)) >= word_f(b + 7u) {
+        return radiance;
+    }
+    return vec3<f32>(0.0);
+}
+
+/// Density per steradian with which light `i` is sampled in direction `wi`.
+fn light_pdf(i: u32, wi: vec3<f32>) -> f32 {
+    let b = params.light_base + 12u * i;
+    let kind = scene_words[b];
+    if kind == LIGHT_CONSTANT {
+        return 1.0 / (4.0 * PI);
+    }
+    if kind == LIGHT_SUN && dot(wi, word_v3(b + 8u)) >= word_f(b + 7u) {
+        return cone_pdf(word_f(b + 11u));
+    }
+    return 0.0;
+}
+
+fn light_sample(i: u32, u: vec2<f32>) -> LightSample {
+    let b = params.light_base + 12u * i;
+    let kind = scene_words[b];
+    var s: LightSample;
+    s.distance = INF;
+    s.radiance = word_v3(b + 4u);
+    s.delta = false;
+    s.aim = NONE;
+    if kind == LIGHT_CONSTANT {
+        let z = 1.0 - 2.0 * u.x;
+        let r = safe_sqrt(1.0 - z * z);
+        let sc = sin_cos_f(TAU * u.y);
+        s.wi = vec3<f32>(r * sc.y, z, r * sc.x);
+        s.pdf = 1.0 / (4.0 * PI);
+    } else if kind == LIGHT_SUN {
+        let omc = word_f(b + 11u);
+        s.wi = sample_cone(word_v3(b + 8u), omc, u);
+        s.pdf = cone_pdf(omc);
+    } else {
+        s.wi = word_v3(b + 8u);
+        s.pdf = 1.0;
+        s.delta = true;
+    }
+    return s;
+}
+
+fn sphere_emission(i: u32) -> vec3<f32> {
+    return word_v3(params.sphere_base + 12u * i + 4u);
+}
+
+fn sphere_material(i: u32) -> u32 {
+    return scene_words[params.sphere_base + 12u * i + 7u];
+}
+
+fn sphere_emits(i: u32) -> bool {
+    return scene_words[params.sphere_base + 12u * i + 8u] != 0u;
+}
+
+fn sphere_probability(i: u32) -> f32 {
+    return word_f(params.sphere_base + 12u * i + 9u);
+}
+
+/// 1 − cos of the half-angle of the cone sphere `i` subtends from `p` (≤ 0: `p` is inside).
+fn sphere_cone(i: u32, p: vec3<f32>) -> f32 {
+    let to = sphere_center(i) - p;
+    let d2 = dot(to, to);
+    let r = sphere_radius(i);
+    if d2 <= r * r {
+        return 0.0;
+    }
+    let s2 = r * r / d2;
+    return s2 / (1.0 + safe_sqrt(1.0 - s2));
+}
+
+fn sphere_light_pdf(i: u32, p: vec3<f32>, wi: vec3<f32>) -> f32 {
+    let omc = sphere_cone(i, p);
+    if omc <= 0.0 {
+        return 0.0;
+    }
+    if dot(wi, normalize(sphere_center(i) - p)) >= 1.0 - omc {
+        return cone_pdf(omc);
+    }
+    return 0.0;
+}
+
+fn sphere_light_sample(i: u32, p: vec3<f32>, u: vec2<f32>) -> LightSample {
+    var s: LightSample;
+    s.pdf = 0.0;
+    s.delta = false;
+    let omc = sphere_cone(i, p);
+    if omc <= 0.0 {
+        return s;
+    }
+    let c = sphere_center(i);
+    s.wi = sample_cone(normalize(c - p), omc, u);
+    let t = hit_sphere(c, sphere_radius(i), p, s.wi, 0.0, INF, false);
+    if t < 0.0 {
+        return s;
+    }
+    s.distance = t;
+    s.radiance = sphere_emission(i);
+    s.pdf = cone_pdf(omc);
+    s.aim = prim_id(KIND_SPHERE, i);
+    return s;
+}
+
+/// The emitter chosen by `u` (index into the emitter list) and its probability; `.y` ≤ 0 when
+/// there is none (light/sphere probabilities as the CPU picker computed them).
+fn pick_emitter(u: f32) -> vec2<f32> {
+    var acc = 0.0;
+    var last = -1;
+    for (var k = 0u; k < params.emitter_count; k++) {
+        let p = emitter_probability(k);
+        acc += p;
+        if p > 0.0 {
+            last = i32(k);
+            if u < acc {
+                return vec2<f32>(f32(k), p);
+            }
+        }
+    }
+    if last >= 0 {
+        return vec2<f32>(f32(last), emitter_probability(u32(last)));
+    }
+    return vec2<f32>(0.0, 0.0);
+}
+
+fn emitter_probability(k: u32) -> f32 {
+    let b = params.emitter_base + 2u * k;
+    let index = scene_words[b + 1u];
+    if scene_words[b] == 0u {
+        return light_probability(index);
+    }
+    return sphere_probability(index);
+}
+
+fn sample_emitter(k: u32, p: vec3<f32>, u: vec2<f32>) -> LightSample {
+    let b = params.emitter_base + 2u * k;
+    let index = scene_words[b + 1u];
+    if scene_words[b] == 0u {
+        return light_sample(index, u);
+    }
+    return sphere_light_sample(index, p, u);
+}

@@ -1,0 +1,59 @@
+// Test kernels: the GPU's Chiang model and sampler on given inputs, for comparison with the
+// CPU's (`model_probe.rs`).
+
+@group(0) @binding(0) var<storage, read> probe_material: array<u32>;
+/// Per case: (ω_o local, h), (ω_i local, 0), (u0..u3).
+@group(0) @binding(1) var<storage, read> probe_in: array<vec4<f32>>;
+/// Per case: (f_s rgb, pdf), (sampled ω_i, its pdf), (its weight, 0).
+@group(0) @binding(2) var<storage, read_write> probe_out: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> sobol_bytes: array<u32>;
+
+fn probe_f(i: u32) -> f32 {
+    return bitcast<f32>(probe_material[i]);
+}
+
+fn probe_chiang() -> Chiang {
+    var c: Chiang;
+    c.eta = probe_f(1u);
+    c.sigma_a = vec3<f32>(probe_f(2u), probe_f(3u), probe_f(4u));
+    c.s = probe_f(5u);
+    c.logistic_norm = probe_f(6u);
+    c.cdf_lo = probe_f(7u);
+    c.cdf_hi = probe_f(8u);
+    c.v = vec4<f32>(probe_f(9u), probe_f(10u), probe_f(11u), probe_f(12u));
+    c.inv_norm = vec4<f32>(probe_f(13u), probe_f(14u), probe_f(15u), probe_f(16u));
+    c.expm1_neg = vec4<f32>(probe_f(17u), probe_f(18u), probe_f(19u), probe_f(20u));
+    c.tilt_sin = vec4<f32>(probe_f(21u), probe_f(22u), probe_f(23u), probe_f(24u));
+    c.tilt_cos = vec4<f32>(probe_f(25u), probe_f(26u), probe_f(27u), probe_f(28u));
+    return c;
+}
+
+@compute @workgroup_size(64)
+fn probe_chiang_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let m = probe_chiang();
+    let a = probe_in[3u * i];
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    let v = chiang_at_vertex(m, a.xyz, a.w);
+    probe_out[3u * i] = chiang_eval(m, v, wi);
+    let s = chiang_sample(m, v, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
+/// Per case in: (x, y, sample index, pair) as bits, (seed hash low, high, 0, 0); out: the pair.
+@compute @workgroup_size(64)
+fn probe_sampler_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let a = bitcast<vec4<u32>>(probe_in[3u * i]);
+    let seed = bitcast<vec4<u32>>(probe_in[3u * i + 1u]);
+    let key = pixel_key(seed.xy, a.x, a.y);
+    probe_out[3u * i] = vec4<f32>(next_2d(key, a.z, a.w), 0.0, 0.0);
+}

@@ -1,0 +1,405 @@
+// The wavefront kernels (Laine, Karras & Aila 2013, "Megakernels considered harmful"): one
+// thread per path per stage, with queues between the stages. A pass: `generate` (camera rays,
+// all slots in queue half 0), then per bounce `extend` (closest hit of the current queue),
+// `shade` (emission, next-event estimation into the shadow queue, the scattering sample into
+// the other queue half), `count_shadow_rays`, `shadow` (any hit; adds the unoccluded
+// contributions), `next_bounce` (swaps the halves); finally `sum_jobs`. The path logic is the
+// CPU's (render/src/integrator.rs, `radiance`), dimension for dimension.
+
+/// The material of a primitive: 32 words at `material_base + 32 m` (`scene_buffers.rs`).
+const MATERIAL_LAMBERT: u32 = 0u;
+const MATERIAL_MIRROR: u32 = 1u;
+const MATERIAL_CHIANG: u32 = 2u;
+
+fn material_kind(m: u32) -> u32 {
+    return scene_words[params.material_base + 32u * m];
+}
+
+fn material_rgb(m: u32) -> vec3<f32> {
+    return word_v3(params.material_base + 32u * m + 1u);
+}
+
+fn load_chiang(m: u32) -> Chiang {
+    let b = params.material_base + 32u * m;
+    var c: Chiang;
+    c.eta = word_f(b + 1u);
+    c.sigma_a = word_v3(b + 2u);
+    c.s = word_f(b + 5u);
+    c.logistic_norm = word_f(b + 6u);
+    c.cdf_lo = word_f(b + 7u);
+    c.cdf_hi = word_f(b + 8u);
+    c.v = vec4<f32>(word_f(b + 9u), word_f(b + 10u), word_f(b + 11u), word_f(b + 12u));
+    c.inv_norm = vec4<f32>(word_f(b + 13u), word_f(b + 14u), word_f(b + 15u), word_f(b + 16u));
+    c.expm1_neg = vec4<f32>(word_f(b + 17u), word_f(b + 18u), word_f(b + 19u), word_f(b + 20u));
+    c.tilt_sin = vec4<f32>(word_f(b + 21u), word_f(b + 22u), word_f(b + 23u), word_f(b + 24u));
+    c.tilt_cos = vec4<f32>(word_f(b + 25u), word_f(b + 26u), word_f(b + 27u), word_f(b + 28u));
+    return c;
+}
+
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let a2 = a * a;
+    let b2 = b * b;
+    if a2 + b2 > 0.0 {
+        return a2 / (a2 + b2);
+    }
+    return 0.0;
+}
+
+fn is_black(c: vec3<f32>) -> bool {
+    return c.x == 0.0 && c.y == 0.0 && c.z == 0.0;
+}
+
+fn linear_id(gid: vec3<u32>) -> u32 {
+    return gid.x;
+}
+
+/// Camera ray direction through image position (px, py) (render/src/camera.rs).
+fn camera_direction(px: f32, py: f32) -> vec3<f32> {
+    let sx = (2.0 * px / params.width - 1.0) * params.tan_half * params.aspect;
+    let sy = (1.0 - 2.0 * py / params.height) * params.tan_half;
+    return normalize(params.forward + params.right * sx + params.up * sy);
+}
+
+@compute @workgroup_size(64)
+fn generate(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let slot = linear_id(gid);
+    if slot >= params.slot_count {
+        return;
+    }
+    // The job holding this slot: the last whose first slot is ≤ slot.
+    var lo = 0u;
+    var hi = params.job_count;
+    while hi - lo > 1u {
+        let mid = (lo + hi) / 2u;
+        if jobs[mid].z <= slot {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let job = jobs[lo];
+    let x = job.x & 0xffffu;
+    let y = job.x >> 16u;
+    var s: PathState;
+    s.key = pixel_key(params.seed_hash, x, y);
+    s.index = job.y + (slot - job.z);
+    let jitter = next_2d(s.key, s.index, 0u);
+    s.o = params.eye;
+    s.d = camera_direction(f32(x) + jitter.x, f32(y) + jitter.y);
+    s.t_min = 0.0;
+    s.beta = vec3<f32>(1.0);
+    s.l = vec3<f32>(0.0);
+    s.depth = 0u;
+    s.flags = 1u;
+    s.prev_pdf = 0.0;
+    s.prev_p = params.eye;
+    s.pixel = job.x;
+    s.skip = NONE;
+    s.hit_prim = NONE;
+    paths[slot] = s;
+    ray_queue[slot] = slot;
+}
+
+fn current_half() -> u32 {
+    return atomicLoad(&counters[COUNT_CURRENT]);
+}
+
+@compute @workgroup_size(64)
+fn extend(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let cur = current_half();
+    let i = linear_id(gid);
+    if i >= atomicLoad(&counters[cur]) {
+        return;
+    }
+    let p = ray_queue[cur * params.queue_capacity + i];
+    let hit = closest_hit(paths[p].o, paths[p].d, paths[p].t_min, INF, paths[p].skip);
+    paths[p].hit_t = hit.t;
+    paths[p].hit_prim = hit.prim;
+    paths[p].hit_h = hit.h;
+}
+
+/// Smallest distance for rays leaving `p` (the primitive left is skipped besides).
+fn spawn_epsilon(p: vec3<f32>) -> f32 {
+    return 4e-6 * (1.0 + max(max(abs(p.x), abs(p.y)), abs(p.z)));
+}
+
+@compute @workgroup_size(64)
+fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let cur = current_half();
+    let i = linear_id(gid);
+    if i >= atomicLoad(&counters[cur]) {
+        return;
+    }
+    let pi = ray_queue[cur * params.queue_capacity + i];
+    var s = paths[pi];
+    let prev_delta = (s.flags & 1u) != 0u;
+    if s.hit_prim == NONE {
+        for (var j = 0u; j < params.light_count; j++) {
+            let le = light_escaped(j, s.d);
+            if is_black(le) {
+                continue;
+            }
+            var w = 1.0;
+            if !prev_delta {
+                w = power_heuristic(s.prev_pdf, light_probability(j) * light_pdf(j, s.d));
+            }
+            s.l += s.beta * le * w;
+        }
+        paths[pi].l = s.l;
+        return;
+    }
+    let kind = s.hit_prim >> 30u;
+    let index = s.hit_prim & 0x3fffffffu;
+    let p = s.o + s.d * s.hit_t;
+    var material: u32;
+    // Fiber frame (u tangent, w toward ω_o), or the facing normal of a surface.
+    var fu: vec3<f32>;
+    var fv: vec3<f32>;
+    var fw: vec3<f32>;
+    var n: vec3<f32>;
+    var chm: Chiang;
+    var chv: ChiangVertex;
+    if kind == KIND_SEGMENT {
+        let s0 = segments[4u * index];
+        let s1 = segments[4u * index + 1u];
+        let s2 = segments[4u * index + 2u];
+        let s3 = segments[4u * index + 3u];
+        let a = vec3<f32>(s0.w, s1.x, s1.y);
+        material = bitcast<u32>(s3.w);
+        let frac = clamp(dot(p - s0.xyz, a) / s1.z, 0.0, 1.0);
+        fu = normalize(s2.xyz * (1.0 - frac) + vec3<f32>(s2.w, s3.x, s3.y) * frac);
+        let wo = -s.d;
+        let w_raw = wo - fu * dot(fu, wo);
+        let len = length(w_raw);
+        if len < 1e-6 {
+            let b = orthonormal_pair(fu);
+            fv = b[0];
+            fw = b[1];
+        } else {
+            fw = w_raw / len;
+            fv = cross(fw, fu);
+        }
+        chm = load_chiang(material);
+        let wo_l = vec3<f32>(dot(wo, fu), dot(wo, fv), dot(wo, fw));
+        chv = chiang_at_vertex(chm, wo_l, s.hit_h);
+    } else {
+        var ng: vec3<f32>;
+        if kind == KIND_SPHERE {
+            ng = (p - sphere_center(index)) / sphere_radius(index);
+            material = sphere_material(index);
+            if sphere_emits(index) && dot(ng, s.d) < 0.0 {
+                var w = 1.0;
+                if !prev_delta {
+                    w = power_heuristic(s.prev_pdf, sphere_probability(index) * sphere_light_pdf(index, s.prev_p, s.d));
+                }
+                s.l += s.beta * sphere_emission(index) * w;
+            }
+        } else {
+            let a = triangles[3u * index];
+            ng = normalize(cross(triangles[3u * index + 1u].xyz - a.xyz, triangles[3u * index + 2u].xyz - a.xyz));
+            material = bitcast<u32>(a.w);
+        }
+        n = select(-ng, ng, dot(ng, s.d) < 0.0);
+    }
+    let mkind = material_kind(material);
+    let delta = mkind == MATERIAL_MIRROR;
+    if s.depth >= params.max_depth {
+        paths[pi].l = s.l;
+        return;
+    }
+    let eps = spawn_epsilon(p);
+    let pair = 1u + 5u * s.depth;
+    // Next-event estimation (two pairs, always consumed).
+    let u_pick = next_2d(s.key, s.index, pair).x;
+    let u_light = next_2d(s.key, s.index, pair + 1u);
+    if !delta {
+        let picked = pick_emitter(u_pick);
+        if picked.y > 0.0 {
+            let ls = sample_emitter(u32(picked.x), p, u_light);
+            if ls.pdf > 0.0 {
+                var f = vec3<f32>(0.0);
+                var bsdf_pdf = 0.0;
+                if mkind == MATERIAL_CHIANG {
+                    let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
+                    let e = chiang_eval(chm, chv, wi_l);
+                    f = e.xyz * local_cos_theta(wi_l);
+                    bsdf_pdf = e.w;
+                } else {
+                    let c = max(dot(n, ls.wi), 0.0);
+                    f = material_rgb(material) * (c / PI);
+                    bsdf_pdf = c / PI;
+                }
+                if !is_black(f) && !is_black(ls.radiance) {
+                    let p_light = picked.y * ls.pdf;
+                    var w = 1.0;
+                    if !ls.delta {
+                        w = power_heuristic(p_light, bsdf_pdf);
+                    }
+                    let k = atomicAdd(&counters[COUNT_SHADOW], 1u);
+                    var r: ShadowRay;
+                    r.o = p;
+                    r.d = ls.wi;
+                    r.t_min = eps;
+                    r.t_max = ls.distance;
+                    r.path = pi;
+                    r.contribution = s.beta * f * ls.radiance * (w / p_light);
+                    r.skip = s.hit_prim;
+                    r.aim = ls.aim;
+                    shadow_queue[k] = r;
+                }
+            }
+        }
+    }
+    // Scattering sample (two pairs) and Russian roulette (one pair).
+    let ua = next_2d(s.key, s.index, pair + 2u);
+    let ub = next_2d(s.key, s.index, pair + 3u);
+    let u_rr = next_2d(s.key, s.index, pair + 4u).x;
+    var wi: vec3<f32>;
+    var weight: vec3<f32>;
+    var pdf = 0.0;
+    var sampled_delta = false;
+    if mkind == MATERIAL_CHIANG {
+        let fs = chiang_sample(chm, chv, vec4<f32>(ua, ub));
+        if fs.pdf <= 0.0 {
+            paths[pi].l = s.l;
+            return;
+        }
+        wi = normalize(fu * fs.wi.x + fv * fs.wi.y + fw * fs.wi.z);
+        weight = fs.weight;
+        pdf = fs.pdf;
+    } else if mkind == MATERIAL_LAMBERT {
+        let t = orthonormal_pair(n)[1];
+        let b = cross(n, t);
+        let r = sqrt(ua.x);
+        let sc = sin_cos_f(TAU * ua.y);
+        wi = normalize(t * (r * sc.y) + b * (r * sc.x) + n * safe_sqrt(1.0 - ua.x));
+        pdf = dot(n, wi) / PI;
+        if !(pdf > 0.0) {
+            paths[pi].l = s.l;
+            return;
+        }
+        weight = material_rgb(material);
+    } else {
+        let wo = -s.d;
+        wi = normalize(2.0 * dot(n, wo) * n - wo);
+        weight = material_rgb(material);
+        sampled_delta = true;
+    }
+    s.beta *= weight;
+    if is_black(s.beta) || not_finite3(s.beta) {
+        paths[pi].l = s.l;
+        return;
+    }
+    s.flags = select(0u, 1u, sampled_delta);
+    s.prev_pdf = pdf;
+    s.prev_p = p;
+    s.depth += 1u;
+    if s.depth >= params.rr_depth {
+        let survive = min(max(max(s.beta.x, s.beta.y), s.beta.z), 1.0);
+        if u_rr >= survive {
+            paths[pi].l = s.l;
+            return;
+        }
+        s.beta = s.beta / survive;
+    }
+    s.o = p;
+    s.d = wi;
+    s.t_min = eps;
+    s.skip = s.hit_prim;
+    paths[pi] = s;
+    let next = 1u - cur;
+    let k = atomicAdd(&counters[next], 1u);
+    ray_queue[next * params.queue_capacity + k] = pi;
+}
+
+fn groups(n: u32) -> u32 {
+    return (n + WORKGROUP - 1u) / WORKGROUP;
+}
+
+/// counters[8..11]: the extend and shade kernels' dispatch size, [12..15]: the shadow kernel's
+/// (copied into the indirect-dispatch buffer between passes).
+const ARGS_BOUNCE: u32 = 8u;
+const ARGS_SHADOW: u32 = 12u;
+
+fn set_args(at: u32, n: u32) {
+    atomicStore(&counters[at], groups(n));
+    atomicStore(&counters[at + 1u], 1u);
+    atomicStore(&counters[at + 2u], 1u);
+}
+
+fn add_rays(n: u32) {
+    let lo = atomicLoad(&counters[COUNT_RAYS_LO]);
+    atomicStore(&counters[COUNT_RAYS_LO], lo + n);
+    if lo + n < lo {
+        atomicAdd(&counters[COUNT_RAYS_HI], 1u);
+    }
+}
+
+@compute @workgroup_size(1)
+fn count_shadow_rays() {
+    let n = atomicLoad(&counters[COUNT_SHADOW]);
+    set_args(ARGS_SHADOW, n);
+    add_rays(n);
+}
+
+@compute @workgroup_size(64)
+fn shadow(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = linear_id(gid);
+    if i >= atomicLoad(&counters[COUNT_SHADOW]) {
+        return;
+    }
+    let r = shadow_queue[i];
+    if unoccluded(r.o, r.d, r.t_min, r.t_max, r.skip, r.aim) {
+        paths[r.path].l += r.contribution;
+    }
+}
+
+@compute @workgroup_size(1)
+fn next_bounce() {
+    let cur = atomicLoad(&counters[COUNT_CURRENT]);
+    atomicStore(&counters[cur], 0u);
+    atomicStore(&counters[COUNT_SHADOW], 0u);
+    let next = 1u - cur;
+    atomicStore(&counters[COUNT_CURRENT], next);
+    let n = atomicLoad(&counters[next]);
+    set_args(ARGS_BOUNCE, n);
+    add_rays(n);
+}
+
+/// Each job's samples summed in sample order; non-finite samples are counted, not added.
+@compute @workgroup_size(64)
+fn sum_jobs(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let j = linear_id(gid);
+    if j >= params.job_count {
+        return;
+    }
+    let job = jobs[j];
+    var sum = vec3<f32>(0.0);
+    var bad = 0u;
+    for (var k = 0u; k < job.w; k++) {
+        let l = paths[job.z + k].l;
+        if not_finite3(l) {
+            bad += 1u;
+        } else {
+            sum += l;
+        }
+    }
+    job_sums[j] = vec4<f32>(sum, bitcast<f32>(bad));
+}
+
+/// Ray queries for tests and tools (`ray_queries.rs`): shadow-queue entry i is a ray; its
+/// closest hit goes to paths[i] (t, primitive, h) and whether anything blocks it within
+/// (t_min, t_max) to paths[i].flags.
+@compute @workgroup_size(64)
+fn query_rays(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = linear_id(gid);
+    if i >= params.slot_count {
+        return;
+    }
+    let r = shadow_queue[i];
+    let hit = closest_hit(r.o, r.d, r.t_min, r.t_max, r.skip);
+    paths[i].hit_t = hit.t;
+    paths[i].hit_prim = hit.prim;
+    paths[i].hit_h = hit.h;
+    paths[i].flags = select(0u, 1u, !unoccluded(r.o, r.d, r.t_min, r.t_max, r.skip, NONE));
+}

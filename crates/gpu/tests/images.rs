@@ -1,0 +1,258 @@
+//! Images of small scenes on the GPU against the CPU renderer: a white furnace, the per-channel
+//! means and the block errors of each light type and material, and the progressive state
+//! across devices, stops, tiles and chunks.
+
+mod common;
+
+use fiberlab_geometry::CurveSet;
+use fiberlab_geometry::TriangleMesh;
+use fiberlab_gpu::{Gpu, GpuOptions};
+use fiberlab_io::LinearImage;
+use fiberlab_math::{DVec3, Rgb};
+use fiberlab_procedural::generator::{HairParams, Style};
+use fiberlab_render::accumulation::Accumulation;
+use fiberlab_render::camera::Camera;
+use fiberlab_render::integrator::{self, Region, RenderSettings, merge};
+use fiberlab_render::light::Light;
+use fiberlab_render::scene::{Scene, SceneBuilder, SurfaceMaterial};
+use std::sync::atomic::AtomicBool;
+
+const SIDE: u32 = 24;
+
+fn hair(strands: usize) -> CurveSet {
+    let hair = HairParams {
+        strands,
+        segments: 12,
+        clumps: 10,
+        style: Style::Wavy,
+        root_diameter: 0.03,
+        ..HairParams::default()
+    }
+    .generate()
+    .unwrap();
+    hair.curve_set()
+}
+
+fn builder() -> SceneBuilder {
+    let camera =
+        Camera::look_at(DVec3::new(0.3, 0.6, 4.5), DVec3::new(0.0, -0.2, 0.0), DVec3::Y, 45.0, SIDE, SIDE).unwrap();
+    SceneBuilder::new(camera)
+}
+
+fn chiang(params: &[(&str, &str)]) -> fiberlab_scatter::Model {
+    fiberlab_scatter::build("chiang", params).unwrap()
+}
+
+fn settings(spp: u32) -> RenderSettings {
+    RenderSettings { spp, max_depth: 16, seed: 3, ..RenderSettings::default() }
+}
+
+fn gpu_render(gpu: &Gpu, scene: &Scene, s: &RenderSettings) -> integrator::RenderOutput {
+    fiberlab_gpu::render(gpu, scene, s, GpuOptions::default(), &|_| {}, &AtomicBool::new(false)).unwrap()
+}
+
+fn cpu_render(scene: &Scene, s: &RenderSettings) -> integrator::RenderOutput {
+    integrator::render(scene, s, &|_| {}, &AtomicBool::new(false))
+}
+
+fn channel_means(image: &LinearImage) -> [f64; 3] {
+    let mut m = [0.0; 3];
+    for p in image.pixels() {
+        for k in 0..3 {
+            m[k] += f64::from(p[k]);
+        }
+    }
+    m.map(|x| x / image.pixels().len() as f64)
+}
+
+/// RMS over 4×4 blocks of the difference of two images' block means (luminance-free: all
+/// channels), relative to the reference's mean.
+fn block_rms(a: &LinearImage, b: &LinearImage) -> f64 {
+    let (w, h) = (a.width(), a.height());
+    let (mut sum, mut n) = (0.0, 0);
+    for by in (0..h).step_by(4) {
+        for bx in (0..w).step_by(4) {
+            for k in 0..3 {
+                let (mut da, mut db) = (0.0, 0.0);
+                for y in by..(by + 4).min(h) {
+                    for x in bx..(bx + 4).min(w) {
+                        da += f64::from(a.get(x, y)[k]);
+                        db += f64::from(b.get(x, y)[k]);
+                    }
+                }
+                sum += ((da - db) / 16.0).powi(2);
+                n += 1;
+            }
+        }
+    }
+    (sum / f64::from(n)).sqrt()
+}
+
+/// A lossless Chiang fiber under a white sky integrates to the sky: every pixel of hair and
+/// background is 1 (the sample weight of lossless Chiang is exactly 1 on the camera side).
+#[test]
+fn white_furnace_of_lossless_chiang_hair_is_one() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let m = b.fiber_material(chiang(&[("sigma_a", "0")]));
+    b.fibers(hair(400), m).light(Light::Constant { radiance: Rgb::ONE });
+    let scene = b.build();
+    let out = gpu_render(gpu, &scene, &RenderSettings { max_depth: u32::MAX, ..settings(32) });
+    assert_eq!(out.stats.nonfinite_samples, 0);
+    let means = channel_means(&out.image);
+    eprintln!("furnace means {means:?}, {} rays", out.stats.rays);
+    for m in means {
+        assert!((m - 1.0).abs() < 0.005, "mean {m}");
+    }
+    for p in out.image.pixels() {
+        assert!((f64::from(p[1]) - 1.0).abs() < 0.25, "pixel {p:?}");
+    }
+    // A lossy fiber is darker: the test can fail.
+    let mut b = builder();
+    let m = b.fiber_material(chiang(&[("eumelanin", "1")]));
+    b.fibers(hair(400), m).light(Light::Constant { radiance: Rgb::ONE });
+    let dark = gpu_render(gpu, &b.build(), &settings(8));
+    assert!(channel_means(&dark.image)[0] < 0.95);
+}
+
+/// What a case adds to the scene: its lights (and a mirror).
+type AddLights = Box<dyn Fn(&mut SceneBuilder)>;
+
+/// Each light type (and the surface materials), GPU against CPU at the same seed: per-channel
+/// means within 1 %, and the 4×4-block RMS difference below the noise (the RMS difference of
+/// two CPU renders with different seeds).
+#[test]
+fn images_match_the_cpu_for_each_light_and_material() {
+    let Some(gpu) = common::gpu() else { return };
+    let sun = Light::sun(DVec3::new(1.0, 1.3, 0.5), 0.05, Rgb::new(3.0, 2.8, 2.5));
+    let cases: Vec<(&str, AddLights)> = vec![
+        (
+            "sky",
+            Box::new(|b: &mut SceneBuilder| {
+                b.light(Light::Constant { radiance: Rgb::new(0.5, 0.6, 0.8) });
+            }),
+        ),
+        (
+            "sun and sky",
+            Box::new(move |b: &mut SceneBuilder| {
+                b.light(sun.clone()).light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+            }),
+        ),
+        (
+            "distant",
+            Box::new(|b: &mut SceneBuilder| {
+                b.light(Light::Distant {
+                    direction: DVec3::new(-0.5, 1.0, 0.8).normalize(),
+                    irradiance: Rgb::splat(2.0),
+                });
+            }),
+        ),
+        (
+            "sphere light",
+            Box::new(|b: &mut SceneBuilder| {
+                let white = b.surface_material(SurfaceMaterial::Lambert(Rgb::ONE));
+                b.sphere(DVec3::new(1.5, 1.5, 1.5), 0.4, white, Some(Rgb::splat(6.0)));
+            }),
+        ),
+        (
+            "mirror and sky",
+            Box::new(|b: &mut SceneBuilder| {
+                let mirror = b.surface_material(SurfaceMaterial::Mirror(Rgb::splat(0.9)));
+                b.sphere(DVec3::new(-1.1, -0.3, -0.8), 0.5, mirror, None);
+                b.light(Light::Constant { radiance: Rgb::new(0.5, 0.6, 0.8) });
+            }),
+        ),
+    ];
+    for (name, lights) in &cases {
+        let make = || {
+            let mut b = builder();
+            let hair_m = b.fiber_material(chiang(&[("eumelanin", "0.3"), ("beta_m", "0.25")]));
+            let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::new(0.6, 0.45, 0.35)));
+            let floor = b.surface_material(SurfaceMaterial::Lambert(Rgb::splat(0.4)));
+            b.fibers(hair(200), hair_m);
+            b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
+            b.mesh(TriangleMesh::floor(-1.0, 10.0), floor);
+            lights(&mut b);
+            b.build()
+        };
+        let scene = make();
+        let s = settings(32);
+        let g = gpu_render(gpu, &scene, &s);
+        let c = cpu_render(&scene, &s);
+        let c2 = cpu_render(&scene, &RenderSettings { seed: 11, ..s.clone() });
+        let (gm, cm) = (channel_means(&g.image), channel_means(&c.image));
+        let (err, noise) = (block_rms(&g.image, &c.image), block_rms(&c2.image, &c.image));
+        eprintln!(
+            "{name}: GPU means {gm:.4?}, CPU {cm:.4?}; block RMS GPU−CPU {err:.5}, CPU−CPU {noise:.5}; rays GPU {} CPU {}",
+            g.stats.rays, c.stats.rays
+        );
+        assert_eq!(g.stats.nonfinite_samples, 0, "{name}");
+        for k in 0..3 {
+            assert!((gm[k] / cm[k] - 1.0).abs() < 0.01, "{name}: channel {k}: GPU {} CPU {}", gm[k], cm[k]);
+        }
+        assert!(err < noise, "{name}: block RMS {err} above the noise {noise}");
+    }
+}
+
+/// The progressive state on the GPU: a render stopped at 4 spp and continued to 8 equals one
+/// render to 8 bit for bit; so do two tiles merged and a render in small chunks; a render begun
+/// on the GPU continues on the CPU to the requested spp; a stop before anything keeps nothing.
+#[test]
+fn progressive_state_resumes_across_stops_tiles_chunks_and_devices() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let m = b.fiber_material(chiang(&[]));
+    let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::splat(0.5)));
+    b.fibers(hair(200), m).sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
+    b.light(Light::sun(DVec3::new(1.0, 1.0, 1.0), 0.05, Rgb::splat(2.0)));
+    let scene = b.build();
+    let s8 = settings(8);
+    let whole = gpu_render(gpu, &scene, &s8);
+    assert_eq!((whole.stats.spp_min, whole.stats.spp_max), (8, 8));
+    let none = AtomicBool::new(false);
+    let four = gpu_render(gpu, &scene, &settings(4));
+    let resumed = fiberlab_gpu::render_continuing(
+        gpu,
+        &scene,
+        &s8,
+        GpuOptions::default(),
+        four.accumulation.clone(),
+        &|_| {},
+        &none,
+    )
+    .unwrap();
+    assert_eq!(resumed.image, whole.image);
+    let chunked = fiberlab_gpu::render(gpu, &scene, &s8, GpuOptions { max_paths: 100 }, &|_| {}, &none).unwrap();
+    assert_eq!(chunked.image, whole.image);
+    let parts: Vec<LinearImage> = (0..2)
+        .map(|i| {
+            gpu_render(gpu, &scene, &RenderSettings { region: Some(Region::part(i, 2, SIDE, SIDE)), ..s8.clone() })
+                .image
+        })
+        .collect();
+    assert_eq!(merge(&parts).unwrap(), whole.image);
+    // GPU to 4 spp, then the CPU to 8: every pixel has 8 samples, the first 4 the GPU's.
+    let state = Accumulation::from_image(&four.image, SIDE, SIDE).unwrap();
+    let cpu = integrator::render_continuing(&scene, &s8, state, &|_| {}, &none).unwrap();
+    assert_eq!((cpu.stats.spp_min, cpu.stats.spp_max), (8, 8));
+    assert_eq!(cpu.stats.samples, u64::from(SIDE * SIDE * 4));
+    let (a, b) = (channel_means(&cpu.image), channel_means(&whole.image));
+    assert!((a[1] / b[1] - 1.0).abs() < 0.05, "{a:?} vs {b:?}");
+    let stopped =
+        fiberlab_gpu::render(gpu, &scene, &s8, GpuOptions::default(), &|_| {}, &AtomicBool::new(true)).unwrap();
+    assert!(stopped.stats.interrupted && stopped.stats.samples == 0);
+}
+
+/// What the GPU does not render is refused with the reason.
+#[test]
+fn unsupported_models_are_refused_by_name() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let m = b.fiber_material(fiberlab_scatter::build::<&str, &str>("marschner", &[]).unwrap());
+    b.fibers(hair(10), m).light(Light::Constant { radiance: Rgb::ONE });
+    let err =
+        fiberlab_gpu::render(gpu, &b.build(), &settings(1), GpuOptions::default(), &|_| {}, &AtomicBool::new(false))
+            .unwrap_err()
+            .to_string();
+    assert!(err.contains("marschner") && err.contains("--device cpu"), "{err}");
+}

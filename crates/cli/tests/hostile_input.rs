@@ -634,7 +634,8 @@ fn surface_bin_nodes_go_through_the_memory_check() {
     let mut compare = vec!["compare-model", "--table", "lambert.csv", "--model", "lambertian"];
     compare.extend_from_slice(&huge);
     dir.refused(&compare, &["1080000000000 bin nodes (100000² per bin) needs ~"]);
-    let mut fit = vec!["fit", "--model", "lambertian", "--table", "lambert.csv", "--init", "k_d=0.3", "-q", "--out", "f"];
+    let mut fit =
+        vec!["fit", "--model", "lambertian", "--table", "lambert.csv", "--init", "k_d=0.3", "-q", "--out", "f"];
     fit.extend_from_slice(&huge);
     dir.refused(&fit, &["1080000000000 bin nodes (100000² per bin) needs ~"]);
     // The same table with the default nodes is compared and fitted.

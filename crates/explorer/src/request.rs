@@ -5,9 +5,9 @@
 //! `{"lobes": ["r", "tt"], "glints": false}` means what `--param lobes=r,tt --param
 //! glints=off` means.
 
-use fiberlab_math::quadrature::{width_nodes, width_panels};
 use crate::error::{ApiError, ApiResult};
 use fiberlab_math::frame::direction;
+use fiberlab_math::quadrature::{width_nodes, width_panels};
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::params::{ParamKind, RawValue};
 use fiberlab_scatter::{

@@ -220,3 +220,23 @@ pub(crate) fn check_data(
     }
     Ok(())
 }
+
+/// Columns of the residuals' Jacobian by central differences (one-sided at the edge of a
+/// parameter's valid range); `None` for a coordinate the model cannot be built on either side of.
+pub(crate) fn jacobian<M>(problem: &Problem<M>, p: &[f64], r0: &[f64]) -> Vec<Option<Vec<f64>>> {
+    (0..p.len())
+        .map(|k| {
+            let step = 1e-4 * p[k].abs().max(1.0);
+            let (mut lo, mut hi) = (p.to_vec(), p.to_vec());
+            lo[k] -= step;
+            hi[k] += step;
+            let (ra, rb, width) = match (problem.model_at(&lo), problem.model_at(&hi)) {
+                (Ok(a), Ok(b)) => (problem.residuals(&a), problem.residuals(&b), 2.0 * step),
+                (Err(_), Ok(b)) => (r0.to_vec(), problem.residuals(&b), step),
+                (Ok(a), Err(_)) => (problem.residuals(&a), r0.to_vec(), step),
+                _ => return None,
+            };
+            Some(ra.iter().zip(&rb).map(|(a, b)| (b - a) / width).collect())
+        })
+        .collect()
+}

@@ -3,7 +3,7 @@
 
 use crate::observation::{Channel, Observation};
 use crate::outcome::{AtBound, FitError, FitOptions, FitResult, FreeParam, Step, Uncertainty, Undefined};
-use crate::problem::{Coordinate, IterationObserver, Problem, check_data, coordinates_of, fiber_residuals};
+use crate::problem::{Coordinate, IterationObserver, Problem, check_data, coordinates_of, fiber_residuals, jacobian};
 use crate::uncertainty::{invert, on_bound, uncertainties};
 use argmin::core::observers::ObserverMode;
 use argmin::core::{Error, Executor, KV, Solver, State, TerminationReason, TerminationStatus};
@@ -112,7 +112,7 @@ pub(crate) fn solve<M>(
     let res = executor.run().map_err(|e| FitError::Optimizer(e.to_string()))?;
     let iterations = res.state().get_iter();
     let stopped = || options.stop.is_some_and(|s| s.load(Ordering::Relaxed));
-    let best = res.state().get_best_param().cloned().unwrap_or(start);
+    let best = res.state().get_best_param().cloned().unwrap_or_else(|| start.clone());
     // Stopped by a signal: the best point so far, not polished.
     let best = if stopped() {
         best
@@ -139,7 +139,8 @@ pub(crate) fn solve<M>(
         )));
     }
     let uncertainties = uncertainties(problem, &best, &residuals, &at_bound, chi2 / dof as f64);
-    if uncertainties.iter().all(|u| matches!(u, Uncertainty::Undefined(Undefined::NoEffect))) {
+    // The start values came back unchanged and no parameter moves χ²: nothing was fitted.
+    if best == start && uncertainties.iter().all(|u| matches!(u, Uncertainty::Undefined(Undefined::NoEffect))) {
         return Err(FitError::Setup(
             "no free parameter changes χ² at all: at the data's scale the model's values make no difference \
              (e.g. values of 1e300 against an f_s of order 1, or σ far larger than the values); check the \
@@ -192,26 +193,6 @@ impl<O, I: State, S: Solver<O, I>> Solver<O, I> for Stoppable<S> {
         }
         self.inner.terminate(state)
     }
-}
-
-/// Columns of the residuals' Jacobian by central differences (one-sided at the edge of a
-/// parameter's valid range); `None` for a coordinate the model cannot be built on either side of.
-pub(crate) fn jacobian<M>(problem: &Problem<M>, p: &[f64], r0: &[f64]) -> Vec<Option<Vec<f64>>> {
-    (0..p.len())
-        .map(|k| {
-            let step = 1e-4 * p[k].abs().max(1.0);
-            let (mut lo, mut hi) = (p.to_vec(), p.to_vec());
-            lo[k] -= step;
-            hi[k] += step;
-            let (ra, rb, width) = match (problem.model_at(&lo), problem.model_at(&hi)) {
-                (Ok(a), Ok(b)) => (problem.residuals(&a), problem.residuals(&b), 2.0 * step),
-                (Err(_), Ok(b)) => (r0.to_vec(), problem.residuals(&b), step),
-                (Ok(a), Err(_)) => (problem.residuals(&a), r0.to_vec(), step),
-                _ => return None,
-            };
-            Some(ra.iter().zip(&rb).map(|(a, b)| (b - a) / width).collect())
-        })
-        .collect()
 }
 
 /// Largest number of Levenberg–Marquardt steps after the simplex (reported to the progress

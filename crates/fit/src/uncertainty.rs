@@ -2,8 +2,7 @@
 //! central-difference Jacobian, and the bounds a value ended on.
 
 use crate::outcome::{AtBound, BOUND_TOLERANCE, MAX_CONDITION, Uncertainty, Undefined};
-use crate::problem::Problem;
-use crate::solve::jacobian;
+use crate::problem::{Problem, jacobian};
 use fiberlab_scatter::params::Range;
 
 /// The end of `range` that `v` is within [`BOUND_TOLERANCE`] of, if any.

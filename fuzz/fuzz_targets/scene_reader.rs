@@ -1,5 +1,6 @@
 //! Fuzzes the scene reader: any text must parse or give an error naming the file, never a
-//! panic. A scene that parses is also built when building it reads no file and generates
+//! panic. Runs under a memory budget of [`BUDGET`] (the scene's own estimate is checked against
+//! it before a scene is built). A scene that parses is also built when building it reads no file and generates
 //! little hair (so that the fuzzer measures the reader, not the generator's running time).
 //!
 //! The first byte picks the input: odd (as `[` and `#` are), the input is the scene text;
@@ -10,6 +11,11 @@
 use fiberlab_render::scene_file::SceneFile;
 use libfuzzer_sys::fuzz_target;
 use std::path::Path;
+
+/// The memory budget every fuzzed read runs under (`fiberlab_io::memory_budget`): a reader
+/// allocates in proportion to its input only through checks against it, so an input that asks
+/// for more is an error, not an out-of-memory kill of the fuzzer (whose own limit is 2 GiB).
+const BUDGET: u64 = 256 << 20;
 
 /// True when `value` holds a key that names a file (`file`, a measured model's `table`).
 fn names_a_file(value: &toml::Value) -> bool {
@@ -71,6 +77,7 @@ fn edited(edits: &[u8]) -> String {
 }
 
 fuzz_target!(|data: &[u8]| {
+    fiberlab_io::memory_budget::set_limit(Some(BUDGET));
     let Some((&mode, edits)) = data.split_first() else { return };
     let owned;
     let text = if mode % 2 == 1 {
@@ -93,6 +100,16 @@ fuzz_target!(|data: &[u8]| {
     let Ok(table) = text.parse::<toml::Table>() else { return };
     if names_a_file(&toml::Value::Table(table.clone())) || !small_hair(&table) {
         return;
+    }
+    // What the command line and Python check before they build: a scene whose estimate is
+    // above the budget (a 10⁵ × 10⁵ camera) is refused, not built.
+    match file.memory_estimate() {
+        Ok(estimate) if fiberlab_io::memory_budget::check_needs(&estimate.needs()).is_ok() => {}
+        Ok(_) => return,
+        Err(e) => {
+            assert!(e.to_string().starts_with("fuzz.toml"), "error without the file: {e}");
+            return;
+        }
     }
     if let Err(e) = file.build() {
         assert!(e.to_string().starts_with("fuzz.toml"), "error without the file: {e}");

@@ -376,9 +376,23 @@ pub fn check_cases(cases: &[CheckCase], effort: &Effort) -> Vec<Row> {
 
 /// [`check_cases`], calling `done` after each case finishes (for progress bars).
 pub fn check_cases_with_progress(cases: &[CheckCase], effort: &Effort, done: impl Fn() + Sync) -> Vec<Row> {
+    check_cases_until(cases, effort, done, &std::sync::atomic::AtomicBool::new(false))
+}
+
+/// [`check_cases_with_progress`] that starts no case once `stop` is set (a signal handler's
+/// flag): the rows of the cases finished (and of those in flight, which run to their end).
+pub fn check_cases_until(
+    cases: &[CheckCase],
+    effort: &Effort,
+    done: impl Fn() + Sync,
+    stop: &std::sync::atomic::AtomicBool,
+) -> Vec<Row> {
     cases
         .par_iter()
         .flat_map(|case| {
+            if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                return Vec::new();
+            }
             let rows = check_case(case, effort);
             done();
             rows

@@ -1,6 +1,10 @@
 //! `fiberlab check`: run the validation harness and print the table.
+//!
+//! A signal (Ctrl-C, SIGTERM, SIGHUP) starts no further configuration: those in flight
+//! finish, the rows of every finished one are printed (the partial table, its last line
+//! saying how many were checked) and the exit status is 130 (`crate::interrupt`).
 
-use fiberlab_check::{CheckCase, Effort, Row, check_cases_with_progress, default_cases};
+use fiberlab_check::{CheckCase, Effort, Row, check_cases_until, default_cases};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// Flags of `fiberlab check`.
@@ -40,11 +44,26 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             .expect("valid template"),
     );
     bar.enable_steady_tick(std::time::Duration::from_millis(250));
-    let mut rows = check_cases_with_progress(&cases, &Effort::default(), || bar.inc(1));
+    let stop = crate::interrupt::listen(&format!("checking {} model configurations", cases.len()), "the rows done");
+    let mut rows = check_cases_until(&cases, &Effort::default(), || bar.inc(1), stop);
     bar.finish_and_clear();
+    crate::interrupt::finishing();
     // Keep the table in registry order, whatever order the threads finished in.
     let order = |r: &Row| cases.iter().position(|c| c.label() == r.model).unwrap_or(usize::MAX);
     rows.sort_by_key(order);
+    if crate::interrupt::stopped() {
+        let checked = cases.iter().filter(|c| rows.iter().any(|r| r.model == c.label())).count();
+        let result = finish(&rows, args.json);
+        let verdict = match result {
+            Ok(()) => "all passed".to_string(),
+            Err(e) => e.to_string(),
+        };
+        return Err(crate::interrupt::Interrupted(format!(
+            "checked {checked} of {} configurations ({verdict}); the table above is partial",
+            cases.len()
+        ))
+        .into());
+    }
     finish(&rows, args.json)
 }
 

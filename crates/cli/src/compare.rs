@@ -42,7 +42,7 @@ pub(crate) fn load(path: &Path) -> anyhow::Result<Image> {
             pixels: l.pixels().iter().map(|p| [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]).collect(),
         }
     } else {
-        let d = image::open(path).with_context(|| format!("reading {}", path.display()))?.to_rgb8();
+        let d = fiberlab_io::image_file::decode_image(path)?.to_rgb8();
         Image {
             width: d.width() as usize,
             height: d.height() as usize,

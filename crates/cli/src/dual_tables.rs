@@ -10,6 +10,10 @@
 //!   (`r_…`, `tt_…`, `trt_…`, …; `all_…` for a model that does not separate its lobes) its
 //!   parts of ā_f and ā_b, its shift and width, and `ng`, its `N^G_p` (rad⁻¹);
 //! * `PREFIX.png`: the three quantities over θ, per channel.
+//!
+//! The rows' memory is checked before any work. A signal (Ctrl-C, SIGTERM, SIGHUP) starts no
+//! further row: the rows finished are written to `PREFIX.partial.csv` (and `.png`; never over
+//! finished outputs) and the exit status is 130 (`crate::interrupt`).
 
 use crate::arg_values::{self, OutPrefix};
 use crate::files::write_atomically;
@@ -53,9 +57,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         outgoing_azimuths: args.outgoing,
         offsets: args.offsets,
     };
+    // Each row holds its sums and one entry per lobe (at most 8): 2 KiB is an upper bound.
+    crate::memory_budget::check(&[crate::memory_budget::Need::items(
+        format!("{} table rows (--inclinations)", args.inclinations),
+        args.inclinations as u64,
+        2048,
+    )])?;
     let start = std::time::Instant::now();
-    let tables = DualTables::new(&model, &resolution)
+    let stop = crate::interrupt::listen(
+        &format!("building the dual-scattering tables of `{}` ({} rows)", args.model.model, args.inclinations),
+        "the rows done",
+    );
+    let tables = DualTables::new_until(&model, &resolution, stop)
         .with_context(|| format!("dual-scattering tables of `{}`", args.model.model))?;
+    crate::interrupt::finishing();
+    let out = if crate::interrupt::stopped() { args.out.partial() } else { args.out.clone() };
     eprintln!("dual-scattering tables: {} nodes, built in {:.2} s", tables.rows().len(), start.elapsed().as_secs_f64());
     let mut csv = String::from("theta_deg");
     let mut columns: Vec<String> =
@@ -95,11 +111,19 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
         csv.push('\n');
     }
-    let path = args.out.with(".csv");
+    let path = out.with(".csv");
     write_atomically(&path, csv.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
     let title = format!("dual-scattering tables: {}", args.model.label());
-    draw_png(&args.out.with(".png"), (1500, 500), |root| draw(root, &tables, &title))?;
-    eprintln!("wrote {}.csv and .png", args.out);
+    draw_png(&out.with(".png"), (1500, 500), |root| draw(root, &tables, &title))?;
+    if crate::interrupt::stopped() {
+        return Err(crate::interrupt::Interrupted(format!(
+            "wrote {out}.csv and .png with {} of {} rows",
+            tables.rows().len(),
+            args.inclinations
+        ))
+        .into());
+    }
+    eprintln!("wrote {out}.csv and .png");
     Ok(())
 }
 

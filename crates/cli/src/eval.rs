@@ -7,8 +7,12 @@
 //! columns are copied through. Fiber directions are in the fiber frame (x = tangent),
 //! surface directions in the local frame (z = normal, x = tangent along u). Output: the
 //! input columns plus `f_r,f_g,f_b,pdf` (for surfaces f_r in sr⁻¹ with θ from the normal).
-//! Rows are read and written one at a time (constant memory for any input); the output
-//! appears only if every row is valid.
+//! Rows are read and written one at a time (constant memory for any input; a line longer
+//! than [`fiberlab_io::input_file::MAX_LINE_BYTES`] is refused, so `/dev/zero` as standard
+//! input ends in an error, not in exhausted memory); the output appears only if every row is
+//! valid. `--input` must be a regular file (standard input, the default or `-`, is the
+//! verb's one stream input); an output file is checked against the free space of its file
+//! system (at least the input's size) first.
 
 use crate::files::{output_file_or_stdout, require_unit, stream_output};
 use crate::model_args::AnyModel;
@@ -43,13 +47,18 @@ const COLUMNS: [&str; 6] = ["wi_x", "wi_y", "wi_z", "wo_x", "wo_y", "wo_z"];
 
 /// Evaluates every row; any malformed row is an error naming its line and column.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    use fiberlab_io::input_file::{LineBounded, MAX_LINE_BYTES, open};
     let model = args.model.build_any()?;
     let (name, input): (String, Box<dyn Read>) = match &args.input {
-        Some(p) if p.as_os_str() != "-" => (
-            p.display().to_string(),
-            Box::new(std::fs::File::open(p).with_context(|| format!("reading {}", p.display()))?),
-        ),
-        _ => ("<stdin>".to_string(), Box::new(std::io::stdin().lock())),
+        Some(p) if p.as_os_str() != "-" => {
+            let (file, len) = open(p)?;
+            if let Some(out) = &args.output {
+                fiberlab_io::output_file::check_free_space(out, len).map_err(anyhow::Error::msg)?;
+            }
+            let name = p.display().to_string();
+            (name.clone(), Box::new(LineBounded::new(std::io::BufReader::new(file), name, MAX_LINE_BYTES)))
+        }
+        _ => ("<stdin>".to_string(), Box::new(LineBounded::new(std::io::stdin().lock(), "<stdin>", MAX_LINE_BYTES))),
     };
     stream_output(args.output.as_deref(), true, |out| match &model {
         AnyModel::Fiber(m) => evaluate(m, &name, input, out),
@@ -110,6 +119,10 @@ fn evaluate_rows(
     let mut record = csv::StringRecord::new();
     loop {
         let more = reader.read_record(&mut record).map_err(|e| {
+            if let csv::ErrorKind::Io(io) = e.kind() {
+                // The input's own error (a line without end names itself and its line).
+                return anyhow::anyhow!("{io}");
+            }
             let line = e.position().map_or(0, |p| p.line());
             anyhow::anyhow!("{name}: line {line}: malformed CSV record: {e}")
         })?;

@@ -75,7 +75,7 @@ pub struct Args {
     #[arg(long, default_value = "evaluation")]
     out: PathBuf,
     #[command(flatten)]
-    memory: crate::memory_budget::MemoryLimit,
+    pub(crate) memory: crate::memory_budget::MemoryLimit,
     /// A named region to crop from every image, NAME=X0,Y0,X1,Y1 in pixels (repeatable), e.g.
     /// the second highlight, glints, back-lit transmission: writes crop_NAME.png (all models,
     /// magnified).

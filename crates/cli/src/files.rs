@@ -1,8 +1,11 @@
-//! Output files are written to a temporary file beside the target and renamed into place,
-//! so a failed or interrupted command never leaves a partial file; long outputs (CSV rows)
-//! are streamed into it through a buffer rather than built in memory. Output places are
-//! checked before any work ([`check_output_file`], [`check_writable_dir`]). TOML input files
-//! are read with errors naming the file, line and column.
+//! Output files are written to a temporary file beside the target and renamed into place
+//! ([`fiberlab_io::output_file`]), so a failed command never leaves a partial file and no
+//! output replaces a link, a device or a directory; long outputs (CSV rows) are streamed into
+//! it through a buffer rather than built in memory, and when a signal stops them the rows
+//! written go to `NAME.partial.EXT` ([`stream_output`]). Output places are checked before any
+//! work ([`check_output_file`], [`check_writable_dir`]). Input files are opened through
+//! [`fiberlab_io::input_file`] (regular files only, within the memory budget); TOML files are
+//! read with errors naming the file, line and column.
 
 use anyhow::Context;
 use std::io::{BufWriter, Write};
@@ -33,9 +36,14 @@ pub fn check_output_file(path: &Path) -> Result<(), String> {
     if text.is_empty() {
         return Err("expected an output file name".into());
     }
+    if fiberlab_io::output_file::is_stream(path) {
+        return Ok(());
+    }
     if text.ends_with('/') || path.is_dir() {
         return Err(format!("`{}` is a directory; give a file name inside it", path.display()));
     }
+    // A link, a FIFO or a device is not replaced (fiberlab_io::output_file).
+    fiberlab_io::output_file::check_target(path)?;
     check_writable_dir(&directory_of(path))
 }
 
@@ -67,9 +75,10 @@ pub fn output_file(text: &str) -> Result<PathBuf, String> {
     Ok(path)
 }
 
-/// An output file flag that may be `-` for standard output (`--output FILE`).
+/// An output file flag that may name a standard stream (`--output FILE`): `-` or
+/// `/dev/stdout` for standard output, `/dev/stderr`, written through.
 pub fn output_file_or_stdout(text: &str) -> Result<PathBuf, String> {
-    if text == "-" { Ok(PathBuf::from(text)) } else { output_file(text) }
+    if fiberlab_io::output_file::is_stream(Path::new(text)) { Ok(PathBuf::from(text)) } else { output_file(text) }
 }
 
 /// What a streamed output's rows are written to.
@@ -77,23 +86,25 @@ pub type Sink<'a> = &'a mut dyn Write;
 
 /// Writes `path` atomically, streaming: `write` writes the contents through a buffer into the
 /// temporary file, which is renamed into place only if `write` succeeds (on error nothing is
-/// left).
+/// left). When `write` stops for a signal (it returns `Ok` with
+/// [`crate::interrupt::stopped_in_flight`]), what it wrote is kept as `NAME.partial.EXT` and the
+/// [`crate::interrupt::Interrupted`] error says so; a verb that already chose its outputs'
+/// names after a signal ([`crate::interrupt::finishing`]) writes them as named.
 pub fn stream_atomically(path: &Path, write: impl FnOnce(Sink) -> anyhow::Result<()>) -> anyhow::Result<()> {
-    let mut failure = None;
-    let result = fiberlab_io::image_file::write_atomically(path, |file| {
-        let mut out = BufWriter::with_capacity(1 << 16, file);
-        match write(&mut out) {
-            Ok(()) => out.flush(),
-            Err(e) => {
-                failure = Some(e);
-                Err(std::io::Error::other("write failed"))
-            }
-        }
-    });
-    match failure {
-        Some(e) => Err(e),
-        None => result.with_context(|| format!("writing {}", path.display())),
+    let context = || format!("writing {}", path.display());
+    let mut file = fiberlab_io::output_file::AtomicFile::create(path).with_context(context)?;
+    {
+        let mut out = BufWriter::with_capacity(1 << 16, file.file());
+        write(&mut out)?;
+        out.flush().with_context(context)?;
     }
+    if crate::interrupt::stopped_in_flight() {
+        crate::interrupt::finishing();
+        let partial = fiberlab_io::output_file::partial_name(path);
+        file.commit_as(&partial).with_context(|| format!("writing {}", partial.display()))?;
+        return Err(crate::interrupt::Interrupted(format!("wrote the rows done to {}", partial.display())).into());
+    }
+    file.commit().with_context(context)
 }
 
 /// Streams to `path` atomically ([`stream_atomically`]), or to standard output when `path` is
@@ -105,8 +116,26 @@ pub fn stream_output(
     all_or_nothing: bool,
     write: impl FnOnce(Sink) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
+    let interrupted = || -> anyhow::Result<()> {
+        if crate::interrupt::stopped() {
+            return Err(crate::interrupt::Interrupted("wrote the rows done to standard output".into()).into());
+        }
+        Ok(())
+    };
     match path {
-        Some(p) if p != Path::new("-") => stream_atomically(p, write),
+        Some(p) if !fiberlab_io::output_file::is_stream(p) => stream_atomically(p, write),
+        Some(p) if p != Path::new("-") => {
+            // `/dev/stdout`, `/dev/stderr`: written through (fiberlab_io::output_file).
+            let mut file =
+                fiberlab_io::output_file::AtomicFile::create(p).with_context(|| format!("writing {}", p.display()))?;
+            {
+                let mut out = BufWriter::with_capacity(1 << 16, file.file());
+                write(&mut out)?;
+                out.flush()?;
+            }
+            file.commit()?;
+            interrupted()
+        }
         _ if all_or_nothing => {
             use std::io::Seek;
             let mut spool = tempfile::tempfile().context("creating a temporary file for standard output")?;
@@ -119,13 +148,13 @@ pub fn stream_output(
             let mut stdout = std::io::stdout().lock();
             std::io::copy(&mut spool, &mut stdout)?;
             stdout.flush()?;
-            Ok(())
+            interrupted()
         }
         _ => {
             let mut out = BufWriter::with_capacity(1 << 16, std::io::stdout().lock());
             write(&mut out)?;
             out.flush()?;
-            Ok(())
+            interrupted()
         }
     }
 }
@@ -133,7 +162,7 @@ pub fn stream_output(
 /// Writes `bytes` to `path` atomically (temporary file in the same directory, then rename;
 /// [`fiberlab_io::image_file::write_atomically`]).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    fiberlab_io::image_file::write_atomically(path, |f| f.write_all(bytes))
+    fiberlab_io::output_file::write_atomically(path, |f| f.write_all(bytes))
         .with_context(|| format!("writing {}", path.display()))
 }
 
@@ -147,7 +176,7 @@ pub fn require_unit(w: fiberlab_math::DVec3, what: &str) -> anyhow::Result<fiber
 
 /// Reads and parses a TOML file; a syntax error names the file, line and column.
 pub fn read_toml(path: &Path) -> anyhow::Result<toml::Table> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let text = fiberlab_io::input_file::read_text(path)?;
     text.parse().map_err(|e: toml::de::Error| {
         let (line, col) = e.span().map_or((0, 0), |s| line_col(&text, s.start));
         anyhow::anyhow!("{}: line {line}, column {col}: {}", path.display(), e.message())

@@ -8,6 +8,11 @@
 //! A colour parameter is fitted per channel when the data has channels (a table, a CSV with
 //! `f_r,f_g,f_b`, a `--target`): see `fiberlab_fit`.
 //!
+//! A signal (Ctrl-C, SIGTERM, SIGHUP) stops the fit after the iteration in flight: the best
+//! parameters so far are written to `PREFIX.partial.toml` (never over a finished
+//! `PREFIX.toml`) and the exit status is 130 (`crate::interrupt`). Data the fit cannot use is
+//! refused (`fiberlab_fit`): all values zero, or values whose scale no parameter can reach.
+//!
 //! A **surface** model (e.g. `sadeghi-2013`, `wood`) is fitted to a surface table (`fiberlab
 //! measure --surface`, lobe `all` unless `--lobe` names a path class): the model is averaged
 //! over each bin (midpoint rule, `--subsamples`² nodes, in the table's cosθ_o dω_o measure)
@@ -170,7 +175,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             Data::Fiber(observation::from_fiber_table(&lobe, per_channel), Some((lobe.bins_theta, lobe.bins_phi)))
         }
         (None, Some(d), None, _) => {
-            let text = std::fs::read_to_string(d).with_context(|| format!("reading {}", d.display()))?;
+            let text = fiberlab_io::input_file::read_text(d)?;
             Data::Fiber(observation::from_csv(&text, d, per_channel)?, None)
         }
         (None, None, Some(name), _) => {
@@ -206,6 +211,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let options = FitOptions {
         max_iters: args.iterations,
         progress: Some(std::sync::Arc::new(move |i| progress.set_position(i))),
+        stop: Some(crate::interrupt::listen(
+            &format!("fitting {} parameter(s) to {observations} observations", free.len()),
+            "the best point so far",
+        )),
         ..FitOptions::default()
     };
     let (r, grid) = match &data {
@@ -214,6 +223,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     bar.finish_and_clear();
     let r = r?;
+    crate::interrupt::finishing();
+    let out = if r.interrupted { args.out.partial() } else { args.out.clone() };
+    if r.interrupted {
+        println!("stopped after {} iterations: the best parameters so far", r.iterations);
+    }
     print_result(&args.model, observations, &r);
     let mut toml =
         format!("# fitted by fiberlab fit; use with --params-file\nmodel = \"{}\"\n\n[params]\n", args.model);
@@ -228,7 +242,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             _ => toml.push_str(&format!("{k} = {v:?}\n")),
         }
     }
-    let toml_path = args.out.with(".toml");
+    let toml_path = out.with(".toml");
     write_atomically(&toml_path, toml.as_bytes())?;
     println!("wrote {}", toml_path.display());
     if let Some((nt, np)) = grid {
@@ -238,7 +252,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         let image: Vec<Vec<f64>> = (0..nt).map(|i| (0..np).map(|j| bin(i * np + j)).collect()).collect();
         let azimuthal = (0..np).map(|j| (0..nt).map(|i| image[i][j]).sum()).collect();
         let cone = image[nt / 2].clone();
-        let path = args.out.with("_residuals.png");
+        let path = out.with("_residuals.png");
         write_figure(
             &path,
             &ScatteringMap { image, azimuthal, cone },
@@ -247,6 +261,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             3.0,
         )?;
         println!("wrote {}", path.display());
+    }
+    if r.interrupted {
+        return Err(
+            crate::interrupt::Interrupted(format!("wrote {} (the best point so far)", toml_path.display())).into()
+        );
     }
     Ok(())
 }

@@ -91,6 +91,16 @@ struct GenerateArgs {
     memory: crate::memory_budget::MemoryLimit,
 }
 
+impl Args {
+    /// `--memory-limit` of `hair generate`.
+    pub fn memory_limit(&self) -> Option<u64> {
+        match &self.command {
+            HairCommand::Generate(g) => g.memory.bytes(),
+            _ => None,
+        }
+    }
+}
+
 /// Runs `fiberlab hair`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     match &args.command {

@@ -15,6 +15,7 @@ mod explore;
 mod files;
 mod fit;
 mod hair;
+mod interrupt;
 mod measure;
 mod medulla_tables;
 mod memory_budget;
@@ -90,6 +91,19 @@ enum Command {
     Explore(explore::Args),
 }
 
+impl Command {
+    /// `--memory-limit` of the verbs that have it.
+    fn memory_limit(&self) -> Option<u64> {
+        match self {
+            Command::Render(a) => a.memory.bytes(),
+            Command::Measure(a) => a.memory.bytes(),
+            Command::Evaluate(a) => a.memory.bytes(),
+            Command::Hair(a) => a.memory_limit(),
+            _ => None,
+        }
+    }
+}
+
 fn main() {
     // `fiberlab … | head` closes the pipe early: leave quietly instead of panicking in println!.
     let default_hook = std::panic::take_hook();
@@ -101,6 +115,10 @@ fn main() {
         default_hook(info);
     }));
     let cli = Cli::parse();
+    // Before any work: signals stop or quit cleanly (`interrupt`), and `--memory-limit`
+    // bounds every input file as well as the verb's own check.
+    interrupt::install();
+    fiberlab_io::memory_budget::set_limit(cli.command.memory_limit());
     #[cfg(fiberlab_stats)]
     struct PrintStats;
     #[cfg(fiberlab_stats)]
@@ -136,9 +154,9 @@ fn main() {
         Command::Explore(a) => explore::run(a),
     };
     if let Err(e) = result {
-        if let Some(interrupted) = e.downcast_ref::<render::Interrupted>() {
+        if let Some(interrupted) = e.downcast_ref::<interrupt::Interrupted>() {
             eprintln!("fiberlab: {interrupted}");
-            std::process::exit(130);
+            std::process::exit(interrupt::EXIT_STATUS);
         }
         eprintln!("fiberlab: error: {e:#}");
         std::process::exit(1);

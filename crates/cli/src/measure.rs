@@ -3,14 +3,22 @@
 //! (the `all` lobe over (φ, θ_r), like the figures of Marschner et al. 2003). The memory of
 //! the bins is checked before any ray is traced.
 //!
+//! A signal (Ctrl-C, SIGTERM, SIGHUP) stops the measurement in flight and keeps every ray
+//! traced: the tables of the incidences measured so far are written to `PREFIX.partial.csv`
+//! (`.png`, `.exr`; never over finished outputs) and the exit status is 130
+//! (`crate::interrupt`). The CSV's size is checked against the free space of its file system
+//! before any ray is traced.
+//!
 //! `--surface` measures a surface instead (`fiberlab_gonio::fiber_slab`): parallel fibers
 //! under a flat dielectric finish, tabulated as a BRDF over θ_o (from the normal) and the
 //! absolute azimuth φ_o, `f_r = P_bin / ∫_bin cosθ_o dω_o`; the CSV's first line is the
 //! comment [`fiberlab_io::table::SURFACE_HEADER`] and its lobes are the path classes
 //! `finish, fiber, substrate, multiple, all`.
 
+use crate::arg_values::OutPrefix;
 use crate::arg_values::{self, Angle, Bins, KeyValue};
 use crate::files::{read_toml, stream_atomically};
+use crate::interrupt::Interrupted;
 use crate::memory_budget::{MemoryLimit, measure_needs};
 use crate::plot::{Scale, write_figure};
 use anyhow::Context;
@@ -23,8 +31,6 @@ use fiberlab_render::toml_params::raw_pairs;
 use fiberlab_scatter::params::RawValue;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 /// Flags of `fiberlab measure`, each read and validated by its value parser.
@@ -110,7 +116,7 @@ pub struct Args {
     #[arg(long, value_name = "PREFIX", value_parser = crate::arg_values::out_prefix)]
     out: crate::arg_values::OutPrefix,
     #[command(flatten)]
-    memory: MemoryLimit,
+    pub(crate) memory: MemoryLimit,
 }
 
 /// The fiber: `--fiber FILE.toml` (through the shared TOML conversion), then `--param`
@@ -168,34 +174,28 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let first = setup_at(&thetas[0]);
     args.memory.check(&measure_needs(&first, thetas.len(), rayon::current_num_threads()))?;
     first.check_bins()?;
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = stop.clone();
-        // A second Ctrl-C is not caught again: the handler only asks the loop to stop.
-        let _ = ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed));
-    }
+    check_table_space(&args.out, 6, nt, np, thetas.len())?;
+    let stop = crate::interrupt::listen(&doing(thetas.len(), args.rays, "rays"), "what is traced");
     let bar = ProgressBar::new((args.rays as u64).saturating_mul(thetas.len() as u64)).with_style(
         ProgressStyle::with_template("{wide_bar} {pos}/{len} rays {per_sec} eta {eta}").expect("valid template"),
     );
     let start = Instant::now();
     let mut measurements = Vec::new();
     for t in thetas {
-        if stop.load(Ordering::Relaxed) {
+        if stop.load(std::sync::atomic::Ordering::Relaxed) {
             break;
         }
-        measurements.push(measure(&fiber, &setup_at(t), &stop, |n| bar.inc(n as u64))?);
+        measurements.push(measure(&fiber, &setup_at(t), stop, |n| bar.inc(n as u64))?);
     }
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
-    if stop.load(Ordering::Relaxed) {
-        eprintln!("interrupted: writing what was traced so far");
-    }
-    write_table(&measurements, TableKind::Fiber, &args.out.with(".csv"))?;
+    let out = outputs(&args.out, measurements.len())?;
+    write_table(&measurements, TableKind::Fiber, &out.with(".csv"))?;
     let first = &measurements[0];
     let params: Vec<String> = args.params.iter().map(ToString::to_string).collect();
     let title = format!("measured fiber {}   θ_i = {}°", params.join(" "), thetas[0].degrees);
-    write_figure(&args.out.with(".png"), &figure(first), &title, Scale::Log, 4.0)?;
-    write_exr(first, TableKind::Fiber, &args.out.with(".exr"))?;
+    write_figure(&out.with(".png"), &figure(first), &title, Scale::Log, 4.0)?;
+    write_exr(first, TableKind::Fiber, &out.with(".exr"))?;
     let traced: usize = measurements.iter().map(|m| m.traced).sum();
     println!("traced {traced} rays in {seconds:.2} s: {:.3} Mrays/s", traced as f64 / seconds / 1e6);
     for m in &measurements {
@@ -222,12 +222,44 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             );
         }
     }
-    println!(
+    let wrote = format!(
         "wrote {}, {} and {}",
-        args.out.with(".csv").display(),
-        args.out.with(".png").display(),
-        args.out.with(".exr").display()
+        out.with(".csv").display(),
+        out.with(".png").display(),
+        out.with(".exr").display()
     );
+    finish(wrote, measurements.len(), thetas.len())
+}
+
+/// Refuses a table whose rows (`lobes` per bin and incidence, at least 40 bytes each: the
+/// shortest row the writer prints) would not fit on the file system of `PREFIX.csv`.
+fn check_table_space(out: &OutPrefix, lobes: u64, nt: usize, np: usize, incidences: usize) -> anyhow::Result<()> {
+    let rows = (nt as u64).saturating_mul(np as u64).saturating_mul(lobes).saturating_mul(incidences as u64);
+    fiberlab_io::output_file::check_free_space(&out.with(".csv"), rows.saturating_mul(40)).map_err(anyhow::Error::msg)
+}
+
+/// What `measure` says it does when it starts.
+fn doing(incidences: usize, rays: usize, what: &str) -> String {
+    format!("measuring {incidences} incidence(s) × {rays} {what}")
+}
+
+/// Where the outputs go: `PREFIX`, or `PREFIX.partial` after a signal (`crate::interrupt`);
+/// an error when a signal came before any measurement finished. From here on, signals wait
+/// until the outputs are written.
+fn outputs(prefix: &OutPrefix, measured: usize) -> anyhow::Result<OutPrefix> {
+    if measured == 0 {
+        return Err(Interrupted("stopped before the first measurement; nothing written".into()).into());
+    }
+    crate::interrupt::finishing();
+    Ok(if crate::interrupt::stopped() { prefix.partial() } else { prefix.clone() })
+}
+
+/// Prints what was written; after a signal, the error that exits with status 130.
+fn finish(wrote: String, measured: usize, asked: usize) -> anyhow::Result<()> {
+    if crate::interrupt::stopped() {
+        return Err(Interrupted(format!("{wrote} ({measured} of {asked} incidences, the last one in part)")).into());
+    }
+    println!("{wrote}");
     Ok(())
 }
 
@@ -278,18 +310,15 @@ fn run_surface(args: &Args) -> anyhow::Result<()> {
         bytes: per_incidence.and_then(|b| b.checked_mul(args.theta_i.len() as u64)),
     }];
     args.memory.check(&needs)?;
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = stop.clone();
-        let _ = ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed));
-    }
+    check_table_space(&args.out, 5, nt, np, args.theta_i.len())?;
+    let stop = crate::interrupt::listen(&doing(args.theta_i.len(), args.rays, "rays"), "what is traced");
     let bar = ProgressBar::new((args.rays as u64).saturating_mul(args.theta_i.len() as u64)).with_style(
         ProgressStyle::with_template("{wide_bar} {pos}/{len} rays {per_sec} eta {eta}").expect("valid template"),
     );
     let start = Instant::now();
     let mut measurements = Vec::new();
     for t in &args.theta_i {
-        if stop.load(Ordering::Relaxed) {
+        if stop.load(std::sync::atomic::Ordering::Relaxed) {
             break;
         }
         let setup = Setup {
@@ -300,16 +329,14 @@ fn run_surface(args: &Args) -> anyhow::Result<()> {
             bins_phi: np,
             seed: args.seed,
         };
-        measurements.push(measure_surface(&slab, &setup, &stop, |n| bar.inc(n as u64))?);
+        measurements.push(measure_surface(&slab, &setup, stop, |n| bar.inc(n as u64))?);
     }
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
-    if stop.load(Ordering::Relaxed) {
-        eprintln!("interrupted: writing what was traced so far");
-    }
-    let path = args.out.with(".csv");
+    let out = outputs(&args.out, measurements.len())?;
+    let path = out.with(".csv");
     write_table(&measurements, TableKind::Surface, &path)?;
-    write_exr(&measurements[0], TableKind::Surface, &args.out.with(".exr"))?;
+    write_exr(&measurements[0], TableKind::Surface, &out.with(".exr"))?;
     let traced: usize = measurements.iter().map(|m| m.traced).sum();
     println!("traced {traced} rays in {seconds:.2} s: {:.3} Mrays/s", traced as f64 / seconds / 1e6);
     for m in &measurements {
@@ -318,8 +345,11 @@ fn run_surface(args: &Args) -> anyhow::Result<()> {
             println!("  albedo {name:<9} {:.6} {:.6} {:.6}", lobe.albedo[0], lobe.albedo[1], lobe.albedo[2]);
         }
     }
-    println!("wrote {} and {}", path.display(), args.out.with(".exr").display());
-    Ok(())
+    finish(
+        format!("wrote {} and {}", path.display(), out.with(".exr").display()),
+        measurements.len(),
+        args.theta_i.len(),
+    )
 }
 
 /// `measure --surface --cloth`: the woven patch's BRDF at every --theta-i into one surface
@@ -347,6 +377,7 @@ fn run_cloth(args: &Args) -> anyhow::Result<()> {
         },
     ];
     args.memory.check(&needs)?;
+    check_table_space(&args.out, 4, nt, np, args.theta_i.len())?;
     let built = Instant::now();
     let periodic = PeriodicPatch::from_repeats(
         &patch.fibers(3, 3)?.polylines(),
@@ -359,18 +390,14 @@ fn run_cloth(args: &Args) -> anyhow::Result<()> {
         patch.period(),
         built.elapsed().as_secs_f64()
     );
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = stop.clone();
-        let _ = ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed));
-    }
+    let stop = crate::interrupt::listen(&doing(args.theta_i.len(), args.rays, "paths"), "what is traced");
     let bar = ProgressBar::new((args.rays as u64).saturating_mul(args.theta_i.len() as u64)).with_style(
         ProgressStyle::with_template("{wide_bar} {pos}/{len} paths {per_sec} eta {eta}").expect("valid template"),
     );
     let start = Instant::now();
     let mut measurements: Vec<ClothMeasurement> = Vec::new();
     for t in &args.theta_i {
-        if stop.load(Ordering::Relaxed) {
+        if stop.load(std::sync::atomic::Ordering::Relaxed) {
             break;
         }
         let setup = Setup {
@@ -381,14 +408,12 @@ fn run_cloth(args: &Args) -> anyhow::Result<()> {
             bins_phi: np,
             seed: args.seed,
         };
-        measurements.push(measure_cloth(&periodic, &model, &setup, &stop, |n| bar.inc(n as u64))?);
+        measurements.push(measure_cloth(&periodic, &model, &setup, stop, |n| bar.inc(n as u64))?);
     }
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
-    if stop.load(Ordering::Relaxed) {
-        eprintln!("interrupted: writing what was traced so far");
-    }
-    let path = args.out.with(".csv");
+    let out = outputs(&args.out, measurements.len())?;
+    let path = out.with(".csv");
     write_table(&measurements, TableKind::Surface, &path)?;
     let traced: usize = measurements.iter().map(|m| m.traced).sum();
     println!("traced {traced} paths in {seconds:.2} s: {:.4} Mpaths/s", traced as f64 / seconds / 1e6);
@@ -415,6 +440,5 @@ fn run_cloth(args: &Args) -> anyhow::Result<()> {
             args.fiber_model
         );
     }
-    println!("wrote {}", path.display());
-    Ok(())
+    finish(format!("wrote {}", path.display()), measurements.len(), args.theta_i.len())
 }

@@ -6,8 +6,9 @@
 //! per pixel and `part = I/N` (or `crop = X0,Y0,X1,Y1`), written by `fiberlab render`. The
 //! parts are checked before anything is added: each must be a part, all of one render
 //! (scene, seed, spp, N and size), each `I` exactly once with none missing (crops: no two
-//! overlapping), and every pixel finite. A problem is an error naming the file and what is
-//! wrong; nothing is written then.
+//! overlapping, and together covering the whole image), and every pixel finite. The output
+//! may not be one of the parts (`--out q0` would overwrite `q0.exr`). A problem is an error
+//! naming the file and what is wrong; nothing is written then.
 
 use anyhow::{Context, bail};
 use fiberlab_io::{LinearImage, ToneMap};
@@ -160,11 +161,68 @@ pub fn check_parts(parts: &[(PathBuf, LinearImage)]) -> anyhow::Result<()> {
     if !missing.is_empty() {
         bail!("missing part(s) {} of the render of {}", missing.join(", "), first_path.display());
     }
+    if !crops.is_empty() {
+        // Disjoint crops cover the image exactly when their areas add up to it.
+        let (w, h) = (first.width() as u64, first.height() as u64);
+        let area = |c: [u32; 4]| u64::from(c[2].saturating_sub(c[0])) * u64::from(c[3].saturating_sub(c[1]));
+        let covered: u64 = crops.iter().map(|(_, c)| area(*c)).sum();
+        if covered < w * h {
+            let inside = |x: u32, y: u32, c: [u32; 4]| x >= c[0] && x < c[2] && y >= c[1] && y < c[3];
+            let hole = (0..h as u32)
+                .flat_map(|y| (0..w as u32).map(move |x| (x, y)))
+                .find(|&(x, y)| !crops.iter().any(|(_, c)| inside(x, y, *c)))
+                .unwrap_or((0, 0));
+            bail!(
+                "the crops ({}) cover {covered} of the {w}×{h} image's {} pixels; the first pixel not covered is \
+                 x = {}, y = {}: render the missing crops too",
+                crops.iter().map(|(p, _)| p.display().to_string()).collect::<Vec<_>>().join(", "),
+                w * h,
+                hole.0,
+                hole.1
+            );
+        }
+    }
     Ok(())
+}
+
+/// Refuses outputs that are one of the parts (the same file, by name or by link): merging
+/// would overwrite what it reads.
+fn check_outputs_are_not_parts(parts: &[PathBuf], outputs: &[PathBuf]) -> anyhow::Result<()> {
+    for out in outputs {
+        for part in parts {
+            if same_file(part, out) {
+                bail!(
+                    "--out {}: {} is the part {}; give another prefix (merging would overwrite a part)",
+                    out.with_extension("").display(),
+                    out.display(),
+                    part.display()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Whether `a` and `b` name one existing file (same device and inode on Unix; the same
+/// canonical path elsewhere).
+fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (std::fs::metadata(a), std::fs::metadata(b)) {
+            (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        matches!((std::fs::canonicalize(a), std::fs::canonicalize(b)), (Ok(x), Ok(y)) if x == y)
+    }
 }
 
 /// Runs `fiberlab merge`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
+    check_outputs_are_not_parts(&args.parts, &[args.out.with(".exr"), args.out.with(".png")])?;
     let parts: Vec<(PathBuf, LinearImage)> =
         args.parts.iter().map(|p| Ok((p.clone(), LinearImage::read_exr(p)?))).collect::<anyhow::Result<_>>()?;
     check_parts(&parts)?;

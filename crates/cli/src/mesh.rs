@@ -114,6 +114,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Kind::ClothPatch { patch, periods, out } => return cloth_patch(patch, *periods, out),
     };
     let cloth = DrapedCloth { resolution: *resolution, half_size: *half_size, folds: *folds, ..DrapedCloth::default() };
+    // (n + 1)² vertices (position, normal, uv: 64 bytes; ~90 bytes of OBJ text) and 2n²
+    // triangles (24 bytes; ~40 of text), counted before the grid is made.
+    let n = (*resolution as u64).saturating_add(1);
+    let vertices = n.saturating_mul(n);
+    crate::memory_budget::check(&[crate::memory_budget::Need::items(
+        format!("cloth mesh of {vertices} vertices (--resolution {resolution})"),
+        vertices,
+        64 + 90 + 2 * (24 + 40),
+    )])?;
     let grid = cloth.grid()?;
     let header = format!(
         "A cloth draped over a sphere (radius {r}, centre (0, {r}, 0)) on the floor y = 0, written by\n\
@@ -124,7 +133,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    std::fs::write(out, grid.to_obj(&header)).with_context(|| format!("writing {}", out.display()))?;
+    crate::files::write_atomically(out, grid.to_obj(&header).as_bytes())?;
     println!("{} ({} triangles)", out.display(), grid.triangles.len());
     Ok(())
 }
@@ -132,6 +141,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 /// `fiberlab mesh cloth-patch`: the patch's fibers as a strand file (f32 points, diameters).
 fn cloth_patch(args: &PatchArgs, periods: usize, out: &std::path::Path) -> anyhow::Result<()> {
     let patch = args.patch()?;
+    let (segments, _, _) = patch.estimated_segments(periods, periods);
+    crate::memory_budget::check(&[crate::memory_budget::Need::new(
+        format!("{periods} × {periods} periods of the woven patch ({segments} segments)"),
+        fiberlab_geometry::curves::CurveSet::estimated_bytes(segments),
+    )])?;
     let fibers = patch.fibers(periods, periods)?;
     let strands = fibers.strands();
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {

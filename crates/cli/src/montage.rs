@@ -35,7 +35,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 (f, stem)
             }
         };
-        let img = image::open(&file).with_context(|| format!("reading {}", file.display()))?.to_rgb8();
+        let img = fiberlab_io::image_file::decode_image(&file)?.to_rgb8();
         tiles.push((file, label, img));
     }
     let (iw, ih) = tiles[0].2.dimensions();
@@ -47,12 +47,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let columns = args.columns.min(tiles.len()) as u32;
     let rows = tiles.len().div_ceil(args.columns) as u32;
     let (cw, ch) = (iw + 4, ih + label + 4);
-    let size = (columns * cw, title + rows * ch);
+    let (width, height) = (u64::from(columns) * u64::from(cw), u64::from(title) + u64::from(rows) * u64::from(ch));
+    crate::memory_budget::check(&[crate::memory_budget::Need::items(
+        format!("montage {width}×{height}"),
+        width.saturating_mul(height),
+        6,
+    )])?;
+    let size = (
+        u32::try_from(width).context("the montage is wider than 2³² pixels")?,
+        u32::try_from(height).context("the montage is taller than 2³² pixels")?,
+    );
     let mut buf = vec![255u8; (size.0 as usize) * (size.1 as usize) * 3];
     for (k, (_, _, img)) in tiles.iter().enumerate() {
         let (x0, y0) = ((k as u32 % columns) * cw + 2, title + (k as u32 / columns) * ch + label + 2);
         for (x, y, p) in img.enumerate_pixels() {
-            let i = (((y0 + y) * size.0 + x0 + x) * 3) as usize;
+            let i = ((y0 + y) as usize * size.0 as usize + (x0 + x) as usize) * 3;
             buf[i..i + 3].copy_from_slice(&p.0);
         }
     }

@@ -3,11 +3,12 @@
 //! limit, Ctrl-C, `--resume` and `--tile I/N` / `--crop` parts for `fiberlab merge`.
 //!
 //! # Stopping and continuing
-//! Ctrl-C or `--time-limit` stops the render within one pixel's samples of the pass in flight
-//! and keeps every sample taken. A render that stopped before every pixel had its samples is
-//! written to `PREFIX.partial.exr` / `.png` (never over a finished `PREFIX.exr`); the exit
-//! status is 130 after Ctrl-C and 0 after the time limit. A second Ctrl-C quits at once,
-//! writing nothing. `--resume FILE.exr` continues the render saved in FILE (partial or
+//! Ctrl-C (SIGINT), SIGTERM, SIGHUP or `--time-limit` stops the render within one pixel's
+//! samples of the pass in flight and keeps every sample taken. A render that stopped before
+//! every pixel had its samples is written to `PREFIX.partial.exr` / `.png` (never over a
+//! finished `PREFIX.exr`); the exit status is 130 after a signal (`crate::interrupt`) and 0
+//! after the time limit. A second signal quits at once, writing nothing (and leaving no
+//! temporary file). A time limit too long to count (`1e300` seconds) means no limit. `--resume FILE.exr` continues the render saved in FILE (partial or
 //! finished: its per-pixel sums and counts travel in the EXR, `fiberlab_render::accumulation`)
 //! to `--spp`; the result is bit-identical to one uninterrupted render. When the continued
 //! render finishes, the `.partial` files it continued are removed.
@@ -23,8 +24,7 @@ use fiberlab_render::render_request::RenderOptions;
 use fiberlab_render::scene_file::SceneFile;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 /// Flags of `fiberlab render`, each read and validated by its value parser.
@@ -41,7 +41,7 @@ pub struct Args {
     /// Stop after this many seconds (within a pass); writes what is done to PREFIX.partial.exr.
     #[arg(long, value_name = "SECONDS", value_parser = arg_values::seconds)]
     time_limit: Option<f64>,
-    /// Worker threads (0: all cores).
+    /// Worker threads (0: all cores; more than the machine's cores run as many as it has).
     #[arg(long, default_value_t = 0)]
     threads: usize,
     /// Random seed (default: the scene's).
@@ -96,7 +96,7 @@ pub struct Args {
     #[arg(long)]
     quiet: bool,
     #[command(flatten)]
-    memory: crate::memory_budget::MemoryLimit,
+    pub(crate) memory: crate::memory_budget::MemoryLimit,
 }
 
 /// Which pixels to render.
@@ -206,7 +206,9 @@ impl<'a> Config<'a> {
             (None, Some(r)) => resumed_prefix(&r.path)?,
             (None, None) => arg_values::out_prefix("render").map_err(anyhow::Error::msg)?,
         };
-        Ok(Self { args, pixels, time_limit: args.time_limit.map(Duration::from_secs_f64), out, resume })
+        // A limit beyond what a Duration counts (~5.8e11 years) is no limit.
+        let time_limit = args.time_limit.and_then(|s| Duration::try_from_secs_f64(s).ok());
+        Ok(Self { args, pixels, time_limit, out, resume })
     }
 
     /// What the flags ask of the scene: the one render request the library validates (the
@@ -229,14 +231,13 @@ impl<'a> Config<'a> {
 /// the scene text (the default scene's when none is given), the `--hair` file's bytes and
 /// the maximum depth. Written as hex into each part's header and compared by `merge`.
 fn scene_hash(args: &Args) -> anyhow::Result<String> {
-    use anyhow::Context;
     fn fnv1a(mut h: u64, bytes: &[u8]) -> u64 {
         for &b in bytes {
             h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
         }
         h
     }
-    let read = |p: &PathBuf| std::fs::read(p).with_context(|| format!("reading {}", p.display()));
+    let read = |p: &PathBuf| fiberlab_io::input_file::read_bytes(p).map_err(anyhow::Error::from);
     let mut h = 0xcbf2_9ce4_8422_2325;
     h = match &args.scene {
         Some(p) => fnv1a(h, &read(p)?),
@@ -255,18 +256,6 @@ fn scene_hash(args: &Args) -> anyhow::Result<String> {
     }
     Ok(format!("{h:016x}"))
 }
-
-/// A render stopped by Ctrl-C: what was written (the binary exits with status 130).
-#[derive(Debug)]
-pub struct Interrupted(pub String);
-
-impl std::fmt::Display for Interrupted {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "interrupted: {}", self.0)
-    }
-}
-
-impl std::error::Error for Interrupted {}
 
 /// Runs `fiberlab render`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -332,21 +321,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         eprintln!("{note}");
     }
     let build_seconds = t0.elapsed().as_secs_f64();
-    let settings = RenderSettings { deadline: config.time_limit.map(|limit| Instant::now() + limit), ..settings };
-    let stop = Arc::new(AtomicBool::new(false));
-    let writing = Arc::new(AtomicBool::new(false));
-    {
-        let (stop, writing) = (Arc::clone(&stop), Arc::clone(&writing));
-        // Only one handler per process; if one is already set, Ctrl-C keeps its default.
-        let _ = ctrlc::set_handler(move || {
-            if stop.swap(true, Ordering::Relaxed) && !writing.load(Ordering::Relaxed) {
-                eprintln!("\nfiberlab: interrupted again: quitting without writing");
-                std::process::exit(130);
-            }
-        });
+    let deadline = config.time_limit.and_then(|limit| Instant::now().checked_add(limit));
+    let settings = RenderSettings { deadline, ..settings };
+    let threads = fiberlab_render::integrator::worker_threads(args.threads);
+    if args.threads > threads {
+        eprintln!("--threads {}: rendering with {threads}, the cores of this machine", args.threads);
     }
-    eprintln!(
-        "rendering {w}×{h}{} to {} spp on {} (scene built in {build_seconds:.2} s; Ctrl-C stops and keeps what is done)",
+    let doing = format!(
+        "rendering {w}×{h}{} to {} spp on {} (scene built in {build_seconds:.2} s)",
         match config.pixels {
             Pixels::All => String::new(),
             p => format!(", {p}"),
@@ -354,6 +336,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         settings.spp,
         gpu.as_ref().map_or("the CPU".to_string(), |g| format!("{} ({})", g.adapter().name, g.adapter().backend))
     );
+    let stop = crate::interrupt::listen(&doing, "what is done");
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(0) };
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent}% pass {msg}, ETA {eta}")
@@ -369,10 +352,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             bar.set_position(p.samples_done);
             bar.set_message(format!("{} to {}/{} spp", p.pass, p.pass_spp, settings.spp));
         },
-        &stop,
+        stop,
     )?
     .output;
-    writing.store(true, Ordering::Relaxed);
+    crate::interrupt::finishing();
     bar.finish_and_clear();
     let s = &out.stats;
     let complete = !s.interrupted;
@@ -429,7 +412,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let how = format!("continue with `fiberlab render … --resume {}`", exr.display());
     if stop.load(Ordering::Relaxed) && settings.deadline.is_none_or(|d| Instant::now() < d) {
-        return Err(Interrupted(format!("wrote {} at {samples} of {}; {how}", exr.display(), settings.spp)).into());
+        return Err(crate::interrupt::Interrupted(format!(
+            "wrote {} at {samples} of {}; {how}",
+            exr.display(),
+            settings.spp
+        ))
+        .into());
     }
     eprintln!("stopped by --time-limit: {how}");
     Ok(())

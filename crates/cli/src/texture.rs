@@ -48,6 +48,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     anyhow::ensure!(stripes.is_finite() && stripes >= 0.0, "--stripes = {stripes} must be finite and ≥ 0");
     anyhow::ensure!((0.0..=90.0).contains(&dip), "--dip = {dip} must be in [0, 90] degrees");
     let figure = MapleFigure { width, height, stripes, dip_amplitude_deg: dip, seed, ..MapleFigure::default() };
+    // Three linear images (12 bytes a texel) and the encoders' copies (8), before any work.
+    crate::memory_budget::check(&[crate::memory_budget::Need::items(
+        format!("texture {width}×{height} (three maps)"),
+        (width as u64).saturating_mul(height as u64),
+        3 * 20,
+    )])?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let maps = figure.maps();
     for (name, image) in [("fiber_angle.png", &maps.fiber_angle), ("fiber_dip.png", &maps.fiber_dip)] {
@@ -71,6 +77,7 @@ fn write_degrees_png(image: &fiberlab_io::LinearImage, path: &std::path::Path) -
         .collect();
     let (w, h) = (u32::try_from(image.width())?, u32::try_from(image.height())?);
     let buffer = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, codes).context("image size")?;
-    buffer.save(path)?;
-    Ok(())
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    buffer.write_to(&mut bytes, image::ImageFormat::Png)?;
+    crate::files::write_atomically(path, bytes.get_ref())
 }

@@ -8,10 +8,22 @@
 //! The other categories of the issue have their suites beside this one: absurd sizes and
 //! bad output places in `fail_fast.rs`, stopped and resumed renders in `render_cli.rs`,
 //! error texts of `fit`, `check`, `measure` and scenes in `tool_messages.rs`.
+//!
+//! Issue 36 (no input may crash, hang, exhaust memory or overwrite what is not ours) adds one
+//! section per category at the end: panics, allocations outside the memory check, unbounded
+//! reads (FIFOs and devices as inputs), outputs that are not regular files (links, FIFOs;
+//! a link to a file outside the test's directory stands in for `/dev/full`: no test writes to
+//! a real device), unbounded work, signals (one test per long verb), merge, and silent
+//! nonsense. Every command runs under a generous timeout that kills it (a hang fails the
+//! test, by a signal, without a timed assertion).
 
 use assert_cmd::Command;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// How long a command may run before it is killed (a hang then fails its test).
+const TIMEOUT: Duration = Duration::from_secs(300);
 
 /// A tiny scene: 16×16 pixels, 1 spp, 30 generated strands on a sphere, a sky; every
 /// section starts a line with `[`, so a line can be told to be inside a section.
@@ -74,15 +86,22 @@ impl Dir {
         std::fs::write(self.path(name), bytes).expect("writes");
     }
 
-    /// Every file below the directory with its bytes.
+    /// Every file below the directory with its bytes; a symbolic link as `link → TARGET`, a
+    /// FIFO or device as what it is (never read: reading a FIFO would block).
     fn files(&self) -> BTreeMap<PathBuf, Vec<u8>> {
         fn walk(dir: &Path, into: &mut BTreeMap<PathBuf, Vec<u8>>) {
             for entry in std::fs::read_dir(dir).expect("lists") {
                 let path = entry.expect("lists").path();
-                if path.is_dir() {
+                let kind = std::fs::symlink_metadata(&path).expect("exists").file_type();
+                if kind.is_symlink() {
+                    let to = std::fs::read_link(&path).expect("a link");
+                    into.insert(path.clone(), format!("link → {}", to.display()).into_bytes());
+                } else if kind.is_dir() {
                     walk(&path, into);
-                } else {
+                } else if kind.is_file() {
                     into.insert(path.clone(), std::fs::read(&path).expect("reads"));
+                } else {
+                    into.insert(path.clone(), format!("not a regular file: {kind:?}").into_bytes());
                 }
             }
         }
@@ -97,6 +116,7 @@ impl Dir {
             .current_dir(self.0.path())
             .args(args)
             .write_stdin(stdin)
+            .timeout(TIMEOUT)
             .output()
             .expect("runs")
     }
@@ -219,7 +239,6 @@ fn merge_refuses_duplicate_missing_mixed_overlapping_and_non_finite_parts() {
     merge(&["p0.exr", "missing.exr"], &["missing.exr"]);
     // The parts themselves are fine: each refused set differs from this one by its bad part.
     dir.ok(&["merge", "p0.exr", "p1.exr", "--out", "good"]);
-    dir.ok(&["merge", "left.exr", "--out", "good"]);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -546,4 +565,636 @@ fn marschner_at_the_poles_is_finite_through_eval() {
             }
         }
     }
+}
+
+// =======================================================================================
+// Issue 36: no input may crash, hang, exhaust memory or overwrite what is not ours.
+
+/// Makes a FIFO at `path` (with `mkfifo`).
+fn mkfifo(path: &Path) {
+    let made = std::process::Command::new("mkfifo").arg(path).status().expect("mkfifo runs");
+    assert!(made.success(), "mkfifo {}", path.display());
+}
+
+/// A symbolic link at `link` to `target`.
+fn symlink(target: &Path, link: &Path) {
+    std::os::unix::fs::symlink(target, link).expect("links");
+}
+
+/// Asserts that no hidden temporary file (`.NAME.XXXX.tmp`) is left in `dir`.
+fn no_hidden_temporaries(dir: &Dir) {
+    let hidden: Vec<String> = std::fs::read_dir(dir.0.path())
+        .expect("lists")
+        .map(|e| e.expect("lists").file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.'))
+        .collect();
+    assert!(hidden.is_empty(), "hidden temporaries left: {hidden:?}");
+}
+
+// ---------------------------------------------------------------------------------------
+// 1. panics
+
+/// `--time-limit 1e300` (beyond what a duration counts) is no limit, not a panic; an OBJ with
+/// a line element among faces that use `vt` is refused at its line (it panicked in the mesh).
+#[test]
+fn a_huge_time_limit_and_an_obj_line_element_do_not_panic() {
+    let dir = Dir::new();
+    dir.write("s.toml", SCENE);
+    dir.ok(&["render", "s.toml", "--time-limit", "1e300", "--quiet", "--out", "r"]);
+    assert!(dir.path("r.exr").exists() && !dir.path("r.partial.exr").exists(), "rendered to the end");
+    dir.write("l.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nf 1/1 2/2 3/3\nl 1 2\n");
+    let text = format!("{SCENE}\n[[mesh]]\nfile = \"l.obj\"\nmaterial = \"skin\"\n");
+    dir.write("bad.toml", &text);
+    let err = dir.refused(
+        &["render", "bad.toml", "--quiet", "--out", "out"],
+        &["bad.toml:", "l.obj", "line 8: `l` (line) elements are not read"],
+    );
+    names_line_in_section(&err, "bad.toml", &text, "l.obj");
+}
+
+// ---------------------------------------------------------------------------------------
+// 2. allocations outside the memory check
+
+/// `--subsamples` sets the nodes of every bin of a surface table (`sub`² each): `fit` and
+/// `compare-model` check them against the memory budget before making them (`compare-model
+/// --subsamples 100000` asked for 320 GB for its first bin and aborted, exit 134).
+#[test]
+fn surface_bin_nodes_go_through_the_memory_check() {
+    let dir = Dir::new();
+    let mut table = String::from(fiberlab_io::table::SURFACE_HEADER);
+    table.push_str("\nlobe,theta_i,phi_i,theta_r,phi_r,f_r,f_g,f_b,std_r,std_g,std_b\n");
+    for i in 0..9 {
+        for j in 0..12 {
+            let (t, p) = (5.0 + 10.0 * f64::from(i), -165.0 + 30.0 * f64::from(j));
+            table.push_str(&format!("all,40,0,{t},{p},0.15,0.15,0.15,0.01,0.01,0.01\n"));
+        }
+    }
+    dir.write("lambert.csv", table);
+    let huge = ["--subsamples", "100000"];
+    let mut compare = vec!["compare-model", "--table", "lambert.csv", "--model", "lambertian"];
+    compare.extend_from_slice(&huge);
+    dir.refused(&compare, &["1080000000000 bin nodes (100000² per bin) needs ~"]);
+    let mut fit =
+        vec!["fit", "--model", "lambertian", "--table", "lambert.csv", "--init", "k_d=0.3", "-q", "--out", "f"];
+    fit.extend_from_slice(&huge);
+    dir.refused(&fit, &["1080000000000 bin nodes (100000² per bin) needs ~"]);
+    // The same table with the default nodes is compared and fitted.
+    dir.ok(&["compare-model", "--table", "lambert.csv", "--model", "lambertian"]);
+}
+
+/// Sizes that a command allocates in proportion to are checked before any work, naming the
+/// quantity and its estimate (each of these aborted the process, or filled the machine).
+#[test]
+fn sizes_in_proportion_to_the_input_go_through_the_memory_check() {
+    let dir = Dir::new();
+    dir.write("s.toml", SCENE);
+    for (args, says) in [
+        (
+            &[
+                "render",
+                "s.toml",
+                "--integrator",
+                "dual-scattering",
+                "--fiber-count",
+                "grid",
+                "--dual",
+                "grid=100000",
+                "--quiet",
+                "--out",
+                "out",
+            ][..],
+            &["fiber density grid", "(--dual grid=100000) needs ~"][..],
+        ),
+        (
+            &["texture", "wood", "--width", "1000000", "--height", "1000000", "--out", "tex"],
+            &["texture 1000000×1000000 (three maps) needs ~"],
+        ),
+        (&["mesh", "cloth", "--resolution", "100000000", "--out", "cloth.obj"], &["(--resolution 100000000) needs ~"]),
+        (&["mesh", "cloth-patch", "--periods", "10000", "--out", "p.usda"], &["10000 × 10000 periods", "needs ~"]),
+        (
+            &["dual-tables", "--model", "chiang", "--inclinations", "1000000000000", "--out", "t"],
+            &["1000000000000 table rows (--inclinations) needs ~"],
+        ),
+        (&["render", "s.toml", "--memory-limit", "1K", "--quiet", "--out", "out"], &["above --memory-limit 1.00 KiB"]),
+    ] {
+        dir.refused(args, says);
+    }
+    // The memory limit bounds the input files too: a scene larger than it is not read.
+    let err = dir.refused(&["render", "s.toml", "--memory-limit", "100", "--quiet", "--out", "out"], &["s.toml"]);
+    assert!(err.contains("more than the memory budget (--memory-limit 100 B)"), "{err}");
+}
+
+// ---------------------------------------------------------------------------------------
+// 3. unbounded reads: FIFOs and devices as inputs
+
+/// A FIFO at every input path is refused at once, naming the path (each blocked forever);
+/// `/dev/zero` as an input is refused as a device (each grew until the kernel killed the
+/// process); `/dev/zero` as the standard input of `eval` ends at the first over-long line.
+#[test]
+fn fifos_and_devices_given_as_inputs_are_refused_at_once() {
+    let dir = Dir::new();
+    dir.write("s.toml", SCENE);
+    mkfifo(&dir.path("fifo"));
+    for name in ["f.hair", "f.toml", "f.obj", "f.exr", "f.png", "f.csv", "f.weave", "f.pbrt", "f.usda"] {
+        symlink(Path::new("fifo"), &dir.path(name));
+    }
+    for name in ["z.usda", "z.pbrt.gz", "z.pbrt", "z.obj", "z.csv", "z.hair"] {
+        symlink(Path::new("/dev/zero"), &dir.path(name));
+    }
+    dir.write("inc.pbrt", "WorldBegin\nInclude \"f.pbrt\"\n");
+    let scene_with = |section: &str| format!("{SCENE}\n{section}");
+    dir.write("obj.toml", scene_with("[[mesh]]\nfile = \"f.obj\"\nmaterial = \"skin\"\n"));
+    dir.write("env.toml", scene_with("[[light]]\ntype = \"envmap\"\nfile = \"f.exr\"\n"));
+    dir.write(
+        "tex.toml",
+        scene_with("[materials.tex]\nmodel = \"lambertian\"\nparams = { k_d = \"f.png\" }\n[[sphere]]\ncenter = [0, 3, 0]\nradius = 1\nmaterial = \"tex\"\n"),
+    );
+    dir.write("zusd.toml", SCENE.replace("generator = { strands = 30, segments = 4 }", "file = \"z.usda\""));
+    dir.write("zgz.toml", SCENE.replace("generator = { strands = 30, segments = 4 }", "file = \"z.pbrt.gz\""));
+    dir.write("zobj.toml", scene_with("[[mesh]]\nfile = \"z.obj\"\nmaterial = \"skin\"\n"));
+    let fifo = "a FIFO (named pipe), not a regular file";
+    let device = "a character device, not a regular file";
+    let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        (vec!["hair", "info", "f.hair"], vec!["f.hair", fifo]),
+        (vec!["hair", "info", "f.usda"], vec!["f.usda", fifo]),
+        (vec!["hair", "info", "inc.pbrt"], vec!["inc.pbrt:2:9: cannot read the included file", "f.pbrt", fifo]),
+        (vec!["render", "f.toml", "--quiet", "--out", "out"], vec!["f.toml", fifo]),
+        (vec!["render", "obj.toml", "--quiet", "--out", "out"], vec!["obj.toml:", "f.obj", fifo]),
+        (vec!["render", "env.toml", "--quiet", "--out", "out"], vec!["env.toml:", "f.exr", fifo]),
+        (vec!["render", "tex.toml", "--quiet", "--out", "out"], vec!["tex.toml:", "f.png", fifo]),
+        (vec!["render", "s.toml", "--resume", "f.exr", "--quiet", "--out", "out"], vec!["f.exr", fifo]),
+        (vec!["merge", "f.exr", "--out", "m"], vec!["f.exr", fifo]),
+        (vec!["eval", "--model", "diffuse", "--input", "f.csv"], vec!["f.csv", fifo]),
+        (vec!["eval", "--model", "measured", "--param", "table=f.csv"], vec!["f.csv", fifo]),
+        (vec!["eval", "--model", "irawan-2012", "--param", "pattern=f.weave"], vec!["f.weave", fifo]),
+        (vec!["eval", "--model", "chiang", "--params-file", "f.toml"], vec!["f.toml", fifo]),
+        (
+            vec!["fit", "--model", "kajiya-kay", "--data", "f.csv", "--init", "k_d=0.2", "--out", "fo"],
+            vec!["f.csv", fifo],
+        ),
+        (
+            vec!["fit", "--model", "kajiya-kay", "--table", "f.csv", "--init", "k_d=0.2", "--out", "fo"],
+            vec!["f.csv", fifo],
+        ),
+        (vec!["measure", "--fiber", "f.toml", "--theta-i", "0", "--rays", "10", "--out", "mo"], vec!["f.toml", fifo]),
+        (vec!["compare", "f.png", "f.png"], vec!["f.png", fifo]),
+        (vec!["montage", "f.png", "--out", "mont.png"], vec!["f.png", fifo]),
+        (vec!["hair", "info", "z.usda"], vec!["z.usda", device]),
+        (vec!["hair", "info", "z.hair"], vec!["z.hair", device]),
+        (vec!["hair", "info", "z.pbrt"], vec!["z.pbrt", device]),
+        (vec!["render", "zusd.toml", "--quiet", "--out", "out"], vec!["z.usda", device]),
+        (vec!["render", "zgz.toml", "--quiet", "--out", "out"], vec!["z.pbrt.gz", device]),
+        (vec!["render", "zobj.toml", "--quiet", "--out", "out"], vec!["z.obj", device]),
+        (vec!["eval", "--model", "diffuse", "--input", "/dev/zero"], vec!["/dev/zero", device]),
+        (vec!["eval", "--model", "measured", "--param", "table=z.csv"], vec!["z.csv", device]),
+    ];
+    for (args, says) in &cases {
+        dir.refused(args, says);
+    }
+    // Standard input is the verb's one stream input: a stream without line breaks ends in an
+    // error at its first over-long line, not in exhausted memory.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_fiberlab"))
+        .current_dir(dir.0.path())
+        .args(["eval", "--model", "diffuse"])
+        .stdin(std::fs::File::open("/dev/zero").expect("opens"))
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("<stdin>: line 1: longer than 1.00 MiB without a line break"), "{err}");
+}
+
+// ---------------------------------------------------------------------------------------
+// 4. outputs that are not regular files
+
+/// No writer replaces a symbolic link (here to a file outside the test's directory, standing
+/// in for `/dev/full`), a FIFO or a directory: each is refused, naming what it is, and the
+/// link, its target and every other file are as they were. `/dev/stdout` is written through.
+#[test]
+fn outputs_never_replace_links_fifos_or_devices() {
+    let dir = Dir::new();
+    let elsewhere = tempfile::tempdir().expect("a temporary directory");
+    let precious = elsewhere.path().join("precious");
+    std::fs::write(&precious, "not ours").expect("writes");
+    dir.write("s.toml", SCENE);
+    dir.write("in.csv", "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n");
+    dir.write("good.hair", generated_hair(&dir));
+    dir.ok(&["render", "s.toml", "--quiet", "--tile", "0/2", "--out", "p0"]);
+    dir.ok(&["render", "s.toml", "--quiet", "--tile", "1/2", "--out", "p1"]);
+    for name in [
+        "link.hair",
+        "link.usda",
+        "link.csv",
+        "link.toml",
+        "link.png",
+        "link.obj",
+        "lk.exr",
+        "lk.csv",
+        "lk.toml",
+        "lk.png",
+    ] {
+        symlink(&precious, &dir.path(name));
+    }
+    mkfifo(&dir.path("fifo.hair"));
+    mkfifo(&dir.path("fifo.csv"));
+    let link = "a symbolic link to ";
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["hair", "generate", "--strands", "3", "--segments", "2", "--out", "link.hair"], link),
+        (vec!["hair", "generate", "--strands", "3", "--segments", "2", "--out", "fifo.hair"], "a FIFO (named pipe)"),
+        (vec!["hair", "convert", "good.hair", "link.usda"], link),
+        (vec!["eval", "--model", "diffuse", "--input", "in.csv", "--output", "link.csv"], link),
+        (vec!["sample", "--model", "diffuse", "--wo", "0,0,1", "--count", "3", "--output", "link.csv"], link),
+        (
+            vec!["sample", "--model", "diffuse", "--wo", "0,0,1", "--count", "3", "--output", "fifo.csv"],
+            "a FIFO (named pipe)",
+        ),
+        (vec!["scene", "--default", "--out", "link.toml"], link),
+        (vec!["plot", "--model", "diffuse", "--theta-i", "30", "--out", "link.png"], link),
+        (vec!["mesh", "cloth", "--resolution", "32", "--out", "link.obj"], link),
+        (vec!["render", "s.toml", "--quiet", "--out", "lk"], link),
+        (vec!["merge", "p0.exr", "p1.exr", "--out", "lk"], link),
+        (vec!["measure", "--theta-i", "0", "--rays", "100", "--bins", "4,8", "--out", "lk"], link),
+        (
+            vec![
+                "fit",
+                "--model",
+                "kajiya-kay",
+                "--target",
+                "kajiya-kay",
+                "--init",
+                "k_d=0.2",
+                "--quiet",
+                "--out",
+                "lk",
+            ],
+            link,
+        ),
+        (
+            vec![
+                "dual-tables",
+                "--model",
+                "chiang",
+                "--inclinations",
+                "4",
+                "--outgoing",
+                "8",
+                "--incident",
+                "2",
+                "--offsets",
+                "2",
+                "--out",
+                "lk",
+            ],
+            link,
+        ),
+        (vec!["compare", "p0.png", "p0.png", "--out", "lk"], link),
+        (vec!["montage", "p0.png", "--out", "link.png"], link),
+    ];
+    for (args, says) in &cases {
+        dir.refused(args, &[says]);
+        assert_eq!(std::fs::read_to_string(&precious).expect("reads"), "not ours", "{args:?}");
+    }
+    no_hidden_temporaries(&dir);
+    // The documented streams are written through, not renamed.
+    let template = dir.ok(&["scene", "--default", "--out", "/dev/stdout"]);
+    assert!(template.starts_with("[camera]"), "{template}");
+    let rows = dir.ok(&["sample", "--model", "diffuse", "--wo", "0,0,1", "--count", "2", "--output", "/dev/stdout"]);
+    assert!(rows.starts_with("wi_x,wi_y,wi_z,") && rows.lines().count() == 3, "{rows}");
+}
+
+// ---------------------------------------------------------------------------------------
+// 5. unbounded work
+
+/// `--threads 100000` runs as many threads as the machine has (it took 90 s for a 1-spp
+/// 32² image); pbrt files that include the next twice, 25 deep, are refused after a bounded
+/// number of reads (they ran for minutes); 8,000 nested USD prims are an error at the prim
+/// past the limit (they overflowed the stack).
+#[test]
+fn thread_counts_include_fan_out_and_usd_nesting_are_bounded() {
+    let dir = Dir::new();
+    dir.write("s.toml", SCENE);
+    let out = dir.run(&["render", "s.toml", "--threads", "100000", "--spp", "1", "--quiet", "--out", "r"], "");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("--threads 100000: rendering with"), "{err}");
+    for i in 0..25 {
+        dir.write(&format!("f{i}.pbrt"), format!("Include \"f{n}.pbrt\"\nInclude \"f{n}.pbrt\"\n", n = i + 1));
+    }
+    dir.write("f25.pbrt", "Shape \"curve\" \"point3 P\" [0 0 0 0 0.3 0 0 0.6 0 0 1 0] \"float width\" 0.01\n");
+    let text = SCENE.replace("generator = { strands = 30, segments = 4 }", "file = \"f0.pbrt\"");
+    dir.write("fan.toml", &text);
+    let err = dir.refused(
+        &["render", "fan.toml", "--quiet", "--out", "out"],
+        &["fan.toml:", "more than 4096 files read in all"],
+    );
+    names_line_in_section(&err, "fan.toml", &text, "f0.pbrt");
+    let depth = 8000;
+    let mut usd = String::from("#usda 1.0\n");
+    for i in 0..depth {
+        usd.push_str(&format!("def Xform \"p{i}\" {{\n"));
+    }
+    usd.push_str(&"}\n".repeat(depth));
+    dir.write("deep.usda", usd);
+    dir.refused(&["hair", "info", "deep.usda"], &["deep.usda:258:1: prims nest more than 256 deep"]);
+    dir.write("deep.toml", SCENE.replace("generator = { strands = 30, segments = 4 }", "file = \"deep.usda\""));
+    dir.refused(&["render", "deep.toml", "--quiet", "--out", "out"], &["deep.toml:", "deep.usda:258:1: prims nest"]);
+}
+
+// ---------------------------------------------------------------------------------------
+// 6. signals
+
+/// Starts `args` in `dir`, waits until it says that it listens for signals, sends `signal`
+/// (with `kill`) and waits for the end (killing it after [`TIMEOUT`]): its exit status and
+/// standard error.
+fn signalled(dir: &Dir, args: &[&str], signal: &str) -> (Option<i32>, String) {
+    use std::io::{BufRead, BufReader};
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_fiberlab"))
+        .current_dir(dir.0.path())
+        .args(args)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("starts");
+    let stderr = child.stderr.take().expect("piped");
+    let (lines, received) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if lines.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let start = Instant::now();
+    let mut text = String::new();
+    loop {
+        let left = TIMEOUT.saturating_sub(start.elapsed());
+        match received.recv_timeout(left) {
+            Ok(line) => {
+                text += &line;
+                text.push('\n');
+                if line.contains("Ctrl-C stops and keeps") {
+                    break;
+                }
+            }
+            Err(_) => {
+                let _ = child.kill();
+                panic!("{args:?} never said that it listens for signals: {text}");
+            }
+        }
+    }
+    // Let it get into its work, then signal.
+    std::thread::sleep(Duration::from_millis(500));
+    let sent = std::process::Command::new("kill").arg(format!("-{signal}")).arg(child.id().to_string()).status();
+    assert!(sent.expect("kill runs").success(), "kill -{signal}");
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("waits") {
+            break status;
+        }
+        if start.elapsed() > TIMEOUT {
+            let _ = child.kill();
+            panic!("{args:?} did not end after SIG{signal}: {text}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    reader.join().expect("the reader ends with the process");
+    text.extend(received.try_iter().map(|l| l + "\n"));
+    (status.code(), text)
+}
+
+/// Runs a long verb, signals it, and checks what every stopped verb must do: exit with 130
+/// (not killed by the signal, no panic), say what it wrote, write `partial`, leave no hidden
+/// temporary file and every earlier output as it was.
+fn stops_and_keeps_what_is_done(dir: &Dir, args: &[&str], signal: &str, partial: &[&str]) -> String {
+    let before = dir.files();
+    let (code, err) = signalled(dir, args, signal);
+    assert_eq!(code, Some(130), "{args:?} after SIG{signal}: {err}");
+    assert!(err.contains("interrupted: ") && !err.contains("panicked"), "{err}");
+    for p in partial {
+        assert!(dir.path(p).is_file(), "{args:?}: no {p} after SIG{signal}: {err}");
+    }
+    no_hidden_temporaries(dir);
+    let after = dir.files();
+    for (path, bytes) in &before {
+        assert_eq!(after.get(path), Some(bytes), "{args:?} changed {}", path.display());
+    }
+    err
+}
+
+#[test]
+fn render_stopped_by_sigterm_keeps_its_samples() {
+    let dir = Dir::new();
+    dir.write("s.toml", SCENE.replace("spp = 1", "spp = 100000"));
+    stops_and_keeps_what_is_done(
+        &dir,
+        &["render", "s.toml", "--quiet", "--out", "r"],
+        "TERM",
+        &["r.partial.exr", "r.partial.png"],
+    );
+    assert!(!dir.path("r.exr").exists());
+}
+
+#[test]
+fn measure_stopped_by_sigint_writes_a_partial_table() {
+    let dir = Dir::new();
+    let args = ["measure", "--theta-i", "0,30", "--rays", "2000000000", "--bins", "6,12", "--out", "m"];
+    stops_and_keeps_what_is_done(&dir, &args, "INT", &["m.partial.csv", "m.partial.png", "m.partial.exr"]);
+    assert!(!dir.path("m.csv").exists());
+    let table = std::fs::read_to_string(dir.path("m.partial.csv")).expect("reads");
+    assert!(table.starts_with("lobe,theta_i,") && table.lines().count() > 1, "{table}");
+}
+
+#[test]
+fn fit_stopped_by_sighup_writes_its_best_point_so_far() {
+    let dir = Dir::new();
+    let args = [
+        "fit",
+        "--model",
+        "chiang",
+        "--target",
+        "marschner",
+        "--init",
+        "beta_m=0.5",
+        "--init",
+        "beta_n=0.5",
+        "--init",
+        "alpha=0",
+        "--iterations",
+        "1000000",
+        "--quiet",
+        "--out",
+        "f",
+    ];
+    stops_and_keeps_what_is_done(&dir, &args, "HUP", &["f.partial.toml"]);
+    let toml = std::fs::read_to_string(dir.path("f.partial.toml")).expect("reads");
+    assert!(toml.contains("model = \"chiang\"") && toml.contains("beta_m = "), "{toml}");
+}
+
+#[test]
+fn check_stopped_by_sigterm_prints_the_rows_done() {
+    let dir = Dir::new();
+    let err = stops_and_keeps_what_is_done(&dir, &["check", "--quiet"], "TERM", &[]);
+    assert!(err.contains("configurations") && err.contains("the table above is partial"), "{err}");
+}
+
+#[test]
+fn sample_stopped_by_sigint_keeps_the_rows_written_and_no_temporary() {
+    let dir = Dir::new();
+    let args = ["sample", "--model", "chiang", "--wo", "0,1,0", "--count", "100000000", "--output", "s.csv"];
+    stops_and_keeps_what_is_done(&dir, &args, "INT", &["s.partial.csv"]);
+    assert!(!dir.path("s.csv").exists());
+    let rows = std::fs::read_to_string(dir.path("s.partial.csv")).expect("reads");
+    assert!(rows.starts_with("wi_x,") && rows.lines().count() > 1, "{} rows", rows.lines().count());
+}
+
+#[test]
+fn dual_tables_stopped_by_sighup_write_the_rows_done() {
+    let dir = Dir::new();
+    let args = ["dual-tables", "--model", "chiang", "--inclinations", "100000", "--outgoing", "32", "--out", "t"];
+    stops_and_keeps_what_is_done(&dir, &args, "HUP", &["t.partial.csv", "t.partial.png"]);
+    assert!(!dir.path("t.csv").exists());
+}
+
+/// A streamed output larger than the free space of its file system is refused before the
+/// first row (`sample --count 1e11` filled the disk).
+#[test]
+fn a_streamed_output_larger_than_the_free_disk_is_refused_up_front() {
+    let dir = Dir::new();
+    dir.refused(
+        &["sample", "--model", "diffuse", "--wo", "0,0,1", "--count", "18000000000000000000", "--output", "s.csv"],
+        &["s.csv: the output needs ~", "free on its file system"],
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// 7. merge
+
+/// `merge … --out q0` would overwrite the part `q0.exr`; one crop of an image is not the
+/// image (75 % of it was left black with exit 0).
+#[test]
+fn merge_refuses_to_overwrite_a_part_and_crops_that_do_not_cover_the_image() {
+    let dir = Dir::new();
+    render_part(&dir, SCENE, "q0", &["--tile", "0/2"]);
+    render_part(&dir, SCENE, "q1", &["--tile", "1/2"]);
+    render_part(&dir, SCENE, "left", &["--crop", "0,0,10,16"]);
+    render_part(&dir, SCENE, "rest", &["--crop", "10,0,16,16"]);
+    dir.refused(&["merge", "q0.exr", "q1.exr", "--out", "q0"], &["--out q0: q0.exr is the part q0.exr", "overwrite"]);
+    dir.refused(
+        &["merge", "left.exr", "--out", "m"],
+        &["left.exr", "cover 160 of the 16×16 image's 256 pixels", "x = 10, y = 0"],
+    );
+    dir.ok(&["merge", "left.exr", "rest.exr", "--out", "whole"]);
+}
+
+// ---------------------------------------------------------------------------------------
+// 8. silent nonsense
+
+/// Values that gave NaN, dropped numbers or an empty answer with exit 0 are refused where
+/// they enter, naming the place.
+#[test]
+fn model_parameters_arrays_and_flags_that_made_nonsense_are_refused() {
+    let dir = Dir::new();
+    let pair = "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,1,0,0,0,1\n";
+    dir.refused_with_input(&["eval", "--model", "chiang", "--param", "beta_m=1e-200"], pair, &["beta_m", "[0.01, 1]"]);
+    dir.refused_with_input(&["eval", "--model", "deon", "--param", "beta_m=1e-200"], pair, &["beta_m", "[0.01, 1]"]);
+    dir.refused_with_input(&["eval", "--model", "chiang", "--param", "beta_n=1e-320"], pair, &["beta_n", "[0.01, 1]"]);
+    dir.refused(
+        &["sample", "--model", "wood", "--wo", "0,0,-1", "--count", "10", "--output", "s.csv"],
+        &["--wo 0,0,-1", "drew no sample in 10 tries", "below the surface"],
+    );
+    dir.write("s.toml", SCENE);
+    dir.refused(
+        &[
+            "render",
+            "s.toml",
+            "--integrator",
+            "dual-scattering",
+            "--fiber-count",
+            "grid",
+            "--dual",
+            "grid=0",
+            "--quiet",
+            "--out",
+            "out",
+        ],
+        &["--dual grid = 0: expected a whole number of cells ≥ 1"],
+    );
+    // A fourth number where three are meant, in each array of three.
+    for (from, to) in [
+        ("center = [0.0, 0.0, 0.0]", "center = [0.0, 0.0, 0.0, 9.0]"),
+        ("eye = [0.0, 0.0, 4.0]", "eye = [0.0, 0.0, 4.0, 1.0]"),
+        ("target = [0.0, 0.0, 0.0]", "target = [0.0, 0.0, 0.0]\nup = [0.0, 1.0, 0.0, 0.0]"),
+        ("lambert = [0.5, 0.4, 0.3]", "lambert = [0.5, 0.4, 0.3, 0.2]"),
+    ] {
+        let text = SCENE.replace(from, to);
+        dir.write("bad.toml", &text);
+        let err = dir.refused(&["render", "bad.toml", "--quiet", "--out", "out"], &["bad.toml:", "invalid length 4"]);
+        names_line_in_section(&err, "bad.toml", &text, to.lines().last().unwrap());
+    }
+    // Camera values: each error at its own key's line; a far eye is not "the same as target".
+    for (from, to, says) in [
+        ("fov = 40", "fov = 400", "fov = 400.0 must be in (0, 180)"),
+        ("eye = [0.0, 0.0, 4.0]", "eye = [1e300, 1e300, 4.0]", "too far apart"),
+    ] {
+        let text = SCENE.replace(from, to);
+        dir.write("cam.toml", &text);
+        let err = dir.refused(&["render", "cam.toml", "--quiet", "--out", "out"], &["cam.toml:", says]);
+        let line = text.lines().position(|l| l == to).unwrap() + 1;
+        assert!(err.contains(&format!("cam.toml:{line}:1: camera: ")), "{err}");
+        assert!(!err.contains("must differ"), "{err}");
+    }
+}
+
+/// Data a fit cannot use, USD composition, weave-file ranges, OBJ reader errors and a zero
+/// pbrt scale: refused with the place, never a silent answer.
+#[test]
+fn files_that_made_silent_nonsense_are_refused_at_their_place() {
+    let dir = Dir::new();
+    let row = |v: &str| format!("0,0,10,180,{v}\n");
+    dir.write(
+        "huge.csv",
+        format!("theta_i,phi_i,theta_r,phi_r,value\n{}", (0..20).map(|_| row("1e300")).collect::<String>()),
+    );
+    dir.write(
+        "zero.csv",
+        format!("theta_i,phi_i,theta_r,phi_r,value\n{}", (0..20).map(|_| row("0")).collect::<String>()),
+    );
+    let fit = |data: &'static str| {
+        vec!["fit", "--model", "kajiya-kay", "--data", data, "--init", "k_d=0.2", "--quiet", "--out", "f"]
+    };
+    dir.refused(&fit("huge.csv"), &["no free parameter changes χ²"]);
+    dir.refused(&fit("zero.csv"), &["every observed value is 0"]);
+    // USD references are refused, not left out (an empty groom rendered).
+    dir.write("refs.usda", "#usda 1.0\ndef Xform \"groom\" (\n    references = @hair.usda@\n)\n{\n}\n");
+    dir.refused(&["hair", "info", "refs.usda"], &["refs.usda:3:5: `references`", "flatten"]);
+    // Weave files: a range error at the line that gives the value, said once; `tile` once.
+    let weave = "tile 2 2\nalpha 50\nbeta 4\nss 0.5\nhwidth 0.5\nwarp_area 1\nweft_area 1\n\
+                 yarn 1 warp psi=0 umax=22 kappa=-0.7 width=1 length=1 center=0.5,0.5 kd=0.25 ks=0.075\n\
+                 yarn 2 weft psi=0 umax=16 kappa=-0.7 width=1 length=1 center=1.5,0.5 kd=0.25 ks=0.075\n\
+                 pattern\n1 2\n2 1\n";
+    dir.write("a.weave", weave);
+    let pair = "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n";
+    let err = dir.refused_with_input(
+        &["eval", "--model", "irawan-2012", "--param", "pattern=a.weave"],
+        pair,
+        &["a.weave:2:", "alpha"],
+    );
+    assert_eq!(err.matches("is not valid").count(), 1, "said once: {err}");
+    dir.write("t.weave", weave.replace("alpha 50\n", "alpha 0.015\ntile 2 2\n"));
+    dir.refused_with_input(
+        &["eval", "--model", "irawan-2012", "--param", "pattern=t.weave"],
+        pair,
+        &["t.weave:3:", "given twice"],
+    );
+    // The OBJ reader's own errors name their line.
+    dir.write("u.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\nusemtl\n");
+    dir.write("u.toml", format!("{SCENE}\n[[mesh]]\nfile = \"u.obj\"\nmaterial = \"skin\"\n"));
+    dir.refused(&["render", "u.toml", "--quiet", "--out", "out"], &["u.obj", "line 5"]);
+    // A pbrt `Scale 0 0 0` makes every width 0 (a width of 0 is refused).
+    dir.write(
+        "z.pbrt",
+        "Scale 0 0 0\nShape \"curve\" \"point3 P\" [0 0 0 0 0.3 0 0 0.6 0 0 1 0] \"float width\" 0.01\n",
+    );
+    dir.write("z.toml", SCENE.replace("generator = { strands = 30, segments = 4 }", "file = \"z.pbrt\""));
+    dir.refused(&["render", "z.toml", "--quiet", "--out", "out"], &["z.pbrt:2:", "singular"]);
 }

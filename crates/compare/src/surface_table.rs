@@ -414,5 +414,7 @@ pub fn compare_surface_table(
     let all = table
         .get("all")
         .ok_or_else(|| CompareError::Table("a surface table needs its `all` lobe (every path)".into()))?;
+    // One incidence's bins are held at a time.
+    fiberlab_fit::surface::check_surface_bins(all.bins_theta, all.bins_phi, 1, subsamples)?;
     Ok(SurfaceComparison::Residual(compare_residual(&model, all, subsamples, viewer_first)))
 }

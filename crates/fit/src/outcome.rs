@@ -5,6 +5,7 @@ use fiberlab_scatter::ModelError;
 use fiberlab_scatter::params::Range;
 use std::fmt;
 use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use thiserror::Error;
 
 /// Why a fit could not be made.
@@ -46,6 +47,9 @@ pub struct FitOptions {
     /// Called with the best point so far after each optimizer iteration and each polishing
     /// step that lowered χ² (for a live view of the convergence).
     pub trace: Option<Trace>,
+    /// When set, the fit stops after the iteration in flight and returns the best point so
+    /// far, with [`FitResult::interrupted`] (a signal handler's flag).
+    pub stop: Option<&'static AtomicBool>,
 }
 
 /// A callback of [`FitOptions::trace`].
@@ -159,4 +163,7 @@ pub struct FitResult {
     pub residuals: Vec<f64>,
     /// Optimizer iterations.
     pub iterations: u64,
+    /// Stopped by [`FitOptions::stop`] before it converged: the best point so far (not
+    /// polished).
+    pub interrupted: bool,
 }

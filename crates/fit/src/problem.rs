@@ -195,19 +195,28 @@ pub(crate) fn coordinates_of(
     Ok((coordinates, start))
 }
 
-/// Enough observations for the free numbers, each with a finite value and σ > 0.
+/// Enough observations for the free numbers, each with a finite value and σ > 0, not all
+/// values zero (there is nothing to fit to zero data: every model with f_s > 0 is as far
+/// from it, by its scale alone).
 pub(crate) fn check_data(
     observations: usize,
     free: usize,
-    mut values: impl Iterator<Item = (f64, f64)>,
+    values: impl Iterator<Item = (f64, f64)>,
 ) -> Result<(), FitError> {
     if observations <= free {
         return Err(FitError::Setup(format!(
             "{observations} observations for {free} free numbers: too few to fit and estimate uncertainties"
         )));
     }
-    if values.any(|(v, s)| s.is_nan() || s <= 0.0 || !v.is_finite()) {
-        return Err(FitError::Setup("every observation needs a finite value and σ > 0".into()));
+    let mut all_zero = true;
+    for (v, s) in values {
+        if s.is_nan() || s <= 0.0 || !v.is_finite() {
+            return Err(FitError::Setup("every observation needs a finite value and σ > 0".into()));
+        }
+        all_zero &= v == 0.0;
+    }
+    if all_zero {
+        return Err(FitError::Setup("every observed value is 0: there is nothing to fit".into()));
     }
     Ok(())
 }

@@ -2,14 +2,15 @@
 //! Levenberg–Marquardt steps, with the uncertainties at the optimum ([`crate::uncertainty`]).
 
 use crate::observation::{Channel, Observation};
-use crate::outcome::{AtBound, FitError, FitOptions, FitResult, FreeParam, Step};
+use crate::outcome::{AtBound, FitError, FitOptions, FitResult, FreeParam, Step, Uncertainty, Undefined};
 use crate::problem::{Coordinate, IterationObserver, Problem, check_data, coordinates_of, fiber_residuals, jacobian};
 use crate::uncertainty::{invert, on_bound, uncertainties};
 use argmin::core::observers::ObserverMode;
-use argmin::core::{Executor, State};
+use argmin::core::{Error, Executor, KV, Solver, State, TerminationReason, TerminationStatus};
 use argmin::solver::neldermead::NelderMead;
 use fiberlab_scatter::params::ParamSet;
 use fiberlab_scatter::{Model, find};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Fits the `free` parameters (with one starting value each) of the model whose other
 /// parameters are `base`, in at most `max_iters` iterations: [`fit_with`] without progress.
@@ -97,7 +98,8 @@ pub(crate) fn solve<M>(
         simplex.push(p);
     }
     let solver = NelderMead::new(simplex).with_sd_tolerance(1e-9).map_err(|e| FitError::Optimizer(e.to_string()))?;
-    let mut executor = Executor::new(problem.clone(), solver).configure(|s| s.max_iters(options.max_iters));
+    let stoppable = Stoppable { inner: solver, stop: options.stop };
+    let mut executor = Executor::new(problem.clone(), stoppable).configure(|s| s.max_iters(options.max_iters));
     let names: Vec<String> = coordinates.iter().map(Coordinate::name).collect();
     if options.progress.is_some() || options.trace.is_some() {
         let observer = IterationObserver {
@@ -109,21 +111,43 @@ pub(crate) fn solve<M>(
     }
     let res = executor.run().map_err(|e| FitError::Optimizer(e.to_string()))?;
     let iterations = res.state().get_iter();
-    let best = polish(problem, res.state().get_best_param().cloned().unwrap_or(start), |step, p, cost| {
-        if let Some(progress) = &options.progress {
-            progress(options.max_iters + step);
-        }
-        if let (Some(trace), Some((p, chi2))) = (&options.trace, p.zip(cost)) {
-            let params = names.iter().cloned().zip(p.iter().copied()).collect();
-            trace(&Step { iteration: options.max_iters + step, params, chi2 });
-        }
-    });
+    let stopped = || options.stop.is_some_and(|s| s.load(Ordering::Relaxed));
+    let best = res.state().get_best_param().cloned().unwrap_or_else(|| start.clone());
+    // Stopped by a signal: the best point so far, not polished.
+    let best = if stopped() {
+        best
+    } else {
+        polish(problem, best, |step, p, cost| {
+            if let Some(progress) = &options.progress {
+                progress(options.max_iters + step);
+            }
+            if let (Some(trace), Some((p, chi2))) = (&options.trace, p.zip(cost)) {
+                let params = names.iter().cloned().zip(p.iter().copied()).collect();
+                trace(&Step { iteration: options.max_iters + step, params, chi2 });
+            }
+        })
+    };
     let m = problem.model_at(&best)?;
     let residuals = problem.residuals(&m);
     let chi2: f64 = residuals.iter().map(|r| r * r).sum();
     let dof = observations - coordinates.len();
     let at_bound: Vec<Option<AtBound>> = coordinates.iter().zip(&best).map(|(c, &v)| on_bound(v, c.range)).collect();
+    if !chi2.is_finite() {
+        return Err(FitError::Setup(format!(
+            "χ² = {chi2} at the best point: the values and standard errors overflow double precision \
+             (value / σ beyond 1e154); check the data's units"
+        )));
+    }
     let uncertainties = uncertainties(problem, &best, &residuals, &at_bound, chi2 / dof as f64);
+    // The start values came back unchanged and no parameter moves χ²: nothing was fitted.
+    if best == start && uncertainties.iter().all(|u| matches!(u, Uncertainty::Undefined(Undefined::NoEffect))) {
+        return Err(FitError::Setup(
+            "no free parameter changes χ² at all: at the data's scale the model's values make no difference \
+             (e.g. values of 1e300 against an f_s of order 1, or σ far larger than the values); check the \
+             data's units and standard errors"
+                .into(),
+        ));
+    }
     let mut values: Vec<(String, Vec<f64>)> = Vec::new();
     for (c, &v) in coordinates.iter().zip(&best) {
         match values.last_mut() {
@@ -140,7 +164,35 @@ pub(crate) fn solve<M>(
         dof,
         residuals,
         iterations,
+        interrupted: stopped(),
     })
+}
+
+/// A solver that also ends when [`FitOptions::stop`] is set (after the iteration in flight).
+struct Stoppable<S> {
+    inner: S,
+    stop: Option<&'static AtomicBool>,
+}
+
+impl<O, I: State, S: Solver<O, I>> Solver<O, I> for Stoppable<S> {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+
+    fn init(&mut self, problem: &mut argmin::core::Problem<O>, state: I) -> Result<(I, Option<KV>), Error> {
+        self.inner.init(problem, state)
+    }
+
+    fn next_iter(&mut self, problem: &mut argmin::core::Problem<O>, state: I) -> Result<(I, Option<KV>), Error> {
+        self.inner.next_iter(problem, state)
+    }
+
+    fn terminate(&mut self, state: &I) -> TerminationStatus {
+        if self.stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
+            return TerminationStatus::Terminated(TerminationReason::Interrupt);
+        }
+        self.inner.terminate(state)
+    }
 }
 
 /// Largest number of Levenberg–Marquardt steps after the simplex (reported to the progress
@@ -466,5 +518,39 @@ mod tests {
         let three = [FreeParam { key: "sigma_a".into(), start: vec![0.5, 0.5, 0.5] }];
         let e = fit_with(&chiang(&fixed), &three, &luminance, &options).unwrap_err().to_string();
         assert!(e.contains("cannot tell the channels"), "{e}");
+    }
+
+    /// Data a fit cannot mean anything for is refused, not "fitted": all zeros, values so
+    /// large that no parameter changes χ² (the start values came back as the fit), and σ so
+    /// small that χ² overflows.
+    #[test]
+    fn data_without_information_is_refused() {
+        let spec = find("kajiya-kay").unwrap();
+        let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
+        let data = luminance_data(&build("kajiya-kay", &[("k_d", "0.3")]).unwrap());
+        let zeros: Vec<Observation> = data.iter().map(|o| Observation { value: 0.0, ..*o }).collect();
+        let e = fit(&base, &[("k_d".into(), 0.2)], &zeros, 50).unwrap_err().to_string();
+        assert!(e.contains("every observed value is 0"), "{e}");
+        let huge: Vec<Observation> = data.iter().map(|o| Observation { value: 1e300, sigma: 5e298, ..*o }).collect();
+        let e = fit(&base, &[("k_d".into(), 0.2)], &huge, 50).unwrap_err().to_string();
+        assert!(e.contains("no free parameter changes χ²"), "{e}");
+        let tiny_sigma: Vec<Observation> = data.iter().map(|o| Observation { sigma: 1e-300, ..*o }).collect();
+        let e = fit(&base, &[("k_d".into(), 0.2)], &tiny_sigma, 50).unwrap_err().to_string();
+        assert!(e.contains("overflow double precision"), "{e}");
+    }
+
+    /// A fit whose stop flag is set ends after the iteration in flight with its best point.
+    #[test]
+    fn a_stopped_fit_returns_its_best_point_so_far() {
+        static STOP: AtomicBool = AtomicBool::new(true);
+        let spec = find("kajiya-kay").unwrap();
+        let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
+        let data = luminance_data(&build("kajiya-kay", &[("k_d", "0.3")]).unwrap());
+        let free = [FreeParam { key: "k_d".into(), start: vec![0.2] }];
+        let options = FitOptions { max_iters: 400, stop: Some(&STOP), ..FitOptions::default() };
+        let r = fit_with(&base, &free, &data, &options).unwrap();
+        assert!(r.interrupted && r.iterations <= 1, "{r:?}");
+        let r = fit_with(&base, &free, &data, &FitOptions { max_iters: 400, ..FitOptions::default() }).unwrap();
+        assert!(!r.interrupted && (r.params[0].1 - 0.3).abs() < 1e-3, "{r:?}");
     }
 }

@@ -95,6 +95,24 @@ pub fn surface_bins(
         .collect()
 }
 
+/// Refuses, before they are made, the [`surface_bins`] of `incidences` incidences of an
+/// `nt` × `np` table with `sub`² nodes per bin when their nodes (a direction and a weight, 32
+/// bytes each) are more than the memory budget ([`fiberlab_io::memory_budget`]): a large
+/// `--subsamples` would otherwise abort the process in the allocation.
+pub fn check_surface_bins(nt: usize, np: usize, incidences: usize, sub: usize) -> Result<(), FitError> {
+    let nodes = (nt as u64)
+        .saturating_mul(np as u64)
+        .saturating_mul(incidences as u64)
+        .saturating_mul(sub as u64)
+        .saturating_mul(sub as u64);
+    fiberlab_io::memory_budget::check_needs(&[fiberlab_io::memory_budget::Need::items(
+        format!("{nodes} bin nodes ({sub}² per bin)"),
+        nodes,
+        32,
+    )])
+    .map_err(|e| FitError::Setup(e.to_string()))
+}
+
 /// A surface model's bin averages of `f_r` on `bins`.
 #[must_use]
 pub fn bin_averages(model: &SurfaceModel, bins: &[SurfaceBin]) -> Vec<Rgb> {
@@ -143,6 +161,7 @@ pub fn from_surface_table(
     if peak <= 0.0 {
         return Err(FitError::Setup("the lobe is zero in every bin; nothing to fit".into()));
     }
+    check_surface_bins(nt, np, t.theta_in.len(), sub)?;
     let floor = std_floor(t);
     let mut data = SurfaceData::default();
     for s in 0..t.theta_in.len() {

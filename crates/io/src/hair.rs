@@ -48,6 +48,10 @@ const KNOWN_FLAGS: u32 = FLAG_SEGMENTS | FLAG_POINTS | FLAG_THICKNESS | FLAG_TRA
 #[non_exhaustive]
 #[derive(Debug, Error)]
 pub enum HairError {
+    /// The file could not be opened or read ([`crate::input_file`]: not a regular file, larger
+    /// than the memory budget).
+    #[error(transparent)]
+    Input(#[from] crate::input_file::InputError),
     /// The file could not be opened, read or written.
     #[error("{path}: {error}")]
     Io {
@@ -253,7 +257,8 @@ impl HairHeader {
         use std::io::Read;
         let io = |error| HairError::Io { path: path.into(), error };
         let mut head = Vec::with_capacity(HEADER_BYTES);
-        std::fs::File::open(path).map_err(io)?.take(HEADER_BYTES as u64).read_to_end(&mut head).map_err(io)?;
+        let (file, _) = crate::input_file::open(path)?;
+        file.take(HEADER_BYTES as u64).read_to_end(&mut head).map_err(io)?;
         Self::parse(&head).map_err(|e| HairError::InFile { path: path.into(), error: Box::new(e) })
     }
 
@@ -492,7 +497,7 @@ impl HairFile {
 
     /// Reads and parses a file; errors carry the path.
     pub fn read(path: &Path) -> Result<Self, HairError> {
-        let bytes = std::fs::read(path).map_err(|source| HairError::Io { path: path.into(), error: source })?;
+        let bytes = crate::input_file::read_bytes(path)?;
         Self::parse(&bytes).map_err(|e| HairError::InFile { path: path.into(), error: Box::new(e) })
     }
 

@@ -1,13 +1,14 @@
 //! Image files: linear OpenEXR (32-bit float RGB, optional 32-bit unsigned integer channels)
 //! and tone-mapped 8-bit sRGB PNG.
 //!
-//! Every writer goes through [`write_atomically`]: the bytes go to a temporary file in the
+//! Every writer goes through [`crate::output_file`]: the bytes go to a temporary file in the
 //! destination's directory, which is renamed over the destination only when complete, so an
-//! interrupted program never leaves half an image behind.
+//! interrupted program never leaves half an image behind (and never replaces a link or a
+//! device). Every reader opens its file through [`crate::input_file`] (regular files only, within
+//! the memory budget) and checks the image's size against the budget before decoding it.
 
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::{BufWriter, Seek, Write};
+use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -49,6 +50,17 @@ pub enum ImageError {
         /// Encoder message.
         message: String,
     },
+    /// A PNG, JPEG, … could not be decoded ([`decode_image`]).
+    #[error("{path}: {message}")]
+    Decode {
+        /// File path.
+        path: PathBuf,
+        /// Decoder message.
+        message: String,
+    },
+    /// The file could not be opened or read ([`crate::input_file`]).
+    #[error(transparent)]
+    Input(crate::input_file::InputError),
     /// The pixel buffer does not match the size.
     #[error("image of {width}×{height} needs {expected} pixels, has {found}")]
     Size {
@@ -231,7 +243,28 @@ impl LinearImage {
     pub fn read_exr(path: &Path) -> Result<Self, ImageError> {
         use exr::prelude::*;
         let exr_error = |e: exr::error::Error| ImageError::Exr { path: path.into(), message: e.to_string() };
-        let image = read_first_flat_layer_from_file(path).map_err(exr_error)?;
+        let bytes = crate::input_file::read_bytes(path).map_err(ImageError::Input)?;
+        // The decoded size, checked against the memory budget before decoding.
+        let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(&bytes), false).map_err(exr_error)?;
+        let mut decoded = 0u64;
+        for header in meta.headers.iter() {
+            let pixels = (header.layer_size.width() as u64).saturating_mul(header.layer_size.height() as u64);
+            let sample_bytes: u64 = header.channels.list.iter().map(|c| c.sample_type.bytes_per_sample() as u64).sum();
+            decoded = decoded.saturating_add(pixels.saturating_mul(sample_bytes + 12));
+        }
+        crate::memory_budget::check_needs(&[crate::memory_budget::Need::new(
+            format!("{}: its decoded image", path.display()),
+            Some(decoded),
+        )])
+        .map_err(|e| ImageError::Exr { path: path.into(), message: e.to_string() })?;
+        let image = read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(std::io::Cursor::new(bytes))
+            .map_err(exr_error)?;
         let layer = &image.layer_data;
         let (width, height) = (layer.size.width(), layer.size.height());
         let channels = &layer.channel_data.list;
@@ -298,6 +331,22 @@ impl LinearImage {
     }
 }
 
+/// Decodes an image file of any format the `image` crate reads (PNG, JPEG, …; by its
+/// content), opened through [`crate::input_file`] and decoded within the memory budget (the
+/// decoder refuses an image whose pixels would exceed it).
+pub fn decode_image(path: &Path) -> Result<image::DynamicImage, ImageError> {
+    let bytes = crate::input_file::read_bytes(path).map_err(ImageError::Input)?;
+    let fail = |message: String| ImageError::Decode { path: path.into(), message };
+    let mut reader =
+        image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| fail(e.to_string()))?;
+    let mut limits = image::Limits::default();
+    limits.max_alloc = crate::memory_budget::budget().bytes();
+    limits.max_image_width = None;
+    limits.max_image_height = None;
+    reader.limits(limits);
+    reader.decode().map_err(|e| fail(e.to_string()))
+}
+
 /// Display transform from scene-linear values to [0, 1].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ToneMap {
@@ -347,33 +396,9 @@ pub fn encode_srgb8(linear: f64) -> u8 {
     (v * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
 }
 
-/// Creates `path` by writing a temporary file in the same directory and renaming it into
-/// place once `write` succeeds and the data is flushed. On error the temporary file is removed
-/// and `path` is untouched.
-pub fn write_atomically<F>(path: &Path, write: F) -> std::io::Result<()>
-where
-    F: FnOnce(&mut File) -> std::io::Result<()>,
-{
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let mut tmp = tempfile::Builder::new().prefix(&format!(".{name}.")).suffix(".tmp").tempfile_in(dir)?;
-    write(tmp.as_file_mut())?;
-    let file = tmp.as_file_mut();
-    file.flush()?;
-    file.rewind()?;
-    file.sync_all()?;
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        // tempfile creates files readable by the owner only; outputs are ordinary files.
-        file.set_permissions(std::fs::Permissions::from_mode(0o644))?;
-    }
-    tmp.persist(path).map_err(|e| e.error)?;
-    Ok(())
-}
+/// Writing outputs atomically lives in [`crate::output_file`]; here for the writers that name
+/// it from this module.
+pub use crate::output_file::write_atomically;
 
 #[cfg(test)]
 mod tests {

@@ -7,20 +7,29 @@
 //! * [`strand_files`]: hair files of any format, by extension: read, written, counted.
 //! * [`pbrt_curves`]: the `Shape "curve"`s of pbrt-v4 scene files (`.pbrt`, `.pbrt.gz`).
 //! * [`usda_curves`]: USD `BasisCurves` in `.usda` text, read and write.
-//! * [`image_file`]: linear OpenEXR and tone-mapped sRGB PNG output, each written to a temporary
-//!   file in the destination directory and renamed into place, so a reader never sees half an image.
+//! * [`image_file`]: linear OpenEXR and tone-mapped sRGB PNG output, each written through
+//!   [`output_file`], so a reader never sees half an image.
 //! * [`weave_pattern`]: Irawan & Marschner weave patterns (grid + yarns) as text, read and write,
 //!   errors naming file, line and field.
 //! * [`image_metrics`]: RMSE, relative MSE, SSIM and FLIP between two images (`fiberlab compare`).
 //! * [`obj`]: Wavefront OBJ files as `fiberlab_geometry` triangle meshes, errors naming the line.
+//! * [`input_file`]: how every reader opens a file — regular files only (never a FIFO or a
+//!   device), read within the memory budget, errors naming the file and the line or byte.
+//! * [`output_file`]: how every writer creates one — a temporary file renamed into place, never
+//!   over a link, a device or a directory; standard streams written through.
+//! * [`memory_budget`]: the memory check of the command line and Python, and the budget that
+//!   bounds every input.
 #![forbid(unsafe_code)]
 
 pub mod block_error;
 pub mod hair;
 pub mod image_file;
 pub mod image_metrics;
+pub mod input_file;
 mod lookahead;
+pub mod memory_budget;
 pub mod obj;
+pub mod output_file;
 pub mod pbrt_curves;
 mod scene_text;
 pub mod strand_files;

@@ -19,8 +19,16 @@ pub struct ObjError {
 
 /// Loads every object of a Wavefront OBJ file (triangulated), scaled and translated.
 pub fn read_obj(path: &Path, scale: f64, translate: DVec3) -> Result<TriangleMesh, ObjError> {
-    let text = std::fs::read_to_string(path).map_err(|e| ObjError { path: path.into(), message: e.to_string() })?;
+    let text =
+        crate::input_file::read_text(path).map_err(|e| ObjError { path: path.into(), message: without_path(&e) })?;
     parse_obj(&text, path, scale, translate)
+}
+
+/// An input error's message without the leading `PATH: ` (the OBJ error adds it).
+fn without_path(e: &crate::input_file::InputError) -> String {
+    let text = e.to_string();
+    let prefix = format!("{}:", e.path().display());
+    text.strip_prefix(&prefix).map_or(text.clone(), |rest| rest.trim_start().to_string())
 }
 
 /// Parses OBJ text (`path` names it in errors; nothing is read from the file system:
@@ -60,7 +68,7 @@ pub fn parse_obj(text: &str, path: &Path, scale: f64, translate: DVec3) -> Resul
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let no_materials = |_: &Path| Err(tobj::LoadError::OpenFileFailed);
     let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, no_materials)
-        .map_err(|e| ObjError { path: path.into(), message: e.to_string() })?;
+        .map_err(|e| ObjError { path: path.into(), message: located(text, &opts, e) })?;
     let (mut triangles, mut uvs, mut normals) = (Vec::new(), Vec::new(), Vec::new());
     for m in models {
         let p = &m.mesh.positions;
@@ -78,6 +86,15 @@ pub fn parse_obj(text: &str, path: &Path, scale: f64, translate: DVec3) -> Resul
             let i = 3 * i as usize;
             DVec3::new(nv[i].into(), nv[i + 1].into(), nv[i + 2].into())
         };
+        // Every index is within its array (checked, not assumed: a reader that mixes lines
+        // and faces could hand back indices of one array for another).
+        let fits = |len: usize, width: usize| m.mesh.indices.iter().all(|&i| (i as usize + 1) * width <= len);
+        if !fits(p.len(), 3) || (!tc.is_empty() && !fits(tc.len(), 2)) || (!nv.is_empty() && !fits(nv.len(), 3)) {
+            return Err(ObjError {
+                path: path.into(),
+                message: format!("object `{}`: an index is out of range", m.name),
+            });
+        }
         for t in m.mesh.indices.chunks_exact(3) {
             triangles.push([vertex(t[0]), vertex(t[1]), vertex(t[2])]);
             if !tc.is_empty() {
@@ -108,8 +125,30 @@ pub fn parse_obj(text: &str, path: &Path, scale: f64, translate: DVec3) -> Resul
     Ok(TriangleMesh::with_attributes(triangles, uvs, normals))
 }
 
+/// The reader's error `e` on `text`, with the line it is at: the first line whose prefix of
+/// the text the reader refuses (found by bisection: a record's error is its own line's, so a
+/// prefix fails exactly when it holds the bad line).
+fn located(text: &str, opts: &tobj::LoadOptions, e: tobj::LoadError) -> String {
+    let ends: Vec<usize> = text.match_indices('\n').map(|(i, _)| i + 1).chain([text.len()]).collect();
+    let fails = |lines: usize| {
+        let prefix = &text[..ends[lines - 1]];
+        tobj::load_obj_buf(&mut prefix.as_bytes(), opts, |_| Err(tobj::LoadError::OpenFileFailed)).is_err()
+    };
+    let (mut good, mut bad) = (0, ends.len());
+    if !fails(bad) {
+        return format!("{e}");
+    }
+    while bad - good > 1 {
+        let mid = (good + bad) / 2;
+        if fails(mid) { bad = mid } else { good = mid }
+    }
+    let line = text[ends.get(bad.wrapping_sub(2)).copied().unwrap_or(0)..ends[bad - 1]].trim();
+    format!("line {bad}: {e} (`{line}`)")
+}
+
 /// Checks the `f` records of OBJ text: every `vt`/`vn` index refers to a record before it,
-/// and every face has texture coordinates (normals) or none does. Errors name the line.
+/// and every face has texture coordinates (normals) or none does; line (`l`) and point (`p`)
+/// elements, which a mesh of triangles cannot hold, are refused. Errors name the line.
 fn check_faces(text: &str, path: &Path) -> Result<(), ObjError> {
     let fail =
         |n: usize, message: String| ObjError { path: path.into(), message: format!("line {}: {message}", n + 1) };
@@ -118,6 +157,10 @@ fn check_faces(text: &str, path: &Path) -> Result<(), ObjError> {
     for (n, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         match words.next() {
+            Some(kind @ ("l" | "p")) => {
+                let what = if kind == "l" { "line" } else { "point" };
+                return Err(fail(n, format!("`{kind}` ({what}) elements are not read: a mesh is made of faces (`f`)")));
+            }
             Some("v") => counts[0] += 1,
             Some("vt") => counts[1] += 1,
             Some("vn") => counts[2] += 1,
@@ -198,6 +241,18 @@ mod tests {
         assert!(e.contains("triangle 0: a vertex is not finite after scale = 1e300"), "{e}");
     }
 
+    /// An error the OBJ reader finds itself (not the checks above) still names its line.
+    #[test]
+    fn the_readers_own_errors_name_their_line() {
+        // `usemtl` without a name, and a vertex with a weight of 0: the reader refuses both.
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\nusemtl\nf 1 2 3\n";
+        let e = parse_obj(text, Path::new("m.obj"), 1.0, DVec3::ZERO).unwrap_err().to_string();
+        assert!(e.starts_with("m.obj: line 5: ") && e.ends_with("(`usemtl`)"), "{e}");
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0 0\nf 1 2 3\n";
+        let e = parse_obj(text, Path::new("m.obj"), 1.0, DVec3::ZERO).unwrap_err().to_string();
+        assert!(e.starts_with("m.obj: line 3: "), "{e}");
+    }
+
     /// Texture coordinates and normals are interpolated at the hit; the tangent is ∂P/∂u.
     #[test]
     fn obj_uvs_normals_and_tangents() {
@@ -240,6 +295,12 @@ mod tests {
                 "line 6: a face without a texture coordinate `vt` while the face at line 5 has one",
             ),
             ("v 0 0 0\nvt 0 nan\n", "line 2: expected two finite texture coordinates, got `vt 0 nan`"),
+            // A line element among faces with texture coordinates (which made the reader's
+            // indices run past the arrays): refused at its line.
+            (
+                "v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nf 1/1 2/2 3/3\nl 1 2\n",
+                "line 8: `l` (line) elements are not read",
+            ),
         ];
         for (text, says) in cases {
             let e = parse_obj(text, Path::new("dir/m.obj"), 1.0, DVec3::ZERO).unwrap_err().to_string();

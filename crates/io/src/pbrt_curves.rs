@@ -24,8 +24,10 @@
 //!   (pbrt's rule); as Bézier curves reproduce linear functions, the control point `j` of the
 //!   `3k + 1` gets `width0 + (width1 − width0)·j/(3k)`.
 //! * `Include` and `Import` of `.pbrt` and `.pbrt.gz` files, resolved as pbrt-v4 does:
-//!   relative to the directory of the top-level scene file (also for nested includes), at most [`MAX_INCLUDE_DEPTH`] deep; a file that
-//!   includes itself through any chain is an error.
+//!   relative to the directory of the top-level scene file (also for nested includes), at most
+//!   [`MAX_INCLUDE_DEPTH`] deep, at most [`MAX_FILES_READ`] files in all and their text within
+//!   the memory budget in all ([`crate::memory_budget::input_bound`]); a file that includes
+//!   itself through any chain is an error.
 //! * The current transformation: `Identity`, `Translate`, `Scale`, `Rotate` (degrees, the file
 //!   format's unit), `Transform` and `ConcatTransform` (16 numbers, column by column, as pbrt
 //!   reads them), `LookAt`, `CoordinateSystem`/`CoordSysTransform`, saved and restored by
@@ -51,6 +53,11 @@ use std::path::{Path, PathBuf};
 /// How deep `Include`s may nest.
 pub const MAX_INCLUDE_DEPTH: usize = 32;
 
+/// How many files one read may open in all, the top-level file and every `Include` (a file
+/// included twice counts twice): files that each include the next twice would otherwise make
+/// `2^depth` reads within the depth limit.
+pub const MAX_FILES_READ: usize = 4096;
+
 /// Reads the curves of the pbrt scene at `path` (and the files it includes).
 pub fn read(path: &Path) -> Result<Strands, StrandsError> {
     let mut p = Parser::new(false);
@@ -63,6 +70,7 @@ pub fn read(path: &Path) -> Result<Strands, StrandsError> {
 pub fn parse_str(text: &str, path: &Path) -> Result<Strands, StrandsError> {
     let mut p = Parser::new(false);
     p.files.push(path.to_path_buf());
+    p.keys.push(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()));
     p.text(text, path, 0)?;
     p.finish()
 }
@@ -77,14 +85,12 @@ pub(crate) fn count(path: &Path) -> Result<(u64, Strands), StrandsError> {
 }
 
 /// The text of a `.pbrt` or `.pbrt.gz` file.
-fn load(path: &Path) -> Result<String, StrandsError> {
-    use std::io::Read;
-    let io = |error| StrandsError::Io { path: path.into(), error };
-    let raw = std::fs::read(path).map_err(io)?;
+fn load(path: &Path, bound: u64) -> Result<String, StrandsError> {
+    let (file, len) = crate::input_file::open(path)?;
+    let raw = crate::input_file::read_within(path, file, Some(len), bound)?;
     let bytes = if path.to_string_lossy().to_lowercase().ends_with(".gz") {
-        let mut out = Vec::new();
-        flate2::read::MultiGzDecoder::new(raw.as_slice()).read_to_end(&mut out).map_err(io)?;
-        out
+        // The decompressed text is bounded like a file's.
+        crate::input_file::read_within(path, flate2::read::MultiGzDecoder::new(raw.as_slice()), None, bound)?
     } else {
         raw
     };
@@ -344,7 +350,14 @@ struct Parser {
     files: Vec<PathBuf>,
     /// The type of the first curve, and where it was.
     kind: Option<CurveKind>,
+    /// Bytes of text read so far, over all files.
     text_bytes: u64,
+    /// Files read so far (see [`MAX_FILES_READ`]).
+    files_read: usize,
+    /// The canonical paths of `files` (for cycle detection).
+    keys: Vec<PathBuf>,
+    /// The input bound, read once ([`crate::memory_budget::input_bound`]).
+    bound: u64,
 }
 
 impl Parser {
@@ -366,6 +379,9 @@ impl Parser {
             files: Vec::new(),
             kind: None,
             text_bytes: 0,
+            files_read: 0,
+            keys: Vec::new(),
+            bound: crate::memory_budget::input_bound(),
         }
     }
 
@@ -388,21 +404,45 @@ impl Parser {
             return Err(at(format!("includes nest more than {MAX_INCLUDE_DEPTH} deep (at {})", path.display())));
         }
         let key = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
-        if self.files.iter().any(|f| std::fs::canonicalize(f).unwrap_or_else(|_| f.clone()) == key) {
+        if self.keys.contains(&key) {
             let chain: Vec<String> = self.files.iter().map(|f| f.display().to_string()).collect();
             return Err(at(format!("include cycle: {} → {}", chain.join(" → "), path.display())));
         }
-        let text = match load(path) {
+        self.files_read += 1;
+        if self.files_read > MAX_FILES_READ {
+            return Err(at(format!(
+                "more than {MAX_FILES_READ} files read in all (each `Include` reads its file again); \
+                 at {}",
+                path.display()
+            )));
+        }
+        // All the text read, over every include, stays within the input bound.
+        let bound = self.bound.saturating_sub(self.text_bytes);
+        let text = match load(path, bound) {
             Ok(t) => t,
-            Err(StrandsError::Io { error, .. }) if from.is_some() => {
-                return Err(at(format!("cannot read the included file {}: {error}", path.display())));
+            // An included file that cannot be read is an error at its `Include`.
+            Err(StrandsError::Input(e)) if from.is_some() => {
+                use crate::input_file::InputError;
+                return Err(at(match e {
+                    InputError::Io { error, .. } => {
+                        format!("cannot read the included file {}: {error}", path.display())
+                    }
+                    InputError::TooLarge { .. } => format!(
+                        "the included files come to more than the memory budget ({}) in all, at {}",
+                        crate::memory_budget::budget().describe(),
+                        path.display()
+                    ),
+                    other => format!("cannot read the included file: {other}"),
+                }));
             }
             Err(e) => return Err(e),
         };
         self.text_bytes += text.len() as u64;
         self.files.push(path.to_path_buf());
+        self.keys.push(key);
         self.text(&text, path, depth)?;
         self.files.pop();
+        self.keys.pop();
         Ok(())
     }
 
@@ -544,8 +584,26 @@ impl Parser {
                         name.offset,
                         format!("ObjectInstance: no object named \"{}\" was defined before", name.text),
                     ))?;
+                    // Instances of instances multiply the points: each copy is checked
+                    // against the memory budget before it is made (16 bytes per point).
+                    let points_after = (self.out.points.len() as u64).saturating_add(object.points.len() as u64);
+                    if let Err(e) = crate::memory_budget::check_needs(&[crate::memory_budget::Need::items(
+                        format!("ObjectInstance \"{}\": {points_after} curve points", name.text),
+                        points_after,
+                        16,
+                    )]) {
+                        return Err(Failure::from((t.offset, e.to_string())));
+                    }
                     let m = self.state.ctm;
                     let ws = width_scale(&m);
+                    if !(object.points.is_empty() || ws > 0.0 && ws.is_finite()) {
+                        return Err(Failure::from((
+                            t.offset,
+                            "ObjectInstance: the current transform is singular (a scale of 0 along some axis); the \
+                             instance's curves would have no width"
+                                .to_string(),
+                        )));
+                    }
                     let points: Vec<[f32; 3]> =
                         object.points.iter().map(|p| apply(&m, p.map(f64::from)).map(|v| v as f32)).collect();
                     if let Some(i) = points.iter().position(|p| !p.iter().all(|v| v.is_finite())) {
@@ -774,6 +832,18 @@ impl Parser {
         let bezier = to_cubic_bezier(&cp, degree, bspline);
         let m = self.state.ctm;
         let ws = width_scale(&m);
+        if !(ws > 0.0 && ws.is_finite()) {
+            // A zero scale flattens the curve and makes its width 0 (a width of 0 itself is
+            // refused by the scene's diameter check): refused here, where the curve is.
+            return Err(Failure::from((
+                p.offset,
+                format!(
+                    "the current transform is singular (a scale of 0 along some axis: |det| = {:e}); its curves \
+                     would have no width",
+                    ws.powi(3)
+                ),
+            )));
+        }
         let last = (bezier.len() - 1) as f64;
         for (j, c) in bezier.iter().enumerate() {
             let q = apply(&m, *c).map(|v| v as f32);

@@ -151,6 +151,10 @@ pub struct Strands {
 #[non_exhaustive]
 #[derive(Debug, Error)]
 pub enum StrandsError {
+    /// The file could not be opened or read ([`crate::input_file`]: not a regular file, larger
+    /// than the memory budget).
+    #[error(transparent)]
+    Input(#[from] crate::input_file::InputError),
     /// The file could not be opened, read or written.
     #[error("{path}: {error}")]
     Io {
@@ -276,6 +280,15 @@ impl Strands {
             return Ok(self.clone());
         }
         let steps = segments_per_span.max(1);
+        // Each span becomes `steps` points of 16 bytes (point and width): checked against the
+        // memory budget before they are made (a large cubic file times 1024 steps would not fit).
+        let points = self.span_count().saturating_mul(steps as u64).saturating_add(self.counts.len() as u64);
+        crate::memory_budget::check_needs(&[crate::memory_budget::Need::items(
+            format!("{points} polyline points ({steps} per span)"),
+            points,
+            16,
+        )])
+        .map_err(|e| StrandsError::Inconsistent(e.to_string()))?;
         let mut out =
             Self { points: Vec::new(), widths: Vec::new(), counts: Vec::new(), basis: Basis::Linear, kind: self.kind };
         for r in self.strand_ranges() {

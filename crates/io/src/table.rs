@@ -37,7 +37,7 @@ pub fn kind_of(text: &str) -> TableKind {
 
 /// Reads the kind of the table at `path` (its first line).
 pub fn read_kind(path: &Path) -> Result<TableKind, TableError> {
-    let text = std::fs::read_to_string(path).map_err(|e| TableError(format!("reading {}: {e}", path.display())))?;
+    let text = crate::input_file::read_text(path).map_err(|e| TableError(e.to_string()))?;
     Ok(kind_of(&text))
 }
 
@@ -69,7 +69,7 @@ pub struct LobeSlices {
 
 /// Reads every lobe of a measurement CSV; errors name the file and line.
 pub fn read(path: &Path) -> Result<BTreeMap<String, LobeSlices>, TableError> {
-    let text = std::fs::read_to_string(path).map_err(|e| TableError(format!("reading {}: {e}", path.display())))?;
+    let text = crate::input_file::read_text(path).map_err(|e| TableError(e.to_string()))?;
     parse(&text, &path.display().to_string())
 }
 

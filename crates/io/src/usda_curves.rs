@@ -3,7 +3,8 @@
 //!
 //! # What is read
 //! * The layer must start with the header line `#usda 1.0`. Elsewhere `#` starts a comment.
-//! * Prims `def|over|class [TypeName] "name" [( metadata )] { … }`, nested to any depth. The
+//! * Prims `def|over|class [TypeName] "name" [( metadata )] { … }`, nested at most
+//!   [`MAX_PRIM_DEPTH`] deep. The
 //!   curves are the `def BasisCurves` prims whose ancestors are all `def`s (an `over` or a
 //!   `class` does not define geometry in a standalone layer).
 //! * On a `BasisCurves` prim: `point3f[] points`, `int[] curveVertexCounts`, `float[] widths`
@@ -25,9 +26,12 @@
 //!   end (an approximation). `pinned` B-spline and Catmull–Rom curves get the phantom end
 //!   points `2c₀ − c₁` and `2c_{n−1} − c_{n−2}` (and widths extrapolated the same way,
 //!   clamped at 0) so that the curve reaches its end points.
-//! * Everything else — other prims and properties, relationships, variant sets, metadata,
-//!   dictionaries, time samples of properties not read here — is skipped with its balanced
-//!   brackets. Time-sampled `points` (animation) are refused. All the curves of a file must
+//! * Composition is not read, and refused rather than left out: `references`, `payload`,
+//!   `subLayers`, `inherits` and `specializes` in metadata, and prims inside
+//!   variant sets, are errors that say to flatten the stage first (`usdcat --flatten`).
+//! * Everything else — other prims and properties, relationships, variant sets without prims,
+//!   metadata, dictionaries, time samples of properties not read here — is skipped with its
+//!   balanced brackets. Time-sampled `points` (animation) are refused. All the curves of a file must
 //!   share one type and basis.
 //!
 //! Every malformed input is an error naming the file, the line and the column and what was
@@ -63,8 +67,7 @@ pub(crate) fn count(path: &Path) -> Result<(u64, Strands), StrandsError> {
 }
 
 fn load(path: &Path) -> Result<String, StrandsError> {
-    let bytes = std::fs::read(path).map_err(|error| StrandsError::Io { path: path.into(), error })?;
-    utf8_text(path, bytes)
+    utf8_text(path, crate::input_file::read_bytes(path)?)
 }
 
 /// Writes `strands` as a `.usda` layer (module docs), atomically.
@@ -350,6 +353,16 @@ struct Parser<'a> {
     count_only: bool,
 }
 
+/// How deep prims may nest (the reader recurses once per level; deeper files are refused
+/// before the stack could overflow).
+pub const MAX_PRIM_DEPTH: usize = 256;
+
+/// How deep the tuples of a value may nest (a matrix is two levels).
+pub const MAX_TUPLE_DEPTH: usize = 8;
+
+/// Metadata entries that compose other layers or prims into this one: refused.
+const COMPOSITION_ARCS: [&str; 5] = ["references", "payload", "subLayers", "inherits", "specializes"];
+
 fn parse(text: &str, path: &Path, count_only: bool) -> Result<Strands, StrandsError> {
     let located = |(offset, message): Located| {
         let (line, column) = line_column(text, offset);
@@ -389,6 +402,16 @@ fn parse(text: &str, path: &Path, count_only: bool) -> Result<Strands, StrandsEr
         }
         let m = prim.to_parent;
         let scale = det3(&m).abs().cbrt();
+        if !(scale > 0.0 && scale.is_finite()) {
+            return Err(located((
+                prim.offset,
+                format!(
+                    "the prim's transform is singular (a scale of 0 along some axis: |det| = {:e}); its curves would \
+                     have no width",
+                    det3(&m).abs()
+                ),
+            )));
+        }
         for (i, q) in prim.points.iter().enumerate() {
             let p = q.map(f64::from);
             let h: Vec<f64> = (0..4).map(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]).collect();
@@ -411,12 +434,12 @@ fn parse(text: &str, path: &Path, count_only: bool) -> Result<Strands, StrandsEr
 impl<'a> Parser<'a> {
     fn layer(&mut self) -> Result<Vec<CurvePrim>, Located> {
         if self.lx.peek()?.is_some_and(|t| t.is("(")) {
-            self.skip_balanced()?;
+            self.metadata()?;
         }
         let mut prims = Vec::new();
         while let Some(t) = self.lx.next()? {
             match t.text {
-                "def" | "over" | "class" if t.kind == Kind::Ident => prims.extend(self.prim(t, t.text == "def")?),
+                "def" | "over" | "class" if t.kind == Kind::Ident => prims.extend(self.prim(t, t.text == "def", 1)?),
                 _ => {
                     return Err((
                         t.offset,
@@ -431,6 +454,15 @@ impl<'a> Parser<'a> {
     /// Skips one value or bracketed group starting at the next token: `( … )`, `[ … ]`,
     /// `{ … }` with their nesting checked, or a single token.
     fn skip_balanced(&mut self) -> Result<(), Located> {
+        self.scan_balanced(|_, _| Ok(()))
+    }
+
+    /// [`Self::skip_balanced`], handing every token inside the brackets to `inside` with its
+    /// bracket depth (1: directly inside the first bracket).
+    fn scan_balanced(
+        &mut self,
+        mut inside: impl FnMut(usize, Token<'a>) -> Result<(), Located>,
+    ) -> Result<(), Located> {
         let first = self.lx.expect("a value")?;
         let close = match first.text {
             "(" if first.kind == Kind::Punct => ")",
@@ -448,6 +480,7 @@ impl<'a> Parser<'a> {
                 format!("this bracket is never closed (expected `{want}` before the end of the file)"),
             ))?;
             if t.kind != Kind::Punct {
+                inside(stack.len(), t)?;
                 continue;
             }
             match t.text {
@@ -473,9 +506,33 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
+    /// Skips a `( … )` metadata block, refusing the composition arcs among its entries
+    /// ([`COMPOSITION_ARCS`]): what they would bring in is not read, and leaving it out without
+    /// a word would render a different groom.
+    fn metadata(&mut self) -> Result<(), Located> {
+        self.scan_balanced(|depth, t| {
+            if depth == 1 && t.kind == Kind::Ident && COMPOSITION_ARCS.contains(&t.text) {
+                return Err((
+                    t.offset,
+                    format!(
+                        "`{}`: fiberlab reads the curves of this one layer and does not compose others \
+                         (references, payloads, sublayers, inherits, specializes); flatten the stage first, \
+                         e.g. `usdcat --flatten in.usda -o flat.usda`",
+                        t.text
+                    ),
+                ));
+            }
+            Ok(())
+        })
+    }
+
     /// A prim after its specifier; returns its curves (and its descendants') with the prim's
-    /// transform applied.
-    fn prim(&mut self, spec: Token<'a>, defines: bool) -> Result<Vec<CurvePrim>, Located> {
+    /// transform applied. `depth` is its nesting depth (1 for a prim of the layer), at most
+    /// [`MAX_PRIM_DEPTH`]: checked before the prim is read, so no input overflows the stack.
+    fn prim(&mut self, spec: Token<'a>, defines: bool, depth: usize) -> Result<Vec<CurvePrim>, Located> {
+        if depth > MAX_PRIM_DEPTH {
+            return Err((spec.offset, format!("prims nest more than {MAX_PRIM_DEPTH} deep")));
+        }
         let mut type_name = None;
         let mut name = self.lx.expect("a prim type or name")?;
         if name.kind == Kind::Ident {
@@ -489,7 +546,7 @@ impl<'a> Parser<'a> {
             ));
         }
         if self.lx.peek()?.is_some_and(|t| t.is("(")) {
-            self.skip_balanced()?;
+            self.metadata()?;
         }
         let open = self.lx.punct("{", "to open the prim's body")?;
         let mut props = Props::default();
@@ -507,11 +564,20 @@ impl<'a> Parser<'a> {
                 return Err((t.offset, format!("expected a property, a child prim or `}}`, found {}", t.describe())));
             }
             match t.text {
-                "def" | "over" | "class" => children.extend(self.prim(t, defines && t.text == "def")?),
+                "def" | "over" | "class" => children.extend(self.prim(t, defines && t.text == "def", depth + 1)?),
                 "variantSet" => {
                     let _name = self.lx.expect("the variant set's name")?;
                     self.lx.punct("=", "after the variant set's name")?;
-                    self.skip_balanced()?;
+                    // Prims inside a variant are not read: refused rather than left out.
+                    self.scan_balanced(|_, t| match t.text {
+                        "def" | "over" | "class" if t.kind == Kind::Ident => Err((
+                            t.offset,
+                            "a prim inside a variant set: fiberlab does not select variants; flatten the \
+                             stage first, e.g. `usdcat --flatten in.usda -o flat.usda`"
+                                .to_string(),
+                        )),
+                        _ => Ok(()),
+                    })?;
                 }
                 "rel" => {
                     let _name = self.lx.expect("the relationship's name")?;
@@ -668,7 +734,7 @@ impl<'a> Parser<'a> {
             }
             _ => {
                 let mut v = Vec::new();
-                self.numbers_nested(&mut v)?;
+                self.numbers_nested(&mut v, 0)?;
                 props.ops.push((base.to_string(), at, v));
             }
         }
@@ -822,8 +888,11 @@ impl<'a> Parser<'a> {
     }
 
     /// The numbers of a value, flattened through nested tuples: `1`, `(1, 2, 3)`, `((…), …)`.
-    fn numbers_nested(&mut self, out: &mut Vec<f64>) -> Result<(), Located> {
+    fn numbers_nested(&mut self, out: &mut Vec<f64>, depth: usize) -> Result<(), Located> {
         let t = self.lx.expect("a number or a tuple")?;
+        if depth > MAX_TUPLE_DEPTH {
+            return Err((t.offset, format!("tuples nest more than {MAX_TUPLE_DEPTH} deep")));
+        }
         if t.kind == Kind::Number {
             return match t.text.parse::<f64>() {
                 Ok(v) if v.is_finite() => {
@@ -837,7 +906,7 @@ impl<'a> Parser<'a> {
             return Err((t.offset, format!("expected a number or `(`, found {}", t.describe())));
         }
         loop {
-            self.numbers_nested(out)?;
+            self.numbers_nested(out, depth + 1)?;
             let sep = self.lx.expect("`,` or `)`")?;
             if sep.is(")") {
                 return Ok(());

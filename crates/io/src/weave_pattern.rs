@@ -29,14 +29,9 @@ use thiserror::Error;
 #[non_exhaustive]
 #[derive(Debug, Error)]
 pub enum WeavePatternError {
-    /// The file could not be read.
-    #[error("{file}: {source}")]
-    Io {
-        /// The file.
-        file: String,
-        /// The cause.
-        source: std::io::Error,
-    },
+    /// The file could not be opened or read ([`crate::input_file`]); the error names it.
+    #[error(transparent)]
+    Input(crate::input_file::InputError),
     /// A line could not be read.
     #[error("{file}:{line}: field `{field}`: {message}")]
     Syntax {
@@ -50,21 +45,23 @@ pub enum WeavePatternError {
         message: String,
     },
     /// The pattern is complete but invalid (grid size, ids, ranges).
-    #[error("{file}:{line}: {source}")]
+    #[error("{file}:{line}: {error}")]
     Invalid {
         /// The file.
         file: String,
-        /// The line that the error concerns (the `pattern` line for grid errors).
+        /// The line that the error concerns: the line giving the field (the `pattern` line for
+        /// grid errors).
         line: usize,
-        /// The model's validation error (names the field).
-        source: PatternError,
+        /// The model's validation error (names the field). Shown in the message, not chained,
+        /// so that it is not printed twice.
+        error: PatternError,
     },
 }
 
 /// Reads a pattern file.
 pub fn read_weave_pattern(path: &Path) -> Result<WeavePattern, WeavePatternError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| WeavePatternError::Io { file: file.clone(), source })?;
+    let text = crate::input_file::read_text(path).map_err(WeavePatternError::Input)?;
     parse_weave_pattern(&text, &file)
 }
 
@@ -102,7 +99,8 @@ impl Reader<'_> {
 pub fn parse_weave_pattern(text: &str, file: &str) -> Result<WeavePattern, WeavePatternError> {
     let r = Reader { file };
     let (mut tile, mut tile_line) = (None, 0);
-    let mut scalars: [(&str, Option<f64>); 6] =
+    // Each scalar with its value and the line that gave it.
+    let mut scalars: [(&str, Option<(f64, usize)>); 6] =
         [("alpha", None), ("beta", None), ("ss", None), ("hwidth", None), ("warp_area", None), ("weft_area", None)];
     let mut yarns: Vec<YarnSegment> = Vec::new();
     let mut yarn_lines: Vec<usize> = Vec::new();
@@ -128,6 +126,9 @@ pub fn parse_weave_pattern(text: &str, file: &str) -> Result<WeavePattern, Weave
         }
         match key {
             "tile" => {
+                if tile.is_some() {
+                    return Err(r.err(line, "tile", format!("given twice (first at line {tile_line})")));
+                }
                 let vals: Vec<&str> = words.collect();
                 let [w, h] = vals.as_slice() else {
                     return Err(r.err(line, "tile", "expected `tile WIDTH HEIGHT`"));
@@ -140,6 +141,9 @@ pub fn parse_weave_pattern(text: &str, file: &str) -> Result<WeavePattern, Weave
                 tile_line = line;
             }
             "pattern" => {
+                if words.next().is_some() {
+                    return Err(r.err(line, "pattern", "expected `pattern` alone on its line, the rows below it"));
+                }
                 in_pattern = true;
                 pattern_line = line;
             }
@@ -202,17 +206,25 @@ pub fn parse_weave_pattern(text: &str, file: &str) -> Result<WeavePattern, Weave
                     .iter_mut()
                     .find(|(name, _)| *name == key)
                     .ok_or_else(|| r.err(line, key, "unknown keyword"))?;
+                if let Some((_, first)) = slot.1 {
+                    return Err(r.err(line, key, format!("given twice (first at line {first})")));
+                }
                 let value = words.next().ok_or_else(|| r.err(line, key, "missing value"))?;
                 if words.next().is_some() {
                     return Err(r.err(line, key, "expected one value"));
                 }
-                slot.1 = Some(r.number(line, key, value)?);
+                slot.1 = Some((r.number(line, key, value)?, line));
             }
         }
     }
     let (width, height) = tile.ok_or_else(|| r.err(0, "tile", "missing"))?;
     let scalar = |name: &str| {
-        scalars.iter().find(|(n, _)| *n == name).and_then(|(_, v)| *v).ok_or_else(|| r.err(0, name, "missing"))
+        scalars
+            .iter()
+            .find(|(n, _)| *n == name)
+            .and_then(|(_, v)| *v)
+            .map(|(x, _)| x)
+            .ok_or_else(|| r.err(0, name, "missing"))
     };
     if !in_pattern {
         return Err(r.err(0, "pattern", "missing"));
@@ -248,18 +260,23 @@ pub fn parse_weave_pattern(text: &str, file: &str) -> Result<WeavePattern, Weave
         warp_area: scalar("warp_area")?,
         weft_area: scalar("weft_area")?,
     };
-    pattern.validate().map_err(|source| {
-        // Point at the yarn's line for per-yarn errors, the pattern line otherwise.
-        let line = match &source {
-            PatternError::Value { field, .. } => field
-                .strip_prefix("yarn ")
-                .and_then(|rest| rest.split(':').next())
-                .and_then(|n| n.parse::<usize>().ok())
-                .and_then(|n| yarn_lines.get(n - 1).copied())
-                .unwrap_or(pattern_line),
+    pattern.validate().map_err(|error| {
+        // Point at the line that gave the field: the yarn's for per-yarn errors, the scalar's
+        // for the scalars, the tile's or the pattern's for the grid.
+        let line = match &error {
+            PatternError::Value { field, .. } => match field.strip_prefix("yarn ") {
+                Some(rest) => rest
+                    .split(':')
+                    .next()
+                    .and_then(|n| n.parse::<usize>().ok())
+                    .and_then(|n| yarn_lines.get(n.wrapping_sub(1)).copied())
+                    .unwrap_or(pattern_line),
+                None => scalars.iter().find(|(n, _)| n == field).and_then(|(_, v)| *v).map_or(pattern_line, |(_, l)| l),
+            },
+            PatternError::Empty("tile") => tile_line,
             _ => pattern_line,
         };
-        WeavePatternError::Invalid { file: file.into(), line, source }
+        WeavePatternError::Invalid { file: file.into(), line, error }
     })?;
     Ok(pattern)
 }
@@ -356,5 +373,23 @@ pattern\n1 2\n2 1\n";
         assert!(matches!(e, WeavePatternError::Invalid { line: 9, .. }), "{e}");
         let text = e.to_string();
         assert!(text.starts_with("x.wv:9:") && text.contains("yarn 2: umax"), "{text}");
+    }
+
+    /// A pattern-wide value out of range is reported at the line that gives it (not at the
+    /// pattern's), once; `tile` and the scalars may be given once.
+    #[test]
+    fn range_errors_point_at_their_line_and_keys_are_given_once() {
+        let e = parse_weave_pattern(&LINING.replace("alpha 0.015", "alpha 50"), "x.wv").unwrap_err();
+        let line = LINING.lines().position(|l| l.starts_with("alpha")).unwrap() + 1;
+        assert!(matches!(e, WeavePatternError::Invalid { line: l, .. } if l == line), "{e}");
+        let text = e.to_string();
+        assert_eq!(text.matches("alpha").count(), 1, "said once: {text}");
+        assert!(std::error::Error::source(&e).is_none(), "not chained, so not printed twice");
+        let tile = LINING.lines().position(|l| l.starts_with("tile")).unwrap() + 1;
+        let twice = LINING.replace("alpha 0.015\n", "alpha 0.015\ntile 2 2\n");
+        assert_eq!(syntax(&twice), (tile + 2, "tile".into()));
+        assert!(parse_weave_pattern(&twice, "x.wv").unwrap_err().to_string().contains("given twice (first at line"));
+        let again = LINING.replace("beta 4\n", "beta 4\nbeta 5\n");
+        assert_eq!(syntax(&again).1, "beta");
     }
 }

@@ -308,7 +308,7 @@ def Xform "root" (
     }
     class "template" { }
     over "elsewhere" { def BasisCurves "ignored" { int[] curveVertexCounts = [2] } }
-    variantSet "lod" = { "high" { def BasisCurves "hidden" { } } }
+    variantSet "lod" = { "high" { float detail = 1 } }
     def BasisCurves "hair" (
         prepend apiSchemas = ["MaterialBindingAPI"]
     )
@@ -467,6 +467,90 @@ fn usda_malformed_text_names_the_line_the_column_and_what_was_expected() {
     assert!(e.contains("2:28: unterminated string"), "{e}");
     let e = usda("#usda 1.0\n}\n").unwrap_err();
     assert!(e.contains("2:1: expected a prim"), "{e}");
+}
+
+/// Composition is refused where it would change the groom, never left out without a word:
+/// references, payloads, sublayers, inherits and specializes in metadata, prims inside
+/// variant sets. The error names the line and says to flatten the stage.
+#[test]
+fn usda_composition_is_refused_at_its_place() {
+    let prim = "def BasisCurves \"c\" {\n    uniform token type = \"linear\"\n    int[] curveVertexCounts = [2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n}\n";
+    for (text, at, what) in [
+        (format!("#usda 1.0\n(\n    subLayers = [@groom.usda@]\n)\n{prim}"), "hair.usda:3:5:", "`subLayers`"),
+        (
+            format!("#usda 1.0\ndef Xform \"g\" (\n    prepend references = @groom.usda@\n)\n{{\n}}\n{prim}"),
+            "hair.usda:3:13:",
+            "`references`",
+        ),
+        (
+            format!("#usda 1.0\ndef Xform \"g\" (\n    payload = @big.usda@</hair>\n)\n{{\n}}\n{prim}"),
+            "hair.usda:3:5:",
+            "`payload`",
+        ),
+        (format!("#usda 1.0\ndef Xform \"g\" ( inherits = </c> )\n{{\n}}\n{prim}"), "hair.usda:2:17:", "`inherits`"),
+        (
+            format!(
+                "#usda 1.0\ndef Xform \"g\"\n{{\n    variantSet \"v\" = {{ \"a\" {{ {} }} }}\n}}\n",
+                prim.replace('\n', " ")
+            ),
+            "hair.usda:4:30:",
+            "a prim inside a variant set",
+        ),
+    ] {
+        let e = usda(&text).unwrap_err();
+        assert!(e.starts_with(at) && e.contains(what) && e.contains("flatten"), "{text}\n→ {e}");
+    }
+}
+
+/// Deep nesting is refused before the reader recurses past its limits: 8,000 nested prims
+/// (which overflowed the stack) and deeply nested tuples end in an error at the prim or
+/// tuple past the limit.
+#[test]
+fn usda_deep_nesting_is_an_error_not_a_stack_overflow() {
+    let depth = 8000;
+    let mut text = String::from("#usda 1.0\n");
+    for i in 0..depth {
+        text.push_str(&format!("def Xform \"p{i}\" {{\n"));
+    }
+    text.push_str(&"}\n".repeat(depth));
+    let e = usda(&text).unwrap_err();
+    let line = usda_curves::MAX_PRIM_DEPTH + 2;
+    assert!(e.starts_with(&format!("hair.usda:{line}:1: prims nest more than 256 deep")), "{e}");
+    let open = "(".repeat(100_000);
+    let e = usda(&format!("#usda 1.0\ndef Xform \"a\" {{ matrix4d xformOp:transform = {open} }}\n")).unwrap_err();
+    assert!(e.contains("tuples nest more than 8 deep"), "{e}");
+}
+
+/// Files that include the next twice make 2^depth reads within the depth limit: the reads
+/// are counted in all, and refused past `MAX_FILES_READ`; instances of instances are
+/// checked against the memory budget before each copy.
+#[test]
+fn pbrt_include_fan_out_and_instancing_are_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    let levels = 25;
+    for i in 0..levels {
+        write(dir.path(), &format!("f{i}.pbrt"), &format!("Include \"f{n}.pbrt\"\nInclude \"f{n}.pbrt\"\n", n = i + 1));
+    }
+    write(dir.path(), &format!("f{levels}.pbrt"), "# leaf\n");
+    let t = std::time::Instant::now();
+    let e = strand_files::read(&dir.path().join("f0.pbrt")).unwrap_err().to_string();
+    assert!(e.contains(&format!("more than {} files read in all", pbrt_curves::MAX_FILES_READ)), "{e}");
+    assert!(e.contains(":2:9:") || e.contains(":1:9:"), "the error is at an Include: {e}");
+    // Not a timed assertion: the bound is what makes it quick; printed for the record.
+    eprintln!("fan-out refused after {:.2} s", t.elapsed().as_secs_f64());
+    // Each level instances the previous one 1000 times: 4·1000² points at the third level,
+    // more than a budget of 32 MiB (set for this test binary, whose other reads are small).
+    fiberlab_io::memory_budget::set_limit(Some(32 << 20));
+    let mut text =
+        String::from("ObjectBegin \"o0\"\nShape \"curve\" \"point3 P\" [0 0 0 1 0 0 2 0 0 3 0 0]\nObjectEnd\n");
+    for level in 1..4 {
+        text.push_str(&format!("ObjectBegin \"o{level}\"\n"));
+        text.push_str(&format!("ObjectInstance \"o{}\"\n", level - 1).repeat(1000));
+        text.push_str("ObjectEnd\n");
+    }
+    text.push_str("ObjectInstance \"o3\"\n");
+    let e = pbrt(&text).unwrap_err();
+    assert!(e.contains("ObjectInstance") && e.contains("curve points needs ~"), "{e}");
 }
 
 // ---------------------------------------------------------------- round trips

@@ -1,11 +1,11 @@
 //! `fiberlab._native.hair_*`: `.hair` strand files (`fiberlab_io::hair`) and the procedural
 //! generator of `fiberlab hair generate` (`fiberlab_procedural::generator`) as arrays.
 
-use fiberlab_io::{Format, HairFile, strand_files};
+use fiberlab_io::{Format, HairError, HairFile, StrandsError, strand_files};
 use fiberlab_procedural::generator::HairParams;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyMemoryError, PyValueError};
 use pyo3::prelude::*;
 
 /// What reading returns: `(points (N, 3) float32, points per strand (S,) int64, thickness
@@ -37,18 +37,35 @@ pub(crate) fn hair_read<'py>(
     path: std::path::PathBuf,
     segments_per_curve: usize,
 ) -> PyResult<Strands<'py>> {
-    let error = |e: &dyn std::fmt::Display| PyValueError::new_err(e.to_string());
     if !(1..=1024).contains(&segments_per_curve) {
         return Err(PyValueError::new_err(format!("segments_per_curve = {segments_per_curve}: expected 1 to 1024")));
     }
-    let hair = match Format::of(&path).map_err(|e| error(&e))? {
-        Format::Hair => HairFile::read(&path).map_err(|e| error(&e))?,
+    let hair = match Format::of(&path).map_err(|e| strands_error(&e))? {
+        Format::Hair => HairFile::read(&path).map_err(|e| hair_error(&e))?,
         _ => strand_files::read(&path)
             .and_then(|s| s.to_polylines(segments_per_curve))
             .and_then(|s| s.to_hair())
-            .map_err(|e| error(&e))?,
+            .map_err(|e| strands_error(&e))?,
     };
     Ok(strands(py, &hair))
+}
+
+/// A hair file's error: `MemoryError` for more than the memory budget, `ValueError` otherwise.
+fn hair_error(e: &HairError) -> PyErr {
+    match e {
+        HairError::Input(i) => crate::input_error(i),
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// [`hair_error`] for the other formats.
+fn strands_error(e: &StrandsError) -> PyErr {
+    match e {
+        StrandsError::Input(i) => crate::input_error(i),
+        StrandsError::Hair(h) => hair_error(h),
+        StrandsError::Inconsistent(m) if m.contains("needs ~") => PyMemoryError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    }
 }
 
 /// Writes a `.hair` file from all points `(N, 3)` float32, the points per strand `(S,)` (each
@@ -80,6 +97,12 @@ pub(crate) fn hair_write(
         Some(t) => Some(t.as_slice().map_err(|_| bad("thickness: expected a contiguous array".into()))?.to_vec()),
         None => None,
     };
+    // The format follows the name, as everywhere else: `.hair` or `.usda`; a pbrt file or an
+    // unknown extension is refused (not written as `.hair` bytes under another name).
+    let format = Format::of(&path).map_err(|e| strands_error(&e))?;
+    if format == Format::Pbrt {
+        return Err(bad(format!("{}: writing pbrt files is not supported; write .hair or .usda", path.display())));
+    }
     let hair = HairFile {
         segments: Some(segments),
         points: p.chunks_exact(3).map(|v| [v[0], v[1], v[2]]).collect(),
@@ -88,7 +111,13 @@ pub(crate) fn hair_write(
         default_thickness,
         ..HairFile::default()
     };
-    hair.write(&path).map_err(|e| PyValueError::new_err(e.to_string()))
+    match format {
+        Format::Hair => hair.write(&path).map_err(|e| hair_error(&e)),
+        _ => {
+            hair.validate().map_err(|e| hair_error(&e))?;
+            strand_files::write(&path, &fiberlab_io::Strands::from(&hair), 1).map_err(|e| strands_error(&e))
+        }
+    }
 }
 
 /// Grows procedural hair like `fiberlab hair generate`, from the generator's parameters as
@@ -98,6 +127,10 @@ pub(crate) fn hair_write(
 pub(crate) fn hair_generate<'py>(py: Python<'py>, toml_text: &str) -> PyResult<Strands<'py>> {
     let params: HairParams =
         toml::from_str(toml_text).map_err(|e| PyValueError::new_err(format!("hair generator: {}", e.message())))?;
+    crate::check_memory(&[fiberlab_io::memory_budget::Need::new(
+        format!("hair {} strands × {} segments", params.strands, params.segments),
+        params.estimated_bytes(),
+    )])?;
     let hair = py.detach(|| params.generate()).map_err(|e| PyValueError::new_err(e.to_string()))?;
     Ok(strands(py, &hair))
 }

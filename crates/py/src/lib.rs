@@ -11,6 +11,14 @@
 //! checked like the command line checks them: finite, length within 1e−3 of 1 (then
 //! normalized), `h` in [−1, 1]; a bad value raises `ValueError` naming the array and the
 //! flat index of the first bad element.
+//!
+//! Every call that allocates in proportion to its input (the output arrays, a render's image
+//! and scene, a measurement's bins, generated hair) first runs the command line's memory
+//! check ([`fiberlab_io::memory_budget`]) and raises `MemoryError` with its message when the
+//! estimate is above what the process may use; the arrays themselves are allocated by NumPy,
+//! whose failure is a `MemoryError` too, never a panic. Files are opened like the command
+//! line opens them ([`fiberlab_io::input_file`]): a FIFO or a device raises `ValueError`, a
+//! file larger than the memory budget `MemoryError`.
 
 mod bench;
 mod check;
@@ -26,7 +34,7 @@ use fiberlab_render::model_loader::{AnyModel, ModelRequest};
 use fiberlab_scatter::params::{ParamKind, RawValue};
 use fiberlab_scatter::{Field, Lobes, Model, Sample, ScatteringFunction, SurfaceModel, SurfaceScattering};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyMemoryError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use rayon::prelude::*;
@@ -188,13 +196,36 @@ pub(crate) fn slice<'a, D: numpy::ndarray::Dimension>(
     a.as_slice().map_err(|_| PyValueError::new_err(format!("{name}: expected a C-contiguous float64 array")))
 }
 
+/// Checks `needs` with the command line's memory check; `MemoryError` with its message when
+/// they are above the budget.
+pub(crate) fn check_memory(needs: &[fiberlab_io::memory_budget::Need]) -> PyResult<()> {
+    fiberlab_io::memory_budget::check_needs(needs).map_err(|e| PyMemoryError::new_err(e.to_string()))
+}
+
+/// An input file's error: `MemoryError` for a file larger than the memory budget,
+/// `ValueError` otherwise (not a regular file, unreadable, not UTF-8).
+pub(crate) fn input_error(e: &fiberlab_io::input_file::InputError) -> PyErr {
+    match e {
+        fiberlab_io::input_file::InputError::TooLarge { .. } => PyMemoryError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
 /// A zeroed C-contiguous NumPy array of `shape`, allocated by NumPy (so that Python's
-/// `tracemalloc` accounts for it) for a loop to fill in place.
+/// `tracemalloc` accounts for it) for a loop to fill in place; its bytes are checked against
+/// the memory budget first (`MemoryError`), and an allocation NumPy cannot make is
+/// NumPy's `MemoryError`.
 fn output<'py, T: numpy::Element + Copy, D: numpy::ndarray::Dimension>(
     py: Python<'py>,
+    what: &str,
     shape: D,
-) -> Bound<'py, numpy::PyArray<T, D>> {
-    numpy::PyArray::<T, D>::zeros(py, shape, false)
+) -> PyResult<Bound<'py, numpy::PyArray<T, D>>> {
+    let dims = shape.slice().to_vec();
+    let elements = dims.iter().try_fold(1u64, |n, &d| n.checked_mul(d as u64));
+    let bytes = elements.and_then(|n| n.checked_mul(std::mem::size_of::<T>() as u64));
+    check_memory(&[fiberlab_io::memory_budget::Need::new(format!("{what} {dims:?}"), bytes)])?;
+    let zeros = py.import("numpy")?.call_method1("zeros", (dims, numpy::dtype::<T>(py)))?;
+    Ok(zeros.cast_into::<numpy::PyArray<T, D>>()?)
 }
 
 /// What `eval_pdf`-like calls compute per direction pair.
@@ -357,12 +388,12 @@ impl PyModel {
         let n = h.len();
         Ok(match quantity {
             Quantity::Pdf => {
-                let out = output::<f64, _>(py, numpy::ndarray::Ix1(n));
+                let out = output::<f64, _>(py, "pdf array", numpy::ndarray::Ix1(n))?;
                 self.map_pairs(py, wi, wo, h, quantity, out.readwrite().as_slice_mut().expect("contiguous"))?;
                 out.into_any()
             }
             _ => {
-                let out = output::<f64, _>(py, numpy::ndarray::Ix2(n, 3));
+                let out = output::<f64, _>(py, "f_s array", numpy::ndarray::Ix2(n, 3))?;
                 self.map_pairs(py, wi, wo, h, quantity, out.readwrite().as_slice_mut().expect("contiguous"))?;
                 out.into_any()
             }
@@ -397,11 +428,14 @@ impl PyModel {
         if u.len() != 4 * n {
             return Err(PyValueError::new_err(format!("u: expected {n} rows of 4 uniforms, got {} values", u.len())));
         }
+        // The four outputs together, then each.
+        let per_sample = 3 * 8 + 3 * 8 + 8 + 4;
+        check_memory(&[fiberlab_io::memory_budget::Need::items(format!("{n} samples"), n as u64, per_sample)])?;
         let arrays = (
-            output::<f64, _>(py, numpy::ndarray::Ix2(n, 3)),
-            output::<f64, _>(py, numpy::ndarray::Ix2(n, 3)),
-            output::<f64, _>(py, numpy::ndarray::Ix1(n)),
-            output::<i32, _>(py, numpy::ndarray::Ix1(n)),
+            output::<f64, _>(py, "wi array", numpy::ndarray::Ix2(n, 3))?,
+            output::<f64, _>(py, "weight array", numpy::ndarray::Ix2(n, 3))?,
+            output::<f64, _>(py, "pdf array", numpy::ndarray::Ix1(n))?,
+            output::<i32, _>(py, "lobe array", numpy::ndarray::Ix1(n))?,
         );
         let valid = {
             let (mut wi, mut weight, mut pdf, mut lobe) =
@@ -527,7 +561,11 @@ fn image_array<'py>(py: Python<'py>, image: &fiberlab_io::LinearImage) -> Bound<
 /// Reads the R, G, B channels of an OpenEXR file as an `(H, W, 3)` float32 array.
 #[pyfunction]
 fn read_exr<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, numpy::PyArray3<f32>>> {
-    let image = fiberlab_io::LinearImage::read_exr(&path).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let image = fiberlab_io::LinearImage::read_exr(&path).map_err(|e| match &e {
+        fiberlab_io::ImageError::Input(i) => input_error(i),
+        _ if e.to_string().contains("needs ~") => PyMemoryError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    })?;
     Ok(image_array(py, &image))
 }
 
@@ -577,6 +615,9 @@ fn render<'py>(
     use std::sync::atomic::AtomicU64;
     let scene_error = |e: fiberlab_render::scene_file::SceneError| PyValueError::new_err(e.to_string());
     let file = scene_file(path.as_deref(), text.as_deref(), "render")?;
+    // The command line's check, before anything is built: the image, the hair, its BVH.
+    fiberlab_io::memory_budget::check_needs(&file.memory_estimate().map_err(scene_error)?.needs())
+        .map_err(|e| PyMemoryError::new_err(format!("render: {e}")))?;
     let device =
         fiberlab_gpu::DeviceChoice::named(&device).map_err(|e| PyValueError::new_err(format!("render: {e}")))?;
     let options =
@@ -584,7 +625,16 @@ fn render<'py>(
     let request = options.validate(&file).map_err(|e| PyValueError::new_err(format!("render: {e}")))?;
     let (scene, settings, gpu) = py.detach(|| -> PyResult<_> {
         let (scene, _) = file.build().map_err(scene_error)?;
-        let settings = request.settings_for(&scene).map_err(|e| PyValueError::new_err(format!("render: {e}")))?;
+        let settings = request.settings_for(&scene).map_err(|e| {
+            use fiberlab_render::dual_scattering::{DualScatteringError, IntegratorError};
+            match e {
+                // The density grid is checked against the memory budget: MemoryError.
+                IntegratorError::DualScattering(DualScatteringError::Memory(_)) => {
+                    PyMemoryError::new_err(format!("render: {e}"))
+                }
+                _ => PyValueError::new_err(format!("render: {e}")),
+            }
+        })?;
         let (gpu, _note) = fiberlab_gpu::render_device::open(device)
             .map_err(|e| PyValueError::new_err(format!("render: device: {e}")))?;
         Ok((scene, settings, gpu))

@@ -52,6 +52,18 @@ pub(crate) fn measure<'py>(
     let setups: Vec<Setup> =
         theta_i.iter().map(|&t| Setup { theta_i: t, phi_i, rays, bins_theta, bins_phi, seed }).collect();
     setups[0].check_bins().map_err(|e| PyValueError::new_err(e.to_string()))?;
+    // The command line's check: one measurement in flight and the tables of every incidence.
+    let kept = setups[0]
+        .bin_count()
+        .and_then(|b| b.checked_mul(fiberlab_gonio::RESULT_BYTES_PER_BIN))
+        .and_then(|b| b.checked_mul(setups.len() as u64));
+    crate::check_memory(&[
+        fiberlab_io::memory_budget::Need::new(
+            format!("goniophotometer bins {bins_theta}×{bins_phi}"),
+            setups[0].estimated_bytes(rayon::current_num_threads()),
+        ),
+        fiberlab_io::memory_budget::Need::new(format!("tables of {} incidences", setups.len()), kept),
+    ])?;
     let measurements = crate::interrupt::interruptible(
         py,
         |stop| {

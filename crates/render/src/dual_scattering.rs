@@ -220,7 +220,13 @@ impl DualScatteringSettings {
                 "d_f" => s.forward_density = number()?,
                 "d_b" => s.backward_density = number()?,
                 "k_back" => s.back_scale = number()?,
-                "grid" => s.grid_resolution = (number()? as usize).max(1),
+                "grid" => {
+                    let n = number()?;
+                    if !(n >= 1.0 && n.fract() == 0.0) {
+                        return Err(format!("dual grid = {value}: expected a whole number of cells ≥ 1"));
+                    }
+                    s.grid_resolution = n as usize;
+                }
                 "grid_near" => s.grid_near_cells = number()?,
                 "cutoff" => s.count_cutoff = number()?,
                 "bounce_cutoff" => s.bounce_cutoff = number()?,
@@ -287,6 +293,9 @@ pub enum DualScatteringError {
     /// The scene has no fibers.
     #[error("dual scattering needs fibers, and the scene has none (use integrator = \"path\")")]
     NoFibers,
+    /// A table or grid would exceed the memory budget.
+    #[error("dual scattering: {0}")]
+    Memory(String),
     /// `bounce_probability` outside (0, 1].
     #[error("dual scattering: bounce probability {0} must be in (0, 1]")]
     BounceProbability(f64),
@@ -354,7 +363,8 @@ impl DualScattering {
         }
         let grid = match settings.count {
             FiberCount::Exact => None,
-            FiberCount::Grid => DensityGrid::build(scene, settings.grid_resolution),
+            FiberCount::Grid => DensityGrid::build(scene, settings.grid_resolution)
+                .map_err(|e| DualScatteringError::Memory(e.to_string()))?,
         };
         Ok(Self { tables, grid, settings })
     }

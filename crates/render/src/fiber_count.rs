@@ -103,21 +103,28 @@ pub struct DensityGrid {
 
 impl DensityGrid {
     /// The grid over every assembly's bounds, `resolution` cells along the longest side
-    /// (`None` without fibers). Segments are cut into pieces of at most a quarter cell,
+    /// (`Ok(None)` without fibers). Segments are cut into pieces of at most a quarter cell,
     /// each deposited in the cell of its midpoint. The crossings report the first
-    /// assembly's material.
-    #[must_use]
-    pub fn build(scene: &Scene, resolution: usize) -> Option<Self> {
-        let first = scene.fibers().first()?;
+    /// assembly's material. The cells are checked against the memory budget
+    /// ([`fiberlab_io::memory_budget`]) before they are allocated.
+    pub fn build(scene: &Scene, resolution: usize) -> Result<Option<Self>, fiberlab_io::memory_budget::MemoryError> {
+        let Some(first) = scene.fibers().first() else { return Ok(None) };
         let bounds =
             scene.fibers().iter().fold(fiberlab_geometry::bvh::Aabb::EMPTY, |b, f| b.union(f.curves().bounds()));
         let extent = bounds.max - bounds.min;
         if !(extent.max_element() > 0.0 && extent.max_element().is_finite()) {
-            return None;
+            return Ok(None);
         }
         let resolution = resolution.max(1);
         let cell = extent.max_element() / resolution as f64;
-        let dims = [0, 1, 2].map(|a| ((extent[a] / cell).ceil() as usize).max(1));
+        // Counted in u64 (a float-to-integer conversion saturates), checked before allocating.
+        let dims64 = [0, 1, 2].map(|a| ((extent[a] / cell).ceil() as u64).max(1));
+        let count = dims64[0].checked_mul(dims64[1]).and_then(|n| n.checked_mul(dims64[2]));
+        fiberlab_io::memory_budget::check_needs(&[fiberlab_io::memory_budget::Need::new(
+            format!("fiber density grid {}×{}×{} (--dual grid={resolution})", dims64[0], dims64[1], dims64[2]),
+            count.and_then(|n| n.checked_mul(std::mem::size_of::<[f32; 7]>() as u64)),
+        )])?;
+        let dims = dims64.map(|d| d as usize);
         let mut cells = vec![[0f32; 7]; dims[0] * dims[1] * dims[2]];
         let volume = cell * cell * cell;
         let index = |p: DVec3| -> usize {
@@ -146,7 +153,7 @@ impl DensityGrid {
                 }
             });
         }
-        Some(Self { min: bounds.min, cell, dims, cells, material: first.material() })
+        Ok(Some(Self { min: bounds.min, cell, dims, cells, material: first.material() }))
     }
 
     /// Memory of the cells, bytes.

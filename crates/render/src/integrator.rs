@@ -51,7 +51,8 @@ pub struct RenderSettings {
     pub region: Option<Region>,
     /// Tile edge, pixels.
     pub tile_size: u32,
-    /// Worker threads (0: rayon's default).
+    /// Worker threads (0: rayon's default, one per core); more than the machine's cores are
+    /// capped at its cores ([`worker_threads`]).
     pub threads: usize,
     /// Stop after this instant (within one pixel's samples of the pass in flight).
     pub deadline: Option<Instant>,
@@ -593,7 +594,7 @@ pub fn render_continuing(
             pass_size = next_pass_spp(pass_size, slowest);
         }
     };
-    match rayon::ThreadPoolBuilder::new().num_threads(settings.threads).build() {
+    match rayon::ThreadPoolBuilder::new().num_threads(worker_threads(settings.threads)).build() {
         Ok(pool) => pool.install(run_passes),
         Err(_) => run_passes(),
     }
@@ -611,6 +612,16 @@ pub fn render_continuing(
     stats.interrupted = stats.spp_min < target;
     stats.seconds = t0.elapsed().as_secs_f64();
     Ok(RenderOutput { image: accumulation.image(region), accumulation, stats })
+}
+
+/// The worker threads a render runs for `asked` (0: one per core): at most the cores this
+/// process may run on (`std::thread::available_parallelism`), since more threads add no speed
+/// and each costs a stack and a share of every pass's scheduling (10⁵ threads turned a 1-spp
+/// 32² render into 90 s).
+#[must_use]
+pub fn worker_threads(asked: usize) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get);
+    if asked == 0 { cores } else { asked.min(cores) }
 }
 
 /// Why parts could not be merged.

@@ -126,12 +126,27 @@ impl std::fmt::Display for SceneError {
     }
 }
 
+/// Exactly three numbers: an array of another length is an error at its place, not cut to
+/// its first three (serde's arrays would drop a fourth number without a word).
+fn three<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+    let v = Vec::<f64>::deserialize(d)?;
+    <[f64; 3]>::try_from(v.as_slice())
+        .map_err(|_| serde::de::Error::invalid_length(v.len(), &"an array of three numbers [x, y, z]"))
+}
+
+/// [`three`] for an optional key.
+fn three_optional<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<[f64; 3]>, D::Error> {
+    three(d).map(Some)
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CameraDesc {
+    #[serde(deserialize_with = "three")]
     eye: [f64; 3],
+    #[serde(deserialize_with = "three")]
     target: [f64; 3],
-    #[serde(default = "default_up")]
+    #[serde(default = "default_up", deserialize_with = "three")]
     up: [f64; 3],
     fov: f64,
     width: u32,
@@ -171,10 +186,13 @@ impl Default for RenderDesc {
 struct MaterialDesc {
     model: Option<Spanned<String>>,
     params: Option<Spanned<toml::Table>>,
+    #[serde(default, deserialize_with = "three_optional")]
     lambert: Option<[f64; 3]>,
+    #[serde(default, deserialize_with = "three_optional")]
     mirror: Option<[f64; 3]>,
-    /// uv scale of a model's position `u`, `v` ([`crate::surface_material`]).
-    uv_scale: Option<Spanned<[f64; 2]>>,
+    /// uv scale of a model's position `u`, `v` ([`crate::surface_material`]): two numbers
+    /// (checked where it is used, at its place).
+    uv_scale: Option<Spanned<Vec<f64>>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -202,9 +220,11 @@ pub const MAX_SEGMENTS_PER_CURVE: usize = 1024;
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SphereDesc {
+    #[serde(deserialize_with = "three")]
     center: [f64; 3],
     radius: f64,
     material: Spanned<String>,
+    #[serde(default, deserialize_with = "three_optional")]
     emission: Option<[f64; 3]>,
 }
 
@@ -220,6 +240,7 @@ struct MeshDesc {
     /// For `file` only (default 1).
     scale: Option<f64>,
     /// For `file` only (default 0).
+    #[serde(default, deserialize_with = "three_optional")]
     translate: Option<[f64; 3]>,
 }
 
@@ -319,6 +340,24 @@ pub struct MemoryEstimate {
     pub hair: Vec<HairEstimate>,
 }
 
+impl MemoryEstimate {
+    /// The quantities of the estimate for the memory check ([`fiberlab_io::memory_budget`]):
+    /// the image, then each `[[hair]]` entry's strands and BVH.
+    #[must_use]
+    pub fn needs(&self) -> Vec<fiberlab_io::memory_budget::Need> {
+        use fiberlab_io::memory_budget::Need;
+        let mut needs = vec![Need::new(format!("image {}×{}", self.width, self.height), self.image_bytes)];
+        for h in &self.hair {
+            needs.push(Need::new(
+                format!("hair {} strands × {} segments ({})", h.strands, h.segments, h.source),
+                h.hair_bytes,
+            ));
+            needs.push(Need::new(format!("BVH of {} segments", h.segments), h.bvh_bytes));
+        }
+        needs
+    }
+}
+
 /// The strands of one `[[hair]]` entry and what they take.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct HairEstimate {
@@ -373,18 +412,19 @@ impl SceneFile {
 
     /// Reads and parses a scene file.
     pub fn read(path: &Path) -> Result<Self, SceneError> {
-        let bytes = std::fs::read(path).map_err(|e| SceneError {
-            path: path.into(),
-            line: 0,
-            column: 0,
-            message: e.to_string(),
-        })?;
-        let text = String::from_utf8(bytes).map_err(|e| {
-            let at = e.utf8_error().valid_up_to();
-            let before = String::from_utf8_lossy(&e.as_bytes()[..at]).into_owned();
-            let line = before.matches('\n').count() + 1;
-            let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-            SceneError { path: path.into(), line, column, message: format!("byte {at}: not UTF-8 text") }
+        use fiberlab_io::input_file::{InputError, read_text};
+        let text = read_text(path).map_err(|e| match e {
+            InputError::NotUtf8 { line, column, byte, .. } => {
+                SceneError { path: path.into(), line, column, message: format!("byte {byte}: not UTF-8 text") }
+            }
+            InputError::Io { error, .. } => {
+                SceneError { path: path.into(), line: 0, column: 0, message: error.to_string() }
+            }
+            other => {
+                let text = other.to_string();
+                let message = text.strip_prefix(&format!("{}: ", path.display())).unwrap_or(&text).to_string();
+                SceneError { path: path.into(), line: 0, column: 0, message }
+            }
         })?;
         Self::parse(&text, path)
     }
@@ -538,27 +578,66 @@ impl SceneFile {
     fn camera(&self) -> Result<Camera, SceneError> {
         let d = &self.desc.camera;
         let c = d.get_ref();
-        let fail = |message: String| Err(self.error(d.span(), format!("camera: {message}")));
+        // Each error at the line of the key it is about.
+        let fail =
+            |key: &str, message: String| Err(self.error(self.key_span(d.span(), key), format!("camera: {message}")));
         for (key, v) in [("eye", c.eye), ("target", c.target), ("up", c.up)] {
             if !v.iter().all(|x| x.is_finite()) {
-                return fail(format!("{key} = {v:?} must be finite"));
+                return fail(key, format!("{key} = {v:?} must be finite"));
             }
         }
         let view = dvec(c.target) - dvec(c.eye);
-        if view.try_normalize().is_none() {
-            return fail(format!("eye and target are both {:?}; they must differ", c.eye));
+        if c.eye == c.target {
+            return fail("target", format!("eye and target are both {:?}; they must differ", c.eye));
+        }
+        if !view.length().is_finite() || view.try_normalize().is_none() {
+            return fail(
+                "eye",
+                format!(
+                    "eye = {:?} and target = {:?} are too far apart for double precision (|target − eye| is not \
+                     finite); use smaller coordinates",
+                    c.eye, c.target
+                ),
+            );
         }
         if view.normalize().cross(dvec(c.up)).try_normalize().is_none() {
-            return fail(format!("up = {:?} is zero or parallel to the view direction (target − eye)", c.up));
+            return fail("up", format!("up = {:?} is zero or parallel to the view direction (target − eye)", c.up));
         }
         if !(c.fov > 0.0 && c.fov < 180.0) {
-            return fail(format!("fov = {:?} must be in (0, 180) degrees", c.fov));
+            return fail("fov", format!("fov = {:?} must be in (0, 180) degrees", c.fov));
         }
         if c.width == 0 || c.height == 0 {
-            return fail(format!("width and height must be > 0 (got {} × {})", c.width, c.height));
+            let key = if c.width == 0 { "width" } else { "height" };
+            return fail(key, format!("width and height must be > 0 (got {} × {})", c.width, c.height));
         }
         Camera::look_at(dvec(c.eye), dvec(c.target), dvec(c.up), c.fov, c.width, c.height)
-            .map_or_else(|| fail("eye, target and up do not make a camera frame".into()), Ok)
+            .map_or_else(|| fail("eye", "eye, target and up do not make a camera frame".into()), Ok)
+    }
+
+    /// The span of the line `key = …` of the table spanning `table`, or `table` itself when
+    /// the key is not written there (a default, an inline table's key). A `[header]` table's
+    /// span may cover only its header: its keys are searched up to the next header.
+    fn key_span(&self, table: std::ops::Range<usize>, key: &str) -> std::ops::Range<usize> {
+        let start = table.start.min(self.text.len());
+        let rest = &self.text[start..];
+        // An inline table `{ … }` is searched within its span; a `[header]` table to the next header.
+        let body =
+            if rest.starts_with('[') { rest } else { rest.get(..table.end.saturating_sub(start)).unwrap_or(rest) };
+        let mut offset = start;
+        for (k, line) in body.split_inclusive('\n').enumerate() {
+            let trimmed = line.trim_start();
+            if k > 0 && trimmed.starts_with('[') {
+                break;
+            }
+            if let Some(after) = trimmed.strip_prefix(key)
+                && after.trim_start().starts_with('=')
+            {
+                let at = offset + (line.len() - trimmed.len());
+                return at..at + key.len();
+            }
+            offset += line.len();
+        }
+        table
     }
 
     /// `[render]`: the sampling settings (what [`SceneFile::build`] returns beside the scene).
@@ -637,7 +716,7 @@ impl SceneFile {
         name: &str,
         model: &Spanned<String>,
         params: Option<&Spanned<toml::Table>>,
-        uv_scale: Option<&Spanned<[f64; 2]>>,
+        uv_scale: Option<&Spanned<Vec<f64>>>,
     ) -> Result<SurfaceMaterial, SceneError> {
         let span = params.map_or(model.span(), Spanned::span);
         let fail = |message: String| self.error(span.clone(), format!("material `{name}`: {message}"));
@@ -658,7 +737,9 @@ impl SceneFile {
             ModelMaterial::new(spec.name, spec.params, built, &textures).map_err(|e| fail(e.to_string()))?;
         if let Some(scale) = uv_scale {
             let fail = |message: String| self.error(scale.span(), format!("material `{name}`: {message}"));
-            material = material.with_uv_scale(*scale.get_ref()).map_err(|e| fail(e.to_string()))?;
+            let pair = <[f64; 2]>::try_from(scale.get_ref().as_slice())
+                .map_err(|_| fail(format!("uv_scale: expected two numbers [su, sv], got {}", scale.get_ref().len())))?;
+            material = material.with_uv_scale(pair).map_err(|e| fail(e.to_string()))?;
         }
         Ok(SurfaceMaterial::Model(Box::new(material)))
     }
@@ -1249,16 +1330,24 @@ mod tests {
             .to_string()
         };
         let (eye, up) = ("[0, 0, 5]", "[0, 1, 0]");
-        for (e, says, not) in [
-            (camera("[0, 0, 0]", up, "30", "8"), "eye and target are both", "fov"),
-            (camera(eye, "[0, 0, 2]", "30", "8"), "parallel to the view", "fov"),
-            (camera(eye, up, "180", "8"), "fov = 180.0 must be in (0, 180) degrees", "up"),
-            (camera(eye, up, "1e308", "8"), "fov = 1e308 must", "width"),
-            (camera(eye, up, "30", "0"), "width and height must be > 0 (got 0 × 8)", "fov"),
-            (camera("[0, nan, 5]", up, "30", "8"), "eye = [0.0, NaN, 5.0] must be finite", "fov"),
+        // Each error at the line of its key: eye 2, target 3, up 4, fov 5, width 6.
+        for (e, at, says, not) in [
+            (camera("[0, 0, 0]", up, "30", "8"), "s.toml:3:1:", "eye and target are both", "fov"),
+            (camera(eye, "[0, 0, 2]", "30", "8"), "s.toml:4:1:", "parallel to the view", "fov"),
+            (camera(eye, up, "180", "8"), "s.toml:5:1:", "fov = 180.0 must be in (0, 180) degrees", "up"),
+            (camera(eye, up, "1e308", "8"), "s.toml:5:1:", "fov = 1e308 must", "width"),
+            (camera(eye, up, "30", "0"), "s.toml:6:1:", "width and height must be > 0 (got 0 × 8)", "fov"),
+            (camera("[0, nan, 5]", up, "30", "8"), "s.toml:2:1:", "eye = [0.0, NaN, 5.0] must be finite", "fov"),
+            (camera("[1e300, 1e300, 5]", up, "30", "8"), "s.toml:2:1:", "too far apart", "must differ"),
         ] {
-            assert!(e.starts_with("s.toml:1:1: camera: ") && e.contains(says) && !e.contains(not), "{e}");
+            assert!(e.starts_with(&format!("{at} camera: ")) && e.contains(says) && !e.contains(not), "{e}");
         }
+        // A fourth number where three are meant is refused at its place, not dropped.
+        let e = camera("[0, 0, 5, 7]", up, "30", "8");
+        assert!(
+            e.starts_with("s.toml:2:") && e.contains("invalid length 4, expected an array of three numbers"),
+            "{e}"
+        );
     }
 
     /// Strand diameters outside the accepted range (see `strand_diameters`) are errors naming

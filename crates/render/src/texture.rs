@@ -130,12 +130,8 @@ impl Texture {
             let texels = img.pixels().iter().map(|p| p.map(f64::from)).collect();
             (img.width(), img.height(), texels)
         } else {
-            let img = image::ImageReader::open(path)
-                .map_err(|e| fail(e.to_string()))?
-                .with_guessed_format()
-                .map_err(|e| fail(e.to_string()))?
-                .decode()
-                .map_err(|e| fail(e.to_string()))?;
+            // Opened and decoded within the memory budget (fiberlab_io::input_file).
+            let img = fiberlab_io::image_file::decode_image(path).map_err(|e| fail(e.to_string()))?;
             let rgb = img.to_rgb32f();
             let decode = |c: f32| match encoding {
                 Encoding::Linear => f64::from(c),

@@ -246,6 +246,18 @@ pub enum DualTablesInvalid {
 impl DualTables {
     /// Tables of `f` by midpoint quadrature at `resolution`; refuses delta models.
     pub fn new(f: &(impl ScatteringFunction + ?Sized), resolution: &Resolution) -> Result<Self, DualTablesError> {
+        Self::new_until(f, resolution, &std::sync::atomic::AtomicBool::new(false))
+    }
+
+    /// [`DualTables::new`] that starts no row once `stop` is set (a signal handler's flag):
+    /// then the tables hold the rows finished, in increasing θ, with gaps where rows were
+    /// left out (for writing what was done; [`DualTables::from_rows`] would refuse fewer than
+    /// two).
+    pub fn new_until(
+        f: &(impl ScatteringFunction + ?Sized),
+        resolution: &Resolution,
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> Result<Self, DualTablesError> {
         let props = f.properties();
         if props.lobes == Lobes::Delta {
             return Err(DualTablesError::DeltaLobes);
@@ -274,10 +286,13 @@ impl DualTables {
         let dt = PI / r.inclinations as f64;
         let rows = (0..r.inclinations)
             .into_par_iter()
-            .map(|a| {
+            .filter_map(|a| {
+                if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    return None;
+                }
                 let theta = -FRAC_PI_2 + (a as f64 + 0.5) * dt;
                 let sums = half_integrals(f, theta, &r, &offsets, lobe_names.len(), separated);
-                row_from_sums(theta, &sums).ok_or(DualTablesError::NotFinite { theta_deg: theta.to_degrees() })
+                Some(row_from_sums(theta, &sums).ok_or(DualTablesError::NotFinite { theta_deg: theta.to_degrees() }))
             })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(Self { rows, lobe_names, resolution: r })

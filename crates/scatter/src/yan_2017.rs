@@ -187,8 +187,10 @@ const KAPPA_RANGE: Range = Range::closed_open(0.0, 1.0);
 const G_RANGE: Range = Range::open(-1.0, 1.0);
 /// Valid cuticle interface count.
 const LAYERS_RANGE: Range = Range::open_closed(0.0, 1000.0);
-/// Valid roughness standard deviations, degrees.
-const BETA_RANGE: Range = Range::open_closed(0.0, 60.0);
+/// Valid roughness standard deviations, degrees: [0.5, 60]. Toward 0 the Gaussians become
+/// deltas (a width of 5e−324 degrees is 0 radians); 0.5° is the narrowest the far-field
+/// quadrature and the sampler are tested at (`tests/yan_2017.rs`, `tests/finite_everywhere.rs`).
+const BETA_RANGE: Range = Range::closed(0.5, 60.0);
 /// Valid desired colour per channel.
 const COLOR_RANGE: Range = Range::open_closed(0.0, 1.0);
 /// Gauss–Legendre nodes of the far-field integration per standard deviation of the narrowest

@@ -310,9 +310,11 @@ def render(scene=None, *, text: Optional[str] = None, spp: Optional[int] = None,
     ``device``: ``"cpu"`` (default), ``"gpu"`` (the GPU path tracer; software Vulkan counts) or
     ``"auto"`` (a hardware GPU when there is one, else the CPU), as ``fiberlab render --device``.
     ``progress(done, total)`` is called
-    about every 50 ms with the pixel samples done (e.g. to drive tqdm); Ctrl-C raises
-    KeyboardInterrupt after stopping the render. The same scene and seed give the same image
-    as the command line, bit for bit.
+    about every 50 ms with the pixel samples done (e.g. to drive tqdm); ``progress=True`` prints
+    the percentage done to standard error instead. Ctrl-C raises KeyboardInterrupt after stopping
+    the render. The same scene and seed give the same image as the command line, bit for bit.
+    A scene whose image, hair and BVH need more memory than the process may use raises
+    ``MemoryError`` (the command line's check and message) before anything is built.
     """
     path = None
     if isinstance(scene, Mapping):
@@ -322,8 +324,27 @@ def render(scene=None, *, text: Optional[str] = None, spp: Optional[int] = None,
     elif scene is not None:
         path = str(scene)
     options = [f"{k}={_option_text(v)}" for k, v in (dual or {}).items()]
-    return _native.render(path, text, spp, seed, max_depth, threads, progress, integrator, fiber_count, options,
-                          device)
+    return _native.render(path, text, spp, seed, max_depth, threads, _progress_callback(progress), integrator,
+                          fiber_count, options, device)
+
+
+def _progress_callback(progress):
+    """``render``'s ``progress``: ``None``/``False`` (none), ``True`` (a percentage on standard
+    error) or a callable ``(done, total)``."""
+    if progress is None or progress is False:
+        return None
+    if progress is True:
+        import sys
+
+        def report(done: int, total: int) -> None:
+            percent = 100.0 * done / total if total else 100.0
+            end = "\n" if total and done >= total else ""
+            print(f"\rrendering: {percent:5.1f}%", end=end, file=sys.stderr, flush=True)
+
+        return report
+    if not callable(progress):
+        raise TypeError(f"render: progress must be a callable (done, total), True or None, got {type(progress).__name__}")
+    return progress
 
 
 def _option_text(v: Any) -> str:
@@ -474,14 +495,19 @@ def evaluate(scene=None, *, text: Optional[str] = None, models=("kajiya-kay", "m
     return {"metrics": _json.loads(rows), "images": images}
 
 
-def check(model: "Model", chi2_samples: Optional[int] = None, samples: Optional[int] = None,
+def check(model, chi2_samples: Optional[int] = None, samples: Optional[int] = None,
           pairs: Optional[int] = None) -> list:
     """Runs the validation harness of ``fiberlab check`` on one model, fiber or surface (χ² tests of sampling,
     pdf integrals, sample weights, white furnace, reciprocity, finiteness, … as the model's
     claims allow): a list of dicts ``{model, test, value, expected, tolerance, pass,
     report}``; ``report`` rows are measurements without a pass/fail claim. The effort
     (samples per χ² test, per Monte Carlo test, random direction pairs) defaults to the
-    command line's; the rows are the command line's for the same configuration."""
+    command line's; the rows are the command line's for the same configuration. ``model`` is a
+    :class:`Model` or a model's name (with its default parameters)."""
+    if isinstance(model, str):
+        model = Model(model)
+    elif not isinstance(model, Model):
+        raise TypeError(f"check: expected a fiberlab.Model or a model name, got {type(model).__name__}")
     label = " ".join([model.name] + [f"{k}={_label_value(v)}" for k, v in model._given.items()])
     return _native.check(model._native, label, chi2_samples, samples, pairs)
 

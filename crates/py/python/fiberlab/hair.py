@@ -48,9 +48,12 @@ def read(path, segments_per_curve: int = 8) -> Strands:
 def write(path, strands: Sequence[Any], thickness: Optional[Sequence[Any]] = None,
           default_thickness: float = 1.0) -> None:
     """Writes ``strands`` (a list of ``(n_i, 3)`` arrays, each with 1 to 65,536 points) as a
-    ``.hair`` file, with a thickness array when ``thickness`` (one ``(n_i,)`` array per strand,
-    or one number per strand) is given, else ``default_thickness`` for every point. Values
-    are stored as float32."""
+    ``.hair`` file — or as USD ``BasisCurves`` when ``path`` ends in ``.usda`` (the format follows
+    the name; a ``.pbrt`` name or an unknown extension raises ``ValueError``) — with a thickness
+    array when ``thickness`` (one ``(n_i,)`` array per strand, or one number per strand) is
+    given, else ``default_thickness`` for every point. Values are stored as float32. The file is
+    written to a temporary file and renamed into place; a symbolic link, a FIFO or a device at
+    ``path`` is refused."""
     arrays = [np.asarray(s, dtype=np.float32) for s in strands]
     for i, a in enumerate(arrays):
         if a.ndim != 2 or a.shape[1] != 3:

@@ -9,8 +9,14 @@ use crate::params::{ParamKind, ParamSpec, Range};
 
 /// Valid index of refraction η.
 pub const ETA_RANGE: Range = Range::open_closed(1.0, 4.0);
-/// Valid roughness β_m, β_n.
-pub const BETA_RANGE: Range = Range::open_closed(0.0, 1.0);
+/// Valid roughness β_m, β_n: [0.01, 1]. Below 0.01 the lobes are deltas in all but name
+/// (β_m = 0.01 is a TT lobe of variance 1.3·10⁻⁵, a quarter of a degree wide; β_n = 0.01 an
+/// azimuthal scale of 0.1°), and toward 0 Chiang's maps underflow: `v_0 = (0.726β_m + …)²`
+/// is 0 below β_m ≈ 1e−162 and the logistic's `1/s` overflows below β_n ≈ 1e−308, giving NaN
+/// and ∞. The range is what the models evaluate and sample exactly (tested at both ends,
+/// `tests/finite_everywhere.rs`), down to the smallest lobe variance the longitudinal tests
+/// cover (10⁻⁵).
+pub const BETA_RANGE: Range = Range::closed(0.01, 1.0);
 /// Valid cuticle tilt α, in degrees.
 pub const ALPHA_RANGE: Range = Range::closed(-20.0, 20.0);
 /// Valid absorption coefficient σ_a per channel, per unit radius.

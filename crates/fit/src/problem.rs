@@ -198,6 +198,11 @@ pub(crate) fn coordinates_of(
 /// Enough observations for the free numbers, each with a finite value and σ > 0, not all
 /// values zero (there is nothing to fit to zero data: every model with f_s > 0 is as far
 /// from it, by its scale alone).
+/// Largest |value| a fit accepts (sr⁻¹): many orders above the peak of any lobe a model
+/// builds (even the narrowest longitudinal lobe at a grazing angle), and far below the scale
+/// (1e154) where χ² overflows; larger values are data in the wrong units.
+pub(crate) const MAX_VALUE: f64 = 1e30;
+
 pub(crate) fn check_data(
     observations: usize,
     free: usize,
@@ -212,6 +217,12 @@ pub(crate) fn check_data(
     for (v, s) in values {
         if s.is_nan() || s <= 0.0 || !v.is_finite() {
             return Err(FitError::Setup("every observation needs a finite value and σ > 0".into()));
+        }
+        if v.abs() > MAX_VALUE {
+            return Err(FitError::Setup(format!(
+                "an observed value of {v:e} sr⁻¹ is beyond any scattering function (at most {MAX_VALUE:e} here): \
+                 no free parameter changes χ² at the data's scale; check the data's units"
+            )));
         }
         all_zero &= v == 0.0;
     }

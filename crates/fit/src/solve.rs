@@ -2,7 +2,7 @@
 //! Levenberg–Marquardt steps, with the uncertainties at the optimum ([`crate::uncertainty`]).
 
 use crate::observation::{Channel, Observation};
-use crate::outcome::{AtBound, FitError, FitOptions, FitResult, FreeParam, Step, Uncertainty, Undefined};
+use crate::outcome::{AtBound, FitError, FitOptions, FitResult, FreeParam, Step};
 use crate::problem::{Coordinate, IterationObserver, Problem, check_data, coordinates_of, fiber_residuals, jacobian};
 use crate::uncertainty::{invert, on_bound, uncertainties};
 use argmin::core::observers::ObserverMode;
@@ -139,15 +139,6 @@ pub(crate) fn solve<M>(
         )));
     }
     let uncertainties = uncertainties(problem, &best, &residuals, &at_bound, chi2 / dof as f64);
-    // The start values came back unchanged and no parameter moves χ²: nothing was fitted.
-    if best == start && uncertainties.iter().all(|u| matches!(u, Uncertainty::Undefined(Undefined::NoEffect))) {
-        return Err(FitError::Setup(
-            "no free parameter changes χ² at all: at the data's scale the model's values make no difference \
-             (e.g. values of 1e300 against an f_s of order 1, or σ far larger than the values); check the \
-             data's units and standard errors"
-                .into(),
-        ));
-    }
     let mut values: Vec<(String, Vec<f64>)> = Vec::new();
     for (c, &v) in coordinates.iter().zip(&best) {
         match values.last_mut() {

@@ -47,6 +47,7 @@ MODEL_PARAMS = {
     "chiang": {"eumelanin": 0.8, "beta_m": 0.35, "beta_n": 0.4, "alpha": 2.5},
     "deon": {"sigma_a": [0.3, 0.6, 1.2], "beta_m": 0.3},
     "yan-fur": {"sigma_c_a": [0.3, 0.6, 1.2], "kappa": 0.7, "sigma_m_s": 2.0, "layers": 1.5, "alpha": 4.0},
+    "hollow-fiber": {"kappa": 0.5, "lumen_eta": 1.0, "sigma_a": [0.3, 0.6, 1.2], "beta_m": 0.3},
     "huang-2022": {"roughness": 0.4, "aspect": 0.8, "orientation": "20", "eumelanin": 0.8, "alpha": 2.5},
     "sadeghi-thread": {"eta": 1.345, "k_d": 0.2, "albedo": [0.8, 0.5, 0.3], "gamma_s": 6.0, "gamma_v": 14.0},
 }

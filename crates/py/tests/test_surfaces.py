@@ -24,6 +24,7 @@ SURFACE_PARAMS = {
     "wood": {"roughness": 0.3, "fiber_angle": 20.0, "fiber_dip": 10.0, "beta": 8.0},
     "sadeghi-2013": {"preset": "silk-shot"},
     "irawan-2012": {"preset": "silk-charmeuse", "u": 0.3, "v": 0.7},
+    "leaf": {"cab": 30.0, "roughness": 0.3},
 }
 
 
@@ -149,7 +150,7 @@ def test_compare_model_equals_the_command_line_json(tmp_path):
         ours = fl.compare_model(fl.Model(name, **params), surface.with_suffix(".csv"))
         assert list(ours) == (["fiber"] if name == "wood" else ["all"])
         assert ours == _compare_cli(surface.with_suffix(".csv"), name, params)
-    with pytest.raises(ValueError, match="reading"):
+    with pytest.raises(ValueError, match=r"missing\.csv: No such file"):
         fl.compare_model(fl.Chiang(), tmp_path / "missing.csv")
 
 

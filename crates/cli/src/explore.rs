@@ -18,15 +18,25 @@ pub struct Args {
     open: bool,
 }
 
-/// Serves until interrupted.
+/// Serves until interrupted: the first Ctrl-C (or SIGTERM, SIGHUP) shuts the server down
+/// gracefully, a second quits at once.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let config = fiberlab_explorer::Config { host: args.host.clone(), port: args.port, ..Default::default() };
-    fiberlab_explorer::serve(&config, |url| {
-        println!("fiberlab explore: serving {url} (Ctrl-C stops it)");
-        if args.open {
-            open_browser(url);
-        }
-    })?;
+    let stop = crate::interrupt::listen_quietly(
+        "fiberlab explore: stopping: cancelling the work in flight and closing connections (again to quit)",
+    );
+    let ended = fiberlab_explorer::serve_until(
+        &config,
+        |url| {
+            println!("fiberlab explore: serving {url} (Ctrl-C stops it)");
+            if args.open {
+                open_browser(url);
+            }
+        },
+        stop,
+    )?;
+    let connections = if ended.closed_connections { "connections closed" } else { "connections dropped" };
+    eprintln!("fiberlab explore: stopped ({} requests cancelled, {connections})", ended.cancelled);
     Ok(())
 }
 

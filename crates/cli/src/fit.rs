@@ -211,10 +211,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let options = FitOptions {
         max_iters: args.iterations,
         progress: Some(std::sync::Arc::new(move |i| progress.set_position(i))),
-        stop: Some(crate::interrupt::listen(
-            &format!("fitting {} parameter(s) to {observations} observations", free.len()),
-            "the best point so far",
-        )),
+        stop: Some({
+            let flag = crate::interrupt::listen(
+                &format!("fitting {} parameter(s) to {observations} observations", free.len()),
+                "the best point so far",
+            );
+            std::sync::Arc::new(move || flag.load(std::sync::atomic::Ordering::Relaxed))
+        }),
         ..FitOptions::default()
     };
     let (r, grid) = match &data {

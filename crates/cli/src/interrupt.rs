@@ -7,6 +7,8 @@
 //!   `out.partial.csv`, …; never over a finished output) and exits with status
 //!   [`EXIT_STATUS`]. While it writes ([`finishing`]) further signals wait; otherwise a second
 //!   signal quits at once, writing nothing.
+//! * `explore` [`listen_quietly`]s: the first signal shuts the server down gracefully (the
+//!   work in flight cancelled, connections closed; exit status 0), the second quits at once.
 //! * Every other verb quits at the first signal.
 //! * Quitting removes every temporary file still being written
 //!   ([`fiberlab_io::output_file::remove_temporaries`]), so no hidden `.NAME.XXXX.tmp` is left
@@ -15,6 +17,7 @@
 //! The exit status is 130 (128 + SIGINT) for all three signals: the handler cannot tell them
 //! apart, and a script sees one status for "stopped by a signal, partial output written".
 
+use std::sync::OnceLock;
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 
 /// The exit status of a command stopped by a signal.
@@ -33,12 +36,19 @@ const STOP_FIRST: u8 = 1;
 /// A verb writes what it has: signals wait.
 const WAIT: u8 = 2;
 
+/// What the first signal prints when the verb listens (set by [`listen_quietly`]; else
+/// [`STOPPING`]).
+static STOPPING_MESSAGE: OnceLock<String> = OnceLock::new();
+
+/// What the first signal prints while a verb that writes its work listens.
+const STOPPING: &str = "fiberlab: stopping: finishing the step in flight and writing what is done (again to quit)";
+
 /// Installs the handler (once; `main` calls it before the verb runs).
 pub fn install() {
     // Only one handler per process; if one is already set, the signals keep their defaults.
     let _ = ctrlc::set_handler(|| match MODE.load(Ordering::SeqCst) {
         STOP_FIRST if !STOP.swap(true, Ordering::SeqCst) => {
-            eprintln!("\nfiberlab: stopping: finishing the step in flight and writing what is done (again to quit)");
+            eprintln!("\n{}", STOPPING_MESSAGE.get().map_or(STOPPING, String::as_str));
         }
         WAIT => {}
         _ => quit(),
@@ -58,6 +68,14 @@ fn quit() -> ! {
 pub fn listen(doing: &str, kept: &str) -> &'static AtomicBool {
     MODE.store(STOP_FIRST, Ordering::SeqCst);
     eprintln!("{doing} ({LISTENING} {kept})");
+    &STOP
+}
+
+/// As [`listen`] for a verb that says for itself how to stop it (a server): the first signal
+/// prints `stopping` and sets the returned flag.
+pub fn listen_quietly(stopping: &str) -> &'static AtomicBool {
+    let _ = STOPPING_MESSAGE.set(stopping.to_string());
+    MODE.store(STOP_FIRST, Ordering::SeqCst);
     &STOP
 }
 

@@ -107,3 +107,66 @@ fn explore_serves_on_the_address_it_prints() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("not an address to listen on"));
 }
+
+/// Ctrl-C (SIGINT) while a measurement streams: the server cancels the work in flight (the
+/// stream ends with a `cancelled` error event), closes the connection and exits with status 0,
+/// saying so. A hang is caught by the bounded waits (the process is then killed and the test
+/// fails).
+#[test]
+fn explore_shuts_down_gracefully_on_sigint_cancelling_work_in_flight() {
+    use std::time::{Duration, Instant};
+    let bound = Duration::from_secs(60);
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_fiberlab"))
+        .args(["explore", "--port", "0"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let url = line.split_whitespace().find(|w| w.starts_with("http://")).expect("an address");
+    let address = url.trim_start_matches("http://").trim_end_matches('/').to_string();
+    // A measurement far longer than the test: 20M rays (the server's limit).
+    let body = r#"{"fiber": {}, "theta_i": [30], "rays": 20000000, "bins_theta": 18, "bins_phi": 36}"#;
+    let mut stream = std::net::TcpStream::connect(&address).unwrap();
+    stream.set_read_timeout(Some(bound)).unwrap();
+    write!(
+        stream,
+        "POST /api/measure HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: {}\r\n\r\n{body}",
+        body.len()
+    )
+    .unwrap();
+    // Wait for the first progress event: the work is running.
+    let mut reader = BufReader::new(stream);
+    let mut seen = String::new();
+    reader.read_line(&mut seen).unwrap();
+    assert!(seen.starts_with("HTTP/1.1 200"), "{seen}");
+    while !seen.contains("\"progress\"") {
+        let mut l = String::new();
+        assert!(reader.read_line(&mut l).unwrap() > 0, "the stream ended before any progress: {seen}");
+        seen += &l;
+    }
+    let sent = std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(sent.success());
+    // The stream ends (the connection closes) with the cancellation as its last event.
+    let mut rest = String::new();
+    let _ = reader.read_to_string(&mut rest);
+    assert!(rest.contains("\"type\":\"error\"") && rest.contains("\"status\":409"), "no cancellation event: {rest}");
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > bound {
+            let _ = child.kill();
+            panic!("explore did not end after SIGINT");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    assert_eq!(status.code(), Some(0), "{err}");
+    assert!(err.contains("fiberlab explore: stopping"), "{err}");
+    assert!(err.contains("stopped (1 requests cancelled, connections closed)"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}

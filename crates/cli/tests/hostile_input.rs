@@ -994,6 +994,27 @@ fn render_stopped_by_sigterm_keeps_its_samples() {
     assert!(!dir.path("r.exr").exists());
 }
 
+/// The same on the GPU (Mesa's software Vulkan in CI; `FIBERLAB_GPU_TESTS=skip` skips it on
+/// a machine without any Vulkan driver): SIGINT during a GPU render keeps the finished chunks'
+/// samples in a partial image.
+#[test]
+fn gpu_render_stopped_by_sigint_keeps_its_samples() {
+    if std::env::var("FIBERLAB_GPU_TESTS").as_deref() == Ok("skip") {
+        eprintln!("skipping the GPU render (FIBERLAB_GPU_TESTS=skip)");
+        return;
+    }
+    let dir = Dir::new();
+    // The GPU renders chiang (not kajiya-kay).
+    dir.write("s.toml", SCENE.replace("spp = 1", "spp = 100000").replace("\"kajiya-kay\"", "\"chiang\""));
+    let err = stops_and_keeps_what_is_done(
+        &dir,
+        &["render", "s.toml", "--device", "gpu", "--quiet", "--out", "r"],
+        "INT",
+        &["r.partial.exr", "r.partial.png"],
+    );
+    assert!(!dir.path("r.exr").exists(), "{err}");
+}
+
 #[test]
 fn measure_stopped_by_sigint_writes_a_partial_table() {
     let dir = Dir::new();

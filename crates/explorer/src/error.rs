@@ -35,7 +35,10 @@ impl ApiError {
     /// 409: superseded by a newer request of the same page.
     #[must_use]
     pub fn cancelled() -> Self {
-        Self { status: StatusCode::CONFLICT, message: "cancelled: a newer request of this page replaced it".into() }
+        Self {
+            status: StatusCode::CONFLICT,
+            message: "cancelled: replaced by a newer request of this page, or the server is stopping".into(),
+        }
     }
 
     /// 500: the server failed.

@@ -118,25 +118,89 @@ impl Server {
         format!("http://{}/", self.address)
     }
 
-    /// Serves until the process is interrupted (Ctrl-C ends it gracefully).
-    pub fn run(self) -> Result<(), ServeError> {
-        let app = api::router(self.state);
-        let listener = self.listener;
-        self.runtime.block_on(async move {
-            axum::serve(listener, app)
-                .with_graceful_shutdown(async {
-                    let _ = tokio::signal::ctrl_c().await;
-                })
-                .await
-                .map_err(|source| ServeError::Io { what: "serving".into(), source })
+    /// Serves until the process is interrupted (Ctrl-C ends it gracefully: see
+    /// [`Server::run_until`]).
+    pub fn run(self) -> Result<Shutdown, ServeError> {
+        self.run_until(async {
+            let _ = tokio::signal::ctrl_c().await;
         })
     }
+
+    /// Serves until `stop` completes, then shuts down gracefully: no new connections, every
+    /// request's work in flight cancelled (its stream ends with a `cancelled` event), and the
+    /// open connections given [`SHUTDOWN_GRACE`] to finish before the server returns anyway.
+    pub fn run_until(
+        self,
+        stop: impl std::future::Future<Output = ()> + Send + 'static,
+    ) -> Result<Shutdown, ServeError> {
+        let state = self.state.clone();
+        let app = api::router(self.state);
+        let listener = self.listener;
+        let (stopped_tx, stopped_rx) = tokio::sync::oneshot::channel::<usize>();
+        let runtime = self.runtime;
+        let ended = runtime.block_on(async move {
+            let serving = axum::serve(listener, app).with_graceful_shutdown(async move {
+                stop.await;
+                let _ = stopped_tx.send(state.cancel_all());
+            });
+            let serving = std::future::IntoFuture::into_future(serving);
+            tokio::pin!(serving);
+            tokio::select! {
+                done = &mut serving => {
+                    done.map_err(|source| ServeError::Io { what: "serving".into(), source })?;
+                    Ok(Shutdown { cancelled: 0, closed_connections: true })
+                }
+                Ok(cancelled) = stopped_rx => {
+                    match tokio::time::timeout(SHUTDOWN_GRACE, serving).await {
+                        Ok(done) => {
+                            done.map_err(|source| ServeError::Io { what: "serving".into(), source })?;
+                            Ok(Shutdown { cancelled, closed_connections: true })
+                        }
+                        Err(_) => Ok(Shutdown { cancelled, closed_connections: false }),
+                    }
+                }
+            }
+        });
+        // The cancelled work on the blocking pool ends at its next poll of the token; wait for
+        // it that long at most.
+        runtime.shutdown_timeout(SHUTDOWN_GRACE);
+        ended
+    }
+}
+
+/// How long a shutdown waits for open connections to finish.
+pub const SHUTDOWN_GRACE: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// How the server ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shutdown {
+    /// Requests whose work was still running and was cancelled.
+    pub cancelled: usize,
+    /// Whether every connection closed within [`SHUTDOWN_GRACE`] (if not, the server
+    /// returned anyway, dropping them).
+    pub closed_connections: bool,
 }
 
 /// Binds and serves, calling `ready` with the URL once the socket is bound (what the CLI
 /// prints).
-pub fn serve(config: &Config, ready: impl FnOnce(&str)) -> Result<(), ServeError> {
+pub fn serve(config: &Config, ready: impl FnOnce(&str)) -> Result<Shutdown, ServeError> {
     let server = bind(config)?;
     ready(&server.url());
     server.run()
+}
+
+/// As [`serve`], shutting down gracefully ([`Server::run_until`]) once `stop` is raised (the
+/// command line's signal flag; polled every 50 ms).
+pub fn serve_until(
+    config: &Config,
+    ready: impl FnOnce(&str),
+    stop: &'static std::sync::atomic::AtomicBool,
+) -> Result<Shutdown, ServeError> {
+    let server = bind(config)?;
+    ready(&server.url());
+    server.run_until(async move {
+        while !stop.load(std::sync::atomic::Ordering::SeqCst) {
+            tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+        }
+    })
 }

@@ -2,7 +2,7 @@
 //! the oldest dropped beyond [`crate::Limits::max_tables`]), and the latest cancellation token
 //! of each (page, kind) so that a page's new request cancels its stale one.
 
-use crate::cancel::{Guard, Token};
+use crate::cancel::{Guard, Registry, Token};
 use crate::limits::Limits;
 use axum::http::HeaderMap;
 use fiberlab_io::table::{LobeSlices, TableKind};
@@ -29,6 +29,7 @@ struct Shared {
     background: rayon::ThreadPool,
     tables: Mutex<Tables>,
     latest: Mutex<HashMap<(String, &'static str), Token>>,
+    tokens: Registry,
 }
 
 #[derive(Default)]
@@ -56,7 +57,13 @@ impl AppState {
             .thread_name(|_| "explorer-background".into())
             .build()
             .unwrap_or_else(|_| rayon::ThreadPoolBuilder::new().build().expect("a thread pool"));
-        Self(Arc::new(Shared { limits, background, tables: Mutex::default(), latest: Mutex::default() }))
+        Self(Arc::new(Shared {
+            limits,
+            background,
+            tables: Mutex::default(),
+            latest: Mutex::default(),
+            tokens: Registry::default(),
+        }))
     }
 
     /// The request limits.
@@ -93,7 +100,7 @@ impl AppState {
     /// previous token of that kind is cancelled. The guard cancels the new token when the
     /// request is dropped.
     pub fn supersede(&self, headers: &HeaderMap, kind: &'static str) -> (Token, Guard) {
-        let token = Token::new();
+        let token = self.0.tokens.token();
         if let Some(page) = headers.get(PAGE_HEADER).and_then(|v| v.to_str().ok()) {
             let mut latest = lock(&self.0.latest);
             if let Some(old) = latest.insert((page.to_string(), kind), token.clone()) {
@@ -106,5 +113,11 @@ impl AppState {
         }
         let guard = token.guard();
         (token, guard)
+    }
+
+    /// The server is shutting down: cancels every request's work in flight (their streams
+    /// end) and every later one. Returns how many were still running.
+    pub fn cancel_all(&self) -> usize {
+        self.0.tokens.cancel_all()
     }
 }

@@ -30,8 +30,8 @@ mod uncertainty;
 
 pub use observation::{Channel, Observation, model_grid};
 pub use outcome::{
-    AtBound, BOUND_TOLERANCE, FitError, FitOptions, FitResult, FreeParam, MAX_CONDITION, Step, Trace, Uncertainty,
-    Undefined,
+    AtBound, BOUND_TOLERANCE, FitError, FitOptions, FitResult, FreeParam, MAX_CONDITION, Step, Stop, Trace,
+    Uncertainty, Undefined,
 };
 pub use solve::{Constraint, POLISH_ITERATIONS, fit, fit_constrained, fit_with};
 pub use surface::{BinObservation, SurfaceBin, SurfaceData, bin_averages, fit_surface, surface_bins};

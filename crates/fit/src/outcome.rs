@@ -5,7 +5,6 @@ use fiberlab_scatter::ModelError;
 use fiberlab_scatter::params::Range;
 use std::fmt;
 use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 use thiserror::Error;
 
 /// Why a fit could not be made.
@@ -47,10 +46,14 @@ pub struct FitOptions {
     /// Called with the best point so far after each optimizer iteration and each polishing
     /// step that lowered χ² (for a live view of the convergence).
     pub trace: Option<Trace>,
-    /// When set, the fit stops after the iteration in flight and returns the best point so
-    /// far, with [`FitResult::interrupted`] (a signal handler's flag).
-    pub stop: Option<&'static AtomicBool>,
+    /// When set and answering true, the fit stops after the iteration in flight and returns
+    /// the best point so far, with [`FitResult::interrupted`] (a signal handler's flag, a
+    /// server request's cancellation).
+    pub stop: Option<Stop>,
 }
+
+/// A question of [`FitOptions::stop`]: should the fit stop now?
+pub type Stop = Arc<dyn Fn() -> bool + Send + Sync>;
 
 /// A callback of [`FitOptions::trace`].
 pub type Trace = Arc<dyn Fn(&Step) + Send + Sync>;

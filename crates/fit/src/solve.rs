@@ -2,7 +2,7 @@
 //! Levenberg–Marquardt steps, with the uncertainties at the optimum ([`crate::uncertainty`]).
 
 use crate::observation::{Channel, Observation};
-use crate::outcome::{AtBound, FitError, FitOptions, FitResult, FreeParam, Step};
+use crate::outcome::{AtBound, FitError, FitOptions, FitResult, FreeParam, Step, Stop};
 use crate::problem::{Coordinate, IterationObserver, Problem, check_data, coordinates_of, fiber_residuals, jacobian};
 use crate::uncertainty::{invert, on_bound, uncertainties};
 use argmin::core::observers::ObserverMode;
@@ -10,7 +10,6 @@ use argmin::core::{Error, Executor, KV, Solver, State, TerminationReason, Termin
 use argmin::solver::neldermead::NelderMead;
 use fiberlab_scatter::params::ParamSet;
 use fiberlab_scatter::{Model, find};
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Fits the `free` parameters (with one starting value each) of the model whose other
 /// parameters are `base`, in at most `max_iters` iterations: [`fit_with`] without progress.
@@ -98,7 +97,7 @@ pub(crate) fn solve<M>(
         simplex.push(p);
     }
     let solver = NelderMead::new(simplex).with_sd_tolerance(1e-9).map_err(|e| FitError::Optimizer(e.to_string()))?;
-    let stoppable = Stoppable { inner: solver, stop: options.stop };
+    let stoppable = Stoppable { inner: solver, stop: options.stop.clone() };
     let mut executor = Executor::new(problem.clone(), stoppable).configure(|s| s.max_iters(options.max_iters));
     let names: Vec<String> = coordinates.iter().map(Coordinate::name).collect();
     if options.progress.is_some() || options.trace.is_some() {
@@ -111,7 +110,7 @@ pub(crate) fn solve<M>(
     }
     let res = executor.run().map_err(|e| FitError::Optimizer(e.to_string()))?;
     let iterations = res.state().get_iter();
-    let stopped = || options.stop.is_some_and(|s| s.load(Ordering::Relaxed));
+    let stopped = || options.stop.as_ref().is_some_and(|stop| stop());
     let best = res.state().get_best_param().cloned().unwrap_or_else(|| start.clone());
     // Stopped by a signal: the best point so far, not polished.
     let best = if stopped() {
@@ -162,7 +161,7 @@ pub(crate) fn solve<M>(
 /// A solver that also ends when [`FitOptions::stop`] is set (after the iteration in flight).
 struct Stoppable<S> {
     inner: S,
-    stop: Option<&'static AtomicBool>,
+    stop: Option<Stop>,
 }
 
 impl<O, I: State, S: Solver<O, I>> Solver<O, I> for Stoppable<S> {
@@ -179,7 +178,7 @@ impl<O, I: State, S: Solver<O, I>> Solver<O, I> for Stoppable<S> {
     }
 
     fn terminate(&mut self, state: &I) -> TerminationStatus {
-        if self.stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
+        if self.stop.as_ref().is_some_and(|stop| stop()) {
             return TerminationStatus::Terminated(TerminationReason::Interrupt);
         }
         self.inner.terminate(state)
@@ -533,12 +532,11 @@ mod tests {
     /// A fit whose stop flag is set ends after the iteration in flight with its best point.
     #[test]
     fn a_stopped_fit_returns_its_best_point_so_far() {
-        static STOP: AtomicBool = AtomicBool::new(true);
         let spec = find("kajiya-kay").unwrap();
         let base = ParamSet::parse::<&str, &str>(spec.name, spec.params, &[]).unwrap();
         let data = luminance_data(&build("kajiya-kay", &[("k_d", "0.3")]).unwrap());
         let free = [FreeParam { key: "k_d".into(), start: vec![0.2] }];
-        let options = FitOptions { max_iters: 400, stop: Some(&STOP), ..FitOptions::default() };
+        let options = FitOptions { max_iters: 400, stop: Some(std::sync::Arc::new(|| true)), ..FitOptions::default() };
         let r = fit_with(&base, &free, &data, &options).unwrap();
         assert!(r.interrupted && r.iterations <= 1, "{r:?}");
         let r = fit_with(&base, &free, &data, &FitOptions { max_iters: 400, ..FitOptions::default() }).unwrap();

@@ -220,6 +220,10 @@ fn run(req: &FitRequest, state: &AppState, token: &crate::cancel::Token, events:
                 }
             }
         })),
+        stop: Some({
+            let token = token.clone();
+            Arc::new(move || token.is_cancelled())
+        }),
         ..FitOptions::default()
     };
     let max = state.limits().max_observations;
@@ -233,6 +237,8 @@ fn run(req: &FitRequest, state: &AppState, token: &crate::cancel::Token, events:
         fiberlab_fit::fit_surface(&base, &free, &data, &options)
     };
     let r = result.map_err(|e| ApiError::bad(format!("fit: {e}")))?;
+    // A cancelled fit ends with a 409 event, not with its unfinished point as a result.
+    super::alive(token)?;
     events.send(&result_json(&r));
     Ok(())
 }

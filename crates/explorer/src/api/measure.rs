@@ -153,9 +153,9 @@ fn run(req: &MeasureRequest, state: &AppState, token: &crate::cancel::Token, eve
             }
         })
         .map_err(|e| ApiError::bad(e.to_string()))?;
-        if token.is_cancelled() {
-            return Ok(());
-        }
+        // A cancelled stream ends with a 409 event (the page ignores it; a client that
+        // stays to the end, as at a server shutdown, learns why it ended).
+        super::alive(token)?;
         events.send(&json!({ "type": "progress", "done": before + m.traced, "total": total }));
         measurements.push(m);
     }

@@ -95,9 +95,9 @@ fn run(req: &RenderRequest, prepared: (Scene, u32), token: &crate::cancel::Token
         let pass = RenderSettings { spp: target, ..settings.clone() };
         let out = render_continuing(&scene, &pass, accumulation, &|_| {}, token.flag())
             .map_err(|e| ApiError::internal(e.to_string()))?;
-        if token.is_cancelled() {
-            return Ok(());
-        }
+        // A cancelled stream ends with a 409 event (the page ignores it; a client that
+        // stays to the end, as at a server shutdown, learns why it ended).
+        super::alive(token)?;
         let rgb = out.image.to_srgb8(req.exposure, ToneMap::Filmic);
         let data = base64::engine::general_purpose::STANDARD.encode(png(&rgb, req.size, req.size)?);
         let frame = json!({

@@ -69,9 +69,9 @@ fn a_gpu_render_resumes_on_the_cpu_and_devices_lists_the_adapter() {
     let image = fiberlab_io::LinearImage::read_exr(&d.join("g.exr")).unwrap();
     assert_eq!(image.attribute("spp"), Some("5"));
     // An unsupported model is refused before rendering, with the way out.
-    std::fs::write(d.join("k.toml"), SCENE.replace("\"chiang\"", "\"kajiya-kay\"")).unwrap();
+    std::fs::write(d.join("k.toml"), SCENE.replace("\"chiang\"", "\"marschner\"")).unwrap();
     let err = refused(fiberlab_in(d).args(["render", "k.toml", "--device", "gpu", "--quiet"]));
-    assert!(err.contains("kajiya") && err.contains("--device cpu"), "{err}");
+    assert!(err.contains("marschner") && err.contains("--device cpu"), "{err}");
 }
 
 #[test]

@@ -2,16 +2,22 @@
 //! CPU's (the tests in `tests/`): each case is evaluated, and sampled, by one GPU thread.
 
 use crate::device::Gpu;
-use crate::scene_buffers::chiang_words;
+use crate::scene_buffers::{chiang_words, kajiya_kay_words};
 use crate::wavefront::GpuRenderError;
 use fiberlab_scatter::chiang_2016::Chiang;
+use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-const PROBE: [&str; 3] =
-    [include_str!("shaders/sampler.wgsl"), include_str!("shaders/chiang.wgsl"), include_str!("shaders/probe.wgsl")];
+const PROBE: [&str; 4] = [
+    include_str!("shaders/sampler.wgsl"),
+    include_str!("shaders/chiang.wgsl"),
+    include_str!("shaders/kajiya_kay.wgsl"),
+    include_str!("shaders/probe.wgsl"),
+];
 
-/// One evaluation and one sample at a vertex.
+/// One evaluation and one sample at a vertex (of any fiber model; `h` is ignored by the
+/// far-field ones).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ChiangCase {
     /// Camera direction, local fiber frame.
@@ -75,11 +81,13 @@ fn run_probe(gpu: &Gpu, entry: &str, material: &[u32], input: &[[f32; 4]]) -> Re
     });
     let layout = pipeline.get_bind_group_layout(0);
     let buffers = [&material, &inputs, &output, &sobol];
-    // Entry points bind what they use: the layout of `probe_sampler_cases` has no material.
+    // Entry points bind what they use: the layout of `probe_sampler_cases` has no material,
+    // the models' have no sampler tables.
+    let sampler = entry == "probe_sampler_cases";
     let entries: Vec<wgpu::BindGroupEntry> = buffers
         .iter()
         .enumerate()
-        .filter(|(i, _)| !(entry == "probe_sampler_cases" && *i == 0 || entry == "probe_chiang_cases" && *i == 3))
+        .filter(|(i, _)| if sampler { *i != 0 } else { *i != 3 })
         .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
         .collect();
     let bind_group =
@@ -102,8 +110,21 @@ pub fn chiang(gpu: &Gpu, model: &Chiang, cases: &[ChiangCase]) -> Result<Vec<Chi
     let input: Vec<[f32; 4]> =
         cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
     let out = run_probe(gpu, "probe_chiang_cases", &chiang_words(model), &input)?;
-    Ok(out
-        .chunks_exact(3)
+    Ok(results(&out))
+}
+
+/// The GPU's Kajiya–Kay model on each case.
+pub fn kajiya_kay(gpu: &Gpu, model: &KajiyaKay, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let (words, table) = kajiya_kay_words(model, 32);
+    let material: Vec<u32> = words.iter().chain(&table).copied().collect();
+    let out = run_probe(gpu, "probe_kajiya_kay_cases", &material, &input)?;
+    Ok(results(&out))
+}
+
+fn results(out: &[[f32; 4]]) -> Vec<ChiangResult> {
+    out.chunks_exact(3)
         .map(|o| ChiangResult {
             f: [o[0][0], o[0][1], o[0][2]],
             pdf: o[0][3],
@@ -111,7 +132,7 @@ pub fn chiang(gpu: &Gpu, model: &Chiang, cases: &[ChiangCase]) -> Result<Vec<Chi
             sample_pdf: o[1][3],
             sample_weight: [o[2][0], o[2][1], o[2][2]],
         })
-        .collect())
+        .collect()
 }
 
 /// The GPU sampler's dimension pair `pair` of sample `index` of pixel (x, y) for `seed`, per

@@ -12,13 +12,16 @@ use fiberlab_scatter::Model;
 use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::hair::roughness::lobe_variances;
 use fiberlab_scatter::hair::tilt::lobe_tilts;
+use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use std::f64::consts::PI;
 
 /// Why a scene cannot be rendered on the GPU.
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 pub enum Unsupported {
     /// A fiber model without a GPU implementation.
-    #[error("fiber model `{0}` is not implemented on the GPU (supported: chiang); render with --device cpu")]
+    #[error(
+        "fiber model `{0}` is not implemented on the GPU (supported: chiang, kajiya-kay); render with --device cpu"
+    )]
     FiberModel(String),
     /// A surface material without a GPU implementation.
     #[error(
@@ -52,6 +55,7 @@ const MATERIAL_WORDS: usize = 32;
 const MATERIAL_LAMBERT: u32 = 0;
 const MATERIAL_MIRROR: u32 = 1;
 const MATERIAL_CHIANG: u32 = 2;
+const MATERIAL_KAJIYA_KAY: u32 = 3;
 /// Primitive kinds of the objects (as the shaders' `KIND_*`).
 const KIND_SEGMENT: u32 = 1;
 const KIND_TRIANGLE: u32 = 3;
@@ -126,9 +130,39 @@ pub fn chiang_words(c: &Chiang) -> [u32; MATERIAL_WORDS] {
     w
 }
 
-fn fiber_material(model: &Model) -> Result<[u32; MATERIAL_WORDS], Unsupported> {
+/// The words of a Kajiya–Kay material (the order of `load_kajiya_kay` in the shaders) whose
+/// lobe table starts at word `table_at`, and that table: the CPU's CDF normalised to 1 at the
+/// cell boundaries, then each cell's density (normalised mass per radian), so that the
+/// density keeps f32's relative precision in the lobe's tails.
+#[must_use]
+pub fn kajiya_kay_words(k: &KajiyaKay, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    let lobe = k.lobe_table();
+    let cdf = lobe.cdf_values();
+    let (x0, dx) = lobe.grid();
+    let total = cdf[cdf.len() - 1];
+    let cells = cdf.len() - 1;
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_KAJIYA_KAY;
+    w[1..4].copy_from_slice(&rgb(k.k_d()));
+    w[4..7].copy_from_slice(&rgb(k.k_s()));
+    w[7] = f(k.p());
+    w[8] = f(PI * PI * k.k_d().luminance());
+    w[9] = f(2.0 * PI * k.k_s().luminance() * total);
+    w[10] = table_at;
+    w[11] = cells as u32;
+    w[12] = f(x0);
+    w[13] = f(dx);
+    let mut table: Vec<u32> = cdf.iter().map(|c| f(c / total)).collect();
+    table.extend(cdf.windows(2).map(|c| f((c[1] - c[0]) / total / dx)));
+    (w, table)
+}
+
+/// A fiber material's words and its table (empty for most), whose first word is at
+/// `table_at`.
+fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS], Vec<u32>), Unsupported> {
     match model {
-        Model::Chiang(c) => Ok(chiang_words(c)),
+        Model::Chiang(c) => Ok((chiang_words(c), Vec::new())),
+        Model::KajiyaKay(k) => Ok(kajiya_kay_words(k, table_at)),
         other => {
             let debug = format!("{other:?}");
             Err(Unsupported::FiberModel(debug.split(['(', ' ', '{']).next().unwrap_or("?").to_lowercase()))
@@ -191,9 +225,16 @@ impl SceneBuffers {
         let (mut aabb, mut oriented) = (Vec::new(), Vec::new());
         let mut materials: Vec<[u32; MATERIAL_WORDS]> = Vec::new();
         let mut objects: Vec<[u32; 2]> = Vec::new();
+        // Materials' tables (after every other word; their offsets are made absolute below).
+        let (mut tables, mut tabled) = (Vec::new(), Vec::new());
         for fibers in scene.fibers() {
             let material = materials.len() as u32;
-            materials.push(fiber_material(scene.fiber_model(fibers.material()))?);
+            let (words, table) = fiber_material(scene.fiber_model(fibers.material()), tables.len() as u32)?;
+            if !table.is_empty() {
+                tabled.push(materials.len());
+                tables.extend(table);
+            }
+            materials.push(words);
             let curves = fibers.curves();
             let base = (b.segments.len() / 16) as u32;
             let mut words = curves.segment_words();
@@ -276,6 +317,11 @@ impl SceneBuffers {
         b.emitter_base = words.len() as u32;
         b.emitter_count = emitters.len() as u32;
         words.extend(emitters.iter().flatten());
+        let table_base = words.len() as u32;
+        for m in tabled {
+            words[b.material_base as usize + MATERIAL_WORDS * m + 10] += table_base;
+        }
+        words.extend(tables);
         b.words = words;
         Ok(b)
     }

@@ -194,6 +194,34 @@ fn images_match_the_cpu_for_each_light_and_material() {
     }
 }
 
+/// Kajiya–Kay hair (its tabulated specular lobe copied to the GPU) under sun and sky, GPU
+/// against CPU at the same seed, as above.
+#[test]
+fn kajiya_kay_images_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let kk = fiberlab_scatter::build("kajiya-kay", &[("k_d", "0.04,0.03,0.02"), ("k_s", "0.3"), ("p", "60")]).unwrap();
+    let hair_m = b.fiber_material(kk);
+    let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::new(0.6, 0.45, 0.35)));
+    b.fibers(hair(200), hair_m);
+    b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
+    b.light(Light::sun(DVec3::new(1.0, 1.3, 0.5), 0.05, Rgb::new(3.0, 2.8, 2.5)));
+    b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+    let scene = b.build();
+    let s = settings(32);
+    let g = gpu_render(gpu, &scene, &s);
+    let c = cpu_render(&scene, &s);
+    let c2 = cpu_render(&scene, &RenderSettings { seed: 11, ..s.clone() });
+    let (gm, cm) = (channel_means(&g.image), channel_means(&c.image));
+    let (err, noise) = (block_rms(&g.image, &c.image), block_rms(&c2.image, &c.image));
+    eprintln!("kajiya-kay: GPU means {gm:.4?}, CPU {cm:.4?}; block RMS GPU−CPU {err:.5}, CPU−CPU {noise:.5}");
+    assert_eq!(g.stats.nonfinite_samples, 0);
+    for k in 0..3 {
+        assert!((gm[k] / cm[k] - 1.0).abs() < 0.01, "channel {k}: GPU {} CPU {}", gm[k], cm[k]);
+    }
+    assert!(err < noise, "block RMS {err} above the noise {noise}");
+}
+
 /// The progressive state on the GPU: a render stopped at 4 spp and continued to 8 equals one
 /// render to 8 bit for bit; so do two tiles merged and a render in small chunks; a render begun
 /// on the GPU continues on the CPU to the requested spp; a stop before anything keeps nothing.

@@ -1,6 +1,7 @@
-//! The GPU's scattering code and sampler against the CPU's: Chiang's f_s and pdf on random
-//! directions and offsets (f32 tolerance), its samples' density and weight at the directions
-//! they return, the χ² of the GPU's samples against the CPU's pdf, and the sampler's values.
+//! The GPU's scattering code and sampler against the CPU's: Chiang's and Kajiya–Kay's f_s and
+//! pdf on random directions and offsets (f32 tolerance), their samples' density and weight at
+//! the directions they return, the χ² of the GPU's samples against the CPU's pdf, and the
+//! sampler's values.
 
 mod common;
 
@@ -12,6 +13,7 @@ use fiberlab_math::{DVec3, Rgb};
 use fiberlab_render::sampler::PixelSampler;
 use fiberlab_scatter::chiang_2016::{Chiang, ChiangParams};
 use fiberlab_scatter::hair::absorption::Absorption;
+use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
 use fiberlab_scatter::{Properties, Sample, ScatteringFunction};
 use glam::Vec3;
 use std::f64::consts::{FRAC_PI_2, TAU};
@@ -106,15 +108,104 @@ fn chiang_eval_pdf_and_samples_match_the_cpu() {
     }
 }
 
+fn kajiya_kay_fibers() -> Vec<(&'static str, KajiyaKay)> {
+    let sharp = KajiyaKayParams { k_d: Rgb::new(0.02, 0.01, 0.005), k_s: Rgb::new(0.3, 0.2, 0.1), p: 2000.0 };
+    let specular_only = KajiyaKayParams { k_d: Rgb::ZERO, k_s: Rgb::splat(0.2), p: 8.0 };
+    [("default", KajiyaKayParams::default()), ("sharp", sharp), ("specular only", specular_only)]
+        .into_iter()
+        .map(|(n, p)| (n, KajiyaKay::new(p).unwrap()))
+        .collect()
+}
+
+/// Kajiya–Kay: f_s to 5·10⁻⁴ of the largest channel (its 1/cosθ_i grows without bound at
+/// grazing light, so the scale is f's own), the pdf to 5·10⁻⁴ relative, and each sample's pdf
+/// and weight as the CPU computes them at the direction returned.
+#[test]
+fn kajiya_kay_eval_pdf_and_samples_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut rng = TestRng::new(6);
+    for (name, fiber) in kajiya_kay_fibers() {
+        let cases: Vec<ChiangCase> = (0..4000).map(|k| case(&mut rng, k)).collect();
+        let got = model_probe::kajiya_kay(gpu, &fiber, &cases).unwrap();
+        let (mut sampled, mut worst) = (0, 0.0f64);
+        for (c, g) in cases.iter().zip(&got) {
+            let (wo, wi) = (dvec(c.wo), dvec(c.wi));
+            let (f, pdf) = (fiber.eval(wi, wo, 0.0), fiber.pdf(wi, wo, 0.0));
+            let scale = f.max_component().max(1e-3);
+            for k in 0..3 {
+                let err = (f64::from(g.f[k]) - f[k]).abs() / scale;
+                worst = worst.max(err);
+                assert!(err < 5e-4, "{name}: f[{k}] {} vs {} at {c:?}", g.f[k], f[k]);
+            }
+            assert!((f64::from(g.pdf) - pdf).abs() <= 5e-4 * pdf.max(1e-3), "{name}: pdf {} vs {pdf} at {c:?}", g.pdf);
+            if g.sample_pdf > 0.0 {
+                let swi = dvec(g.sample_wi);
+                assert!((swi.length() - 1.0).abs() < 1e-5, "{name}: |ω_i| = {}", swi.length());
+                let (f, pdf) = (fiber.eval(swi, wo, 0.0), fiber.pdf(swi, wo, 0.0));
+                if pdf > 1e-2 {
+                    assert!(
+                        (f64::from(g.sample_pdf) / pdf - 1.0).abs() < 3e-3,
+                        "{name}: sample pdf {} vs {pdf}",
+                        g.sample_pdf
+                    );
+                    let weight = f * (cos_theta(swi) / pdf);
+                    for k in 0..3 {
+                        let err = (f64::from(g.sample_weight[k]) - weight[k]).abs();
+                        assert!(
+                            err < 3e-3 * weight.max_component().max(1e-2),
+                            "{name}: weight {:?} vs {weight:?}",
+                            g.sample_weight
+                        );
+                    }
+                    sampled += 1;
+                }
+            }
+        }
+        eprintln!(
+            "kajiya-kay {name}: {} evaluations, {sampled} samples checked, worst relative f error {worst:.2e}",
+            cases.len()
+        );
+        assert!(sampled > 2000, "{name}: only {sampled} samples checked");
+    }
+}
+
+/// χ² of the GPU's Kajiya–Kay samples against the CPU's pdf, at a near-normal and a
+/// steep camera direction.
+#[test]
+fn kajiya_kay_gpu_samples_follow_the_cpu_pdf() {
+    let Some(gpu) = common::gpu() else { return };
+    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 200_000, seed: 10 };
+    for (name, fiber) in kajiya_kay_fibers() {
+        for theta_o in [0.35, -1.1] {
+            let wo = direction(theta_o, FRAC_PI_2);
+            let mut rng = TestRng::new(cfg.seed);
+            let cases: Vec<ChiangCase> = (0..cfg.samples)
+                .map(|_| ChiangCase {
+                    wo: wo.as_vec3(),
+                    h: 0.0,
+                    wi: Vec3::X,
+                    u: rng.u4().map(|x| (x as f32).min(1.0 - f32::EPSILON / 2.0)),
+                })
+                .collect();
+            let got = model_probe::kajiya_kay(gpu, &fiber, &cases).unwrap();
+            let samples = got.iter().map(|g| (g.sample_pdf > 0.0).then(|| dvec(g.sample_wi))).collect();
+            let f = GpuSamples { cpu: &fiber, samples, next: AtomicUsize::new(0) };
+            let out = chi2_test(&f, dvec(wo.as_vec3()), 0.0, &cfg);
+            eprintln!("kajiya-kay {name} θ_o {theta_o}: χ² {:.1} dof {} p {:.3}", out.statistic, out.dof, out.p_value);
+            assert!(out.passes(1e-3), "kajiya-kay {name} θ_o {theta_o}: {out:?}");
+        }
+    }
+}
+
 /// The CPU model whose `sample` hands out the GPU's samples of the same uniforms, in order:
 /// the harness's χ² then tests the GPU's sampling against the CPU's pdf.
-struct GpuSamples<'a> {
-    cpu: &'a Chiang,
+struct GpuSamples<'a, M: ScatteringFunction> {
+    cpu: &'a M,
     samples: Vec<Option<DVec3>>,
     next: AtomicUsize,
 }
 
-impl ScatteringFunction for GpuSamples<'_> {
+impl<M: ScatteringFunction> ScatteringFunction for GpuSamples<'_, M> {
     fn properties(&self) -> Properties {
         self.cpu.properties()
     }

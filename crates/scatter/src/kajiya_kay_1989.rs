@@ -160,6 +160,13 @@ impl KajiyaKay {
         self.p
     }
 
+    /// The tabulated `cos^p x` on [−π/2, π/2] that the specular lobe samples (for a copy
+    /// elsewhere, e.g. the GPU's).
+    #[must_use]
+    pub fn lobe_table(&self) -> &Tabulated1D {
+        &self.lobe
+    }
+
     /// `f_s` from the inclinations alone (it has no φ dependence).
     pub(crate) fn eval_theta(&self, sin_i: f64, cos_i: f64, sin_o: f64, cos_o: f64) -> Rgb {
         let cone = (cos_i * cos_o - sin_i * sin_o).max(0.0);

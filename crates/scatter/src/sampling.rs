@@ -66,6 +66,19 @@ impl Tabulated1D {
         self.cdf.len() - 1
     }
 
+    /// The domain's start `x0` and the cell width (for a copy of the table elsewhere, e.g.
+    /// on the GPU).
+    #[must_use]
+    pub fn grid(&self) -> (f64, f64) {
+        (self.x0, self.dx)
+    }
+
+    /// The unnormalized CDF at the cell boundaries (`cdf[0] = 0`, last = total mass).
+    #[must_use]
+    pub fn cdf_values(&self) -> &[f64] {
+        &self.cdf
+    }
+
     /// Unnormalized CDF at `x` (linear within a cell), clamped to the domain.
     #[must_use]
     pub fn cdf(&self, x: f64) -> f64 {

@@ -17,6 +17,10 @@ fn word_f(i: u32) -> f32 {
     return bitcast<f32>(scene_words[i]);
 }
 
+fn word_u(i: u32) -> u32 {
+    return scene_words[i];
+}
+
 fn word_v3(i: u32) -> vec3<f32> {
     return vec3<f32>(word_f(i), word_f(i + 1u), word_f(i + 2u));
 }

@@ -12,6 +12,15 @@ fn probe_f(i: u32) -> f32 {
     return bitcast<f32>(probe_material[i]);
 }
 
+/// The material's words as `kajiya_kay.wgsl` reads them.
+fn word_f(i: u32) -> f32 {
+    return bitcast<f32>(probe_material[i]);
+}
+
+fn word_u(i: u32) -> u32 {
+    return probe_material[i];
+}
+
 fn probe_chiang() -> Chiang {
     var c: Chiang;
     c.eta = probe_f(1u);
@@ -41,6 +50,23 @@ fn probe_chiang_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
     let v = chiang_at_vertex(m, a.xyz, a.w);
     probe_out[3u * i] = chiang_eval(m, v, wi);
     let s = chiang_sample(m, v, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
+/// As `probe_chiang_cases` for the Kajiya–Kay material at word 0 (its table after it).
+@compute @workgroup_size(64)
+fn probe_kajiya_kay_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let m = load_kajiya_kay(0u);
+    let a = probe_in[3u * i];
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    probe_out[3u * i] = kk_eval(m, wi, a.xyz);
+    let s = kk_sample(m, a.xyz, u);
     probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
     probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
 }

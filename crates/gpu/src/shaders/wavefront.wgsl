@@ -10,6 +10,7 @@
 const MATERIAL_LAMBERT: u32 = 0u;
 const MATERIAL_MIRROR: u32 = 1u;
 const MATERIAL_CHIANG: u32 = 2u;
+// MATERIAL_KAJIYA_KAY (3) is in kajiya_kay.wgsl.
 
 fn material_kind(m: u32) -> u32 {
     return scene_words[params.material_base + 32u * m];
@@ -159,6 +160,9 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     var n: vec3<f32>;
     var chm: Chiang;
     var chv: ChiangVertex;
+    var kkm: KajiyaKay;
+    // ω_o in the fiber frame.
+    var wo_l: vec3<f32>;
     if kind == KIND_SEGMENT {
         let s0 = segments[4u * index];
         let s1 = segments[4u * index + 1u];
@@ -179,9 +183,13 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             fw = w_raw / len;
             fv = cross(fw, fu);
         }
-        chm = load_chiang(material);
-        let wo_l = vec3<f32>(dot(wo, fu), dot(wo, fv), dot(wo, fw));
-        chv = chiang_at_vertex(chm, wo_l, s.hit_h);
+        wo_l = vec3<f32>(dot(wo, fu), dot(wo, fv), dot(wo, fw));
+        if material_kind(material) == MATERIAL_CHIANG {
+            chm = load_chiang(material);
+            chv = chiang_at_vertex(chm, wo_l, s.hit_h);
+        } else {
+            kkm = load_kajiya_kay(params.material_base + 32u * material);
+        }
     } else {
         var ng: vec3<f32>;
         if kind == KIND_SPHERE {
@@ -219,9 +227,14 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             if ls.pdf > 0.0 {
                 var f = vec3<f32>(0.0);
                 var bsdf_pdf = 0.0;
-                if mkind == MATERIAL_CHIANG {
+                if mkind == MATERIAL_CHIANG || mkind == MATERIAL_KAJIYA_KAY {
                     let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
-                    let e = chiang_eval(chm, chv, wi_l);
+                    var e: vec4<f32>;
+                    if mkind == MATERIAL_CHIANG {
+                        e = chiang_eval(chm, chv, wi_l);
+                    } else {
+                        e = kk_eval(kkm, wi_l, wo_l);
+                    }
                     f = e.xyz * local_cos_theta(wi_l);
                     bsdf_pdf = e.w;
                 } else {
@@ -258,8 +271,13 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     var weight: vec3<f32>;
     var pdf = 0.0;
     var sampled_delta = false;
-    if mkind == MATERIAL_CHIANG {
-        let fs = chiang_sample(chm, chv, vec4<f32>(ua, ub));
+    if mkind == MATERIAL_CHIANG || mkind == MATERIAL_KAJIYA_KAY {
+        var fs: FiberSample;
+        if mkind == MATERIAL_CHIANG {
+            fs = chiang_sample(chm, chv, vec4<f32>(ua, ub));
+        } else {
+            fs = kk_sample(kkm, wo_l, vec4<f32>(ua, ub));
+        }
         if fs.pdf <= 0.0 {
             paths[pi].l = s.l;
             return;

@@ -6,7 +6,7 @@
 
 use fiberlab_geometry::bvh::FlatBvh;
 use fiberlab_math::Rgb;
-use fiberlab_render::light::Light;
+use fiberlab_render::light::{EnvironmentMap, Light};
 use fiberlab_render::scene::{Scene, SurfaceMaterial};
 use fiberlab_scatter::Model;
 use fiberlab_scatter::chiang_2016::Chiang;
@@ -28,11 +28,6 @@ pub enum Unsupported {
         "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror); render with --device cpu"
     )]
     SurfaceModel(String),
-    /// A light without a GPU implementation.
-    #[error(
-        "{0} lights are not implemented on the GPU (supported: constant environment, sun, distant, emitting spheres); render with --device cpu"
-    )]
-    Light(&'static str),
     /// The dual-scattering integrator.
     #[error(
         "the dual-scattering integrator is not implemented on the GPU (path tracing only); render with --device cpu"
@@ -170,6 +165,32 @@ fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS]
     }
 }
 
+/// The data of an environment map as `lights.wgsl` reads them, from word 0: each cell's
+/// radiance (3 words, rows from the top), each cell's probability, the row CDF normalised to 1
+/// (height + 1), then per row its column CDF normalised to 1 (width + 1).
+#[must_use]
+pub fn environment_map_words(map: &EnvironmentMap) -> Vec<u32> {
+    let (w, h) = map.size();
+    let mut words = Vec::with_capacity(4 * w * h + (h + 1) + h * (w + 1));
+    for y in 0..h {
+        for x in 0..w {
+            words.extend(rgb(map.cell_radiance(x, y)));
+        }
+    }
+    for y in 0..h {
+        words.extend((0..w).map(|x| f(map.cell_probability(x, y))));
+    }
+    let normalised = |c: &[f64]| {
+        let last = c[c.len() - 1];
+        c.iter().map(|v| f(if last > 0.0 { v / last } else { 0.0 })).collect::<Vec<_>>()
+    };
+    words.extend(normalised(map.row_cdf()));
+    for y in 0..h {
+        words.extend(normalised(map.column_cdf(y)));
+    }
+    words
+}
+
 fn surface_material(m: &SurfaceMaterial) -> Result<[u32; MATERIAL_WORDS], Unsupported> {
     let mut w = [0u32; MATERIAL_WORDS];
     match m {
@@ -278,6 +299,8 @@ impl SceneBuffers {
             }
         }
         let mut lights = Vec::new();
+        // Words of `lights` that hold a map's offset into `tables`.
+        let mut mapped = Vec::new();
         for (i, light) in scene.lights().iter().enumerate() {
             let p = f(picker.light_probability(i));
             let words: [u32; 12] = match light {
@@ -295,7 +318,13 @@ impl SceneBuffers {
                     let d = direction.normalize();
                     [2, p, 0, 0, r[0], r[1], r[2], 0, f(d.x), f(d.y), f(d.z), 0]
                 }
-                Light::Map(_) => return Err(Unsupported::Light("environment-map")),
+                Light::Map(map) => {
+                    let (w, h) = map.size();
+                    mapped.push(lights.len() + 9);
+                    let at = tables.len() as u32;
+                    tables.extend(environment_map_words(map));
+                    [3, p, 0, 0, 0, 0, 0, w as u32, h as u32, at, 0, 0]
+                }
             };
             lights.extend(words);
         }
@@ -320,6 +349,9 @@ impl SceneBuffers {
         let table_base = words.len() as u32;
         for m in tabled {
             words[b.material_base as usize + MATERIAL_WORDS * m + 10] += table_base;
+        }
+        for at in mapped {
+            words[b.light_base as usize + at] += table_base;
         }
         words.extend(tables);
         b.words = words;

@@ -89,6 +89,37 @@ impl EnvironmentMap {
         (x.min(w - 1), y.min(h - 1))
     }
 
+    /// Width and height in cells (pixels).
+    #[must_use]
+    pub fn size(&self) -> (usize, usize) {
+        (self.image.width(), self.image.height())
+    }
+
+    /// The radiance of cell (x, y) (the pixel times the scale).
+    #[must_use]
+    pub fn cell_radiance(&self, x: usize, y: usize) -> Rgb {
+        let p = self.image.get(x, y);
+        Rgb::new(p[0].into(), p[1].into(), p[2].into()) * self.scale
+    }
+
+    /// The probability that [`EnvironmentMap::sample`] picks cell (x, y).
+    #[must_use]
+    pub fn cell_probability(&self, x: usize, y: usize) -> f64 {
+        if self.total > 0.0 { self.weights[y * self.image.width() + x] / self.total } else { 0.0 }
+    }
+
+    /// The CDF over rows (height + 1 entries, the last the total weight).
+    #[must_use]
+    pub fn row_cdf(&self) -> &[f64] {
+        &self.marginal
+    }
+
+    /// Row `y`'s CDF over columns (width + 1 entries, the last the row's weight).
+    #[must_use]
+    pub fn column_cdf(&self, y: usize) -> &[f64] {
+        &self.conditional[y]
+    }
+
     /// Radiance arriving from direction `d` (toward the environment).
     #[must_use]
     pub fn radiance(&self, d: DVec3) -> Rgb {

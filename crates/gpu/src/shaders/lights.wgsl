@@ -11,6 +11,9 @@
 const LIGHT_CONSTANT: u32 = 0u;
 const LIGHT_SUN: u32 = 1u;
 const LIGHT_DISTANT: u32 = 2u;
+/// A lat-long environment map (render/src/light.rs, `EnvironmentMap`): words 7, 8 its width
+/// and height, 9 where its data start (`scene_buffers.rs::environment_map_words`).
+const LIGHT_MAP: u32 = 3u;
 const INF: f32 = 3.4028235e38;
 
 fn word_f(i: u32) -> f32 {
@@ -70,6 +73,75 @@ fn light_probability(i: u32) -> f32 {
     return word_f(params.light_base + 12u * i + 1u);
 }
 
+/// The map cell (x, y) of direction `d`: θ from +y down, φ = atan2(z, x) from −π.
+fn map_cell(b: u32, d: vec3<f32>) -> vec2<u32> {
+    let w = scene_words[b + 7u];
+    let h = scene_words[b + 8u];
+    let c = clamp(d.y, -1.0, 1.0);
+    let theta = atan2_f(safe_sqrt((1.0 - c) * (1.0 + c)), c);
+    let phi = atan2_f(d.z, d.x);
+    let x = min(u32(max((phi + PI) / TAU * f32(w), 0.0)), w - 1u);
+    let y = min(u32(max(theta / PI * f32(h), 0.0)), h - 1u);
+    return vec2<u32>(x, y);
+}
+
+fn map_radiance(b: u32, d: vec3<f32>) -> vec3<f32> {
+    let c = map_cell(b, d);
+    return word_v3(scene_words[b + 9u] + 3u * (c.y * scene_words[b + 7u] + c.x));
+}
+
+/// Density per steradian of `map_sample` returning `d`: the cell's probability over its
+/// solid angle (the cell's sinθ at its centre, as the CPU).
+fn map_pdf(b: u32, d: vec3<f32>) -> f32 {
+    let w = scene_words[b + 7u];
+    let h = scene_words[b + 8u];
+    let c = map_cell(b, d);
+    let p_cell = word_f(scene_words[b + 9u] + 3u * w * h + c.y * w + c.x);
+    let sin_theta = sin_cos_f(PI * (f32(c.y) + 0.5) / f32(h)).x;
+    if !(p_cell > 0.0) || !(sin_theta > 0.0) {
+        return 0.0;
+    }
+    return p_cell * f32(w * h) / (2.0 * PI * PI * sin_theta);
+}
+
+/// The cell i with c[i] ≤ v < c[i + 1] of the n + 1 values at `at` (empty cells skipped).
+fn map_find(at: u32, n: u32, v: f32) -> u32 {
+    var lo = 0u;
+    var hi = n + 1u;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if word_f(at + mid) <= v {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return clamp(lo, 1u, n) - 1u;
+}
+
+/// A direction drawn with density proportional to the map's luminance (× sinθ), uniform in
+/// (u, v) within its cell; pdf 0 when the map is black.
+fn map_sample(b: u32, u: vec2<f32>) -> vec4<f32> {
+    let w = scene_words[b + 7u];
+    let h = scene_words[b + 8u];
+    let rows = scene_words[b + 9u] + 4u * w * h;
+    if !(word_f(rows + h) > 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let y = map_find(rows, h, u.x);
+    let fy = clamp((u.x - word_f(rows + y)) / (word_f(rows + y + 1u) - word_f(rows + y)), 0.0, 1.0);
+    let row = rows + h + 1u + y * (w + 1u);
+    let x = map_find(row, w, u.y);
+    let fx = clamp((u.y - word_f(row + x)) / (word_f(row + x + 1u) - word_f(row + x)), 0.0, 1.0);
+    // Away from the cell's edges so that the direction maps back to the same cell in f32.
+    let uu = (f32(x) + clamp(fx, 1e-4, 1.0 - 1e-4)) / f32(w);
+    let vv = (f32(y) + clamp(fy, 1e-4, 1.0 - 1e-4)) / f32(h);
+    let st = sin_cos_f(PI * vv);
+    let sp = sin_cos_f(TAU * uu - PI);
+    let wi = vec3<f32>(st.x * sp.y, st.y, st.x * sp.x);
+    return vec4<f32>(wi, map_pdf(b, wi));
+}
+
 /// Radiance from light `i` at infinity along the escaping direction `d`.
 fn light_escaped(i: u32, d: vec3<f32>) -> vec3<f32> {
     let b = params.light_base + 12u * i;
@@ -80,6 +152,9 @@ fn light_escaped(i: u32, d: vec3<f32>) -> vec3<f32> {
     }
     if kind == LIGHT_SUN && dot(d, word_v3(b + 8u)) >= word_f(b + 7u) {
         return radiance;
+    }
+    if kind == LIGHT_MAP {
+        return map_radiance(b, d);
     }
     return vec3<f32>(0.0);
 }
@@ -93,6 +168,9 @@ fn light_pdf(i: u32, wi: vec3<f32>) -> f32 {
     }
     if kind == LIGHT_SUN && dot(wi, word_v3(b + 8u)) >= word_f(b + 7u) {
         return cone_pdf(word_f(b + 11u));
+    }
+    if kind == LIGHT_MAP {
+        return map_pdf(b, wi);
     }
     return 0.0;
 }
@@ -115,6 +193,11 @@ fn light_sample(i: u32, u: vec2<f32>) -> LightSample {
         let omc = word_f(b + 11u);
         s.wi = sample_cone(word_v3(b + 8u), omc, u);
         s.pdf = cone_pdf(omc);
+    } else if kind == LIGHT_MAP {
+        let m = map_sample(b, u);
+        s.wi = m.xyz;
+        s.pdf = m.w;
+        s.radiance = map_radiance(b, m.xyz);
     } else {
         s.wi = word_v3(b + 8u);
         s.pdf = 1.0;

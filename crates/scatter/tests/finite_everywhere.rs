@@ -200,11 +200,7 @@ fn first_problem(model: &fiberlab_scatter::Model, dirs: &[DVec3], uniforms: &[[f
                 if !finite || (s.wi.length() - 1.0).abs() >= UNIT_LENGTH_ABS {
                     return Some(format!("sample {s:?} for ωo {wi} h={h}"));
                 }
-                // Known defect (issue 41, open): hollow-fiber's sample and pdf disagree at
-                // densities of 1e-20 to 1e-7 sr⁻¹ for a viewer on the fiber axis; that viewer is
-                // a null set, every other direction is checked.
-                let axis_edge = model.name() == "hollow-fiber" && wi.x.abs() > 1.0 - 1e-12;
-                if !s.delta && !axis_edge {
+                if !s.delta {
                     let q = model.pdf(s.wi, wi, h);
                     if (s.pdf - q).abs() > 1e-6 * q.max(1e-300) {
                         return Some(format!("sample pdf {} vs pdf {q} (ωo {wi}, h={h}, u {u:?})", s.pdf));

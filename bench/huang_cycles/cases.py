@@ -19,6 +19,7 @@ Why these scenes:
   (along fiberlab x) has its major axis toward the camera (orientation 90) and a vertical one
   (along fiberlab y) across the view (orientation 0).
 * A small tress of straight strands (multiple scattering between fibers, shadowing), circular.
+* Opaque fibers: the R lobe alone in both.
 """
 
 import math
@@ -36,6 +37,7 @@ FRONT_LIGHT = [0.3, 0.5, 1.0]   # above, to the right, from the camera's side: R
 BACK_LIGHT = [0.25, 0.35, -1.0]  # behind the fiber: TT
 IRRADIANCE = [2.0, 2.0, 2.0]
 SIGMA_A = [0.3, 0.6, 1.2]       # per unit major semi-axis (a light brown)
+OPAQUE = [40.0, 40.0, 40.0]
 
 FIBER_RADIUS = 0.12             # 14.3 pixels wide
 FIBER_HALF_LENGTH = 1.3         # past the image's edges (fiberlab refuses diameters > 10% of the
@@ -63,11 +65,11 @@ def tress(strands=48, seed=3):
 
 
 def case(name, strands, light, roughness, aspect=1.0, orientation=0.0, tilt=2.0, eta=1.55,
-         region="horizontal", depth=32):
+         region="horizontal", depth=32, sigma_a=SIGMA_A):
     polylines, radii = strands
     return {"name": name, "polylines": polylines, "radii": radii, "light": light,
             "roughness": roughness, "aspect": aspect, "orientation": orientation, "tilt": tilt,
-            "eta": eta, "sigma_a": SIGMA_A, "region": region, "max_depth": depth}
+            "eta": eta, "sigma_a": sigma_a, "region": region, "max_depth": depth}
 
 
 def cases():
@@ -85,12 +87,15 @@ def cases():
              region="vertical"),
         case("tress α0.3", tress(), FRONT_LIGHT, 0.3, region="tress"),
         case("tress α0.3 backlit", tress(), BACK_LIGHT, 0.3, region="tress"),
+        # Opaque fibers (σ_a = 40 per radius: every internal path is absorbed): R alone.
+        case("opaque α0.2 (R only)", horizontal, FRONT_LIGHT, 0.2, sigma_a=OPAQUE),
+        case("opaque α0.5 (R only)", horizontal, FRONT_LIGHT, 0.5, sigma_a=OPAQUE),
     ]
 
 
 def slug(name):
     """A file-name form of a case name."""
-    keep = {"α": "a", "°": "deg", "→": "-to-", ".": "p", " ": "_"}
+    keep = {"α": "a", "°": "deg", "→": "-to-", ".": "p", " ": "_", "(": "", ")": ""}
     return "".join(keep.get(c, c) for c in name)
 
 

@@ -7,11 +7,11 @@
 #             number in its own roughness)
 #   rows      smooth (alpha 0.1) | rough (alpha 0.4)
 # Every tile has the same light, melanin (eumelanin 0.4, pheomelanin 0.15) and tilt (2°).
-#   gallery/huang.sh                   # the committed image (200² tiles, 64 spp)
+#   gallery/huang.sh                   # the committed image (200² tiles, 48 spp)
 #   SIZE=320 SPP=256 gallery/huang.sh  # larger and cleaner
 set -euo pipefail
 cd "$(dirname "$0")/.."
-SIZE=${SIZE:-200} SPP=${SPP:-64}
+SIZE=${SIZE:-200} SPP=${SPP:-48}
 # FIBERLAB: a fiberlab binary to use as it is (default: build target/release/fiberlab).
 if [ -n "${FIBERLAB:-}" ]; then bin=$FIBERLAB; else cargo build --release -q --bin fiberlab; bin=target/release/fiberlab; fi
 out=docs/gallery/huang

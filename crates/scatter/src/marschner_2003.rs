@@ -173,6 +173,7 @@ use crate::hair::attenuation::{PathLength, plane_attenuation};
 use crate::hair::longitudinal::GaussianLobes;
 use crate::hair::normal_plane::{Caustic, NormalPlane, RootMode, representative};
 use crate::hair::parameters::ETA_RANGE;
+use crate::hair::pole_taper::{taper, taper_derivative, untaper};
 use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
 use crate::radiometry::{Quadrature, albedo};
 use crate::{
@@ -498,6 +499,7 @@ impl From<MarschnerError> for ModelError {
 /// Angles of a direction pair used by S.
 #[derive(Clone, Copy, Debug)]
 struct PairAngles {
+    theta_i: f64,
     theta_r: f64,
     theta_h: f64,
     sin_theta_d: f64,
@@ -515,6 +517,7 @@ impl PairAngles {
         let (phi_i, phi_r) = (phi(wi), phi(wr));
         let (sin_theta_d, cos_theta_d) = (0.5 * (theta_r - theta_i)).sin_cos();
         Self {
+            theta_i,
             theta_r,
             theta_h: 0.5 * (theta_i + theta_r),
             sin_theta_d,
@@ -855,8 +858,14 @@ impl Marschner {
         (q_u, (1.0 - q_u) * (c.t * share).min(TRT_GLINT_MAX), c)
     }
 
-    /// Density of `sample` per dθ_i dφ (not yet divided by cosθ_i).
+    /// Density of `sample` per dθ_i dφ (not yet divided by cosθ_i). The θ part is the lobe's
+    /// Gaussian at the tapered inclination `W(θ_i)` times `W′(θ_i)` ([`crate::hair::pole_taper`]).
     fn angular_density(&self, angles: &PairAngles) -> f64 {
+        let taper_slope = taper_derivative(angles.theta_i);
+        if taper_slope <= 0.0 {
+            return 0.0;
+        }
+        let theta_h = 0.5 * (taper(angles.theta_i) + angles.theta_r);
         let w = self.lobe_weights(angles.theta_r);
         let plane = self.plane(self.params.eta, angles.sin_theta_d, angles.cos_theta_d);
         let mut q = 0.0;
@@ -870,7 +879,7 @@ impl Marschner {
                 continue;
             }
             let (a, b) = (self.lobes.alpha[lobe.p()], self.lobes.beta[lobe.p()]);
-            let p_theta = 0.5 * gaussian(b, angles.theta_h - a) / mass;
+            let p_theta = 0.5 * gaussian(b, theta_h - a) / mass * taper_slope;
             if p_theta == 0.0 {
                 continue;
             }
@@ -983,7 +992,7 @@ impl ScatteringFunction for Marschner {
         }
         let z = sample_truncated_normal(u[1], zl, zu);
         let theta_h = self.lobes.alpha[lobe.p()] + self.lobes.beta[lobe.p()] * z;
-        let theta_i = (2.0 * theta_h - theta_r).clamp(-FRAC_PI_2, FRAC_PI_2);
+        let theta_i = untaper((2.0 * theta_h - theta_r).clamp(-FRAC_PI_2, FRAC_PI_2));
         let (sd, cd) = (0.5 * (theta_r - theta_i)).sin_cos();
         let plane = self.plane(self.params.eta, sd, cd);
         let phi_rel = self.sample_phi(lobe, &plane, u_component, u[2], u[3]);

@@ -13,6 +13,7 @@
 //! | [`backward_form`] | `f_s = g/cosθ_i`, light-side albedo, measured non-reciprocity | Chiang 2016 |
 //! | [`parameters`] | the parameter table entries the hair models share | |
 //! | [`fiber`] | the fiber parameters Chiang and d'Eon share, with presets and checks | |
+//! | [`pole_taper`] | a sampled inclination's density made to vanish on the fiber axis (finite pdf per steradian) | |
 //!
 //! The mathematics, in our words and with the peers' discrepancies, is in
 //! `docs/theory/hair.md`, `docs/theory/conventions.md`, `docs/theory/radiometry.md` and
@@ -38,5 +39,6 @@ pub mod longitudinal;
 pub mod medulla;
 pub mod normal_plane;
 pub mod parameters;
+pub mod pole_taper;
 pub mod roughness;
 pub mod tilt;

@@ -18,7 +18,7 @@ pub mod rng;
 pub mod surface;
 pub mod tolerance;
 
-use chi2::{Chi2Config, chi2_cone, chi2_test};
+use chi2::{Chi2Config, Pole, chi2_cone, chi2_test};
 use fiberlab_math::frame::{cos_theta, direction, theta};
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::radiometry::{self, Quadrature};
@@ -169,8 +169,21 @@ impl Default for Effort {
     }
 }
 
-/// Viewer directions used by the per-direction tests (θ_o from normal to near grazing).
-const WO_THETAS: [f64; 4] = [0.0, 0.6, -1.1, 1.45];
+/// Viewer directions used by the per-direction tests (θ_o from normal to grazing on either
+/// side: 1.555 rad is 0.9° from the fiber axis).
+const WO_THETAS: [f64; 6] = [0.0, 0.6, -1.1, 1.45, 1.555, -1.555];
+/// Viewers (indices into [`WO_THETAS`]) whose χ² runs on the grid about the fiber normal
+/// ([`chi2::Pole::Normal`]), the orientation of a renderer's shading frame, where the fiber
+/// axis is a point inside a cell: a sampling density that is infinite per steradian on the
+/// axis (a lobe truncated there) shows as a deficit of that grid's `∫pdf` and a rejection.
+const NORMAL_POLE_VIEWERS: [usize; 2] = [4, 5];
+/// Models whose rows on the grid about the fiber normal are reported, not enforced (their χ² at
+/// the grazing viewers is enforced on the fiber-axis grid instead). `yan-fur`: its
+/// medulla-scattered lobes draw φ from tables and then θ_i given φ, so near the axis their
+/// density, finite since the pole taper, still depends on φ (discontinuous at the axis), which
+/// that grid does not resolve: with β_m = 4°, β_n = 5° its ∫pdf there is 1.004 at θ_o = 1.555
+/// (h = 0.8), and the default's χ² at θ_o = −1.555 gives p = 7e−4. Open work (issue 37).
+const NORMAL_POLE_REPORTED: [&str; 1] = ["yan-fur"];
 /// Light inclinations of the albedo table.
 pub const ALBEDO_THETAS: [f64; 4] = [0.0, 0.5, 1.0, 1.4];
 
@@ -178,7 +191,7 @@ pub const ALBEDO_THETAS: [f64; 4] = [0.0, 0.5, 1.0, 1.4];
 /// near-field models pair each viewer with a different offset, from the axis to the edge.
 fn direction_cases(f: &impl ScatteringFunction) -> Vec<(usize, f64)> {
     if f.properties().field == Field::Near {
-        vec![(0, 0.0), (1, 0.6), (2, -0.97), (3, 0.3), (1, -0.4)]
+        vec![(0, 0.0), (1, 0.6), (2, -0.97), (3, 0.3), (1, -0.4), (4, 0.8), (5, -0.2)]
     } else {
         (0..WO_THETAS.len()).map(|k| (k, 0.0)).collect()
     }
@@ -247,7 +260,7 @@ pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
         if let Some(e) = expected::camera_furnace(f) {
             let err = max_rel(quad, e);
             t.test(
-                format!("white furnace θ_o={:.2} h={h} (quadrature)", WO_THETAS[k]),
+                format!("white furnace θ_o={:.3} h={h} (quadrature)", WO_THETAS[k]),
                 quad.luminance(),
                 e.luminance(),
                 FURNACE_REL,
@@ -257,7 +270,7 @@ pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
         let tol = MC_SIGMAS * se.luminance() + MC_QUADRATURE_REL * quad.luminance().abs() + ROUNDING_REL;
         let pass = (mc.luminance() - quad.luminance()).abs() <= tol;
         t.test(
-            format!("furnace θ_o={:.2} h={h}: MC vs quadrature", WO_THETAS[k]),
+            format!("furnace θ_o={:.3} h={h}: MC vs quadrature", WO_THETAS[k]),
             mc.luminance(),
             quad.luminance(),
             tol,
@@ -293,44 +306,68 @@ pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
     // 5–7. pdf normalization, sample consistency, χ²
     let cases = direction_cases(f);
     let alpha = CHI2_SIGNIFICANCE / cases.len() as f64;
+    let normal_reported = NORMAL_POLE_REPORTED.contains(&label.split_whitespace().next().unwrap_or(""));
     let results: Vec<_> = cases
         .par_iter()
         .map(|&(k, h)| {
             let wo = wos[k];
             let integral = pdf_integral(f, wo, h);
+            let grazing = NORMAL_POLE_VIEWERS.contains(&k) && props.lobes != Lobes::Delta;
+            let normal_integral = grazing.then(|| normal_pole_pdf_integral(f, wo, h));
+            let chi2_config =
+                |pole| Chi2Config { samples: effort.chi2_samples, seed: 99 + k as u64, pole, ..Default::default() };
+            let normal_chi2 = (grazing && normal_reported).then(|| chi2_test(f, wo, h, &chi2_config(Pole::Normal)));
             let consistency = sample_consistency(f, wo, h, effort.samples / 5, 17 + k as u64);
             let outcome = if props.lobes == Lobes::Delta {
                 chi2_cone(f, wo, 180, effort.chi2_samples, 99 + k as u64)
             } else {
-                chi2_test(
-                    f,
-                    wo,
-                    h,
-                    &Chi2Config { samples: effort.chi2_samples, seed: 99 + k as u64, ..Default::default() },
-                )
+                let pole = if grazing && !normal_reported { Pole::Normal } else { Pole::FiberAxis };
+                chi2_test(f, wo, h, &chi2_config(pole))
             };
-            (k, h, integral, consistency, outcome)
+            (k, h, integral, normal_integral, normal_chi2, consistency, outcome)
         })
         .collect();
-    for (k, h, integral, consistency, outcome) in results {
+    for (k, h, integral, normal_integral, normal_chi2, consistency, outcome) in results {
         let th = WO_THETAS[k];
         t.test(
-            format!("∫pdf dω θ_o={th:.2} h={h}"),
+            format!("∫pdf dω θ_o={th:.3} h={h}"),
             integral,
             1.0,
             PDF_INTEGRAL_ABS,
             (integral - 1.0).abs() <= PDF_INTEGRAL_ABS,
         );
+        if let Some(integral) = normal_integral {
+            let test = format!("∫pdf dω θ_o={th:.3} h={h}, grid about the fiber normal");
+            if normal_reported {
+                t.report(format!("{test} (reported: NORMAL_POLE_REPORTED)"), integral);
+            } else {
+                t.test(
+                    test,
+                    integral,
+                    1.0,
+                    NORMAL_POLE_PDF_INTEGRAL_ABS,
+                    (integral - 1.0).abs() <= NORMAL_POLE_PDF_INTEGRAL_ABS,
+                );
+            }
+        }
+        if let Some(o) = normal_chi2 {
+            t.report(
+                format!("χ² p-value θ_o={th:.3} h={h}, grid about the fiber normal (reported: NORMAL_POLE_REPORTED)"),
+                o.p_value,
+            );
+        }
         t.test(
-            format!("sample vs eval/pdf θ_o={th:.2} h={h} (max rel.)"),
+            format!("sample vs eval/pdf θ_o={th:.3} h={h} (max rel.)"),
             consistency,
             0.0,
             SAMPLE_CONSISTENCY_REL,
             consistency <= SAMPLE_CONSISTENCY_REL,
         );
+        let on_normal_grid = NORMAL_POLE_VIEWERS.contains(&k) && props.lobes != Lobes::Delta && !normal_reported;
+        let grid = if on_normal_grid { ", grid about the fiber normal" } else { "" };
         t.test(
             format!(
-                "χ² p-value θ_o={th:.2} h={h} (dof {}, impossible {}, unresolved cells {})",
+                "χ² p-value θ_o={th:.3} h={h}{grid} (dof {}, impossible {}, unresolved cells {})",
                 outcome.dof, outcome.impossible, outcome.untrusted
             ),
             outcome.p_value,
@@ -551,6 +588,16 @@ pub fn pdf_integral(f: &impl ScatteringFunction, wo: DVec3, h: f64) -> f64 {
     let mut sum = 0.0;
     q.for_each_direction(|wi, dw| sum += f.pdf(wi, wo, h) * dw);
     sum
+}
+
+/// `∫ pdf(ω_i | ω_o, h) dω_i` by the plain midpoint rule on a grid about the fiber normal
+/// ([`Pole::Normal`]: 96 × 192 cells of 4 × 4 nodes, uniform in `ω·w` and the azimuth about
+/// `w`), where the fiber axis is a point inside the grid: a pdf that is finite per steradian
+/// integrates to 1 here as on the fiber-axis grid; one that grows like `1/cosθ_i` toward the
+/// axis does not.
+pub fn normal_pole_pdf_integral(f: &impl ScatteringFunction, wo: DVec3, h: f64) -> f64 {
+    let cfg = Chi2Config { bins_theta: 96, bins_phi: 192, sub: 4, pole: Pole::Normal, ..Default::default() };
+    chi2::expected_masses(f, wo, h, &cfg).iter().sum()
 }
 
 /// Max relative disagreement of `sample()` with `pdf()` and `eval()·cosθ_i/pdf`.

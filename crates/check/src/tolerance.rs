@@ -85,6 +85,13 @@ pub const CHI2_MIN_DOF: usize = 100;
 /// percent keeps the test blind to at most that much of the distribution.
 pub const CHI2_MAX_UNTRUSTED_MASS: f64 = 0.03;
 
+/// `|∫ pdf dω − 1|` on the grid about the fiber normal (`normal_pole_pdf_integral`: plain
+/// midpoint rule, 96 × 192 cells of 4 × 4 nodes, node spacing ≤ 0.5°): lobes of width ≥ 2°
+/// that are finite per steradian integrate to a few 1e−4 there; a density infinite on the
+/// fiber axis loses or gains 1e−2 (Marschner's truncated R lobe at θ_o = 1.555, β_R = 5°:
+/// 0.987 on a 150 × 301 grid before `hair::pole_taper`).
+pub const NORMAL_POLE_PDF_INTEGRAL_ABS: f64 = 2e-3;
+
 /// `|∫ pdf dω − 1|` by a χ² grid's own cell quadrature (midpoint, 2·`sub` nodes per cell
 /// side on grids of ≥ 64 × 128 cells): coarser than the grid of [`PDF_INTEGRAL_ABS`], and
 /// narrow lobes (β = 0.1) lose about 1e−3 at their peaks.

@@ -96,7 +96,7 @@ impl ScatteringFunction for Claims {
 #[test]
 fn chi2_of_the_hair_tests_rejects_small_pdf_errors_of_narrow_lobes() {
     let chiang = |beta_m: &str, beta_n: &str| build("chiang", &[("beta_m", beta_m), ("beta_n", beta_n)]).unwrap();
-    let cfg = Chi2Config { bins_theta: 160, bins_phi: 640, sub: 2, samples: 500_000, seed: 11 };
+    let cfg = Chi2Config { bins_theta: 160, bins_phi: 640, sub: 2, samples: 500_000, seed: 11, ..Default::default() };
     let (wo, h) = (direction(0.4, 0.3), 0.37);
     let sampler = || chiang("0.1", "0.1");
     for (what, claimed, mirrored) in [

@@ -226,7 +226,7 @@ impl<M: ScatteringFunction> ScatteringFunction for GpuSamples<'_, M> {
 #[test]
 fn chiang_gpu_samples_follow_the_cpu_pdf() {
     let Some(gpu) = common::gpu() else { return };
-    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 200_000, seed: 9 };
+    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 200_000, seed: 9, ..Default::default() };
     for (name, fiber) in fibers() {
         for (theta_o, h) in [(0.35, 0.3), (-1.1, -0.85)] {
             let wo = direction(theta_o, FRAC_PI_2);

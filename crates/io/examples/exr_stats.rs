@@ -5,7 +5,9 @@
 //!   with a reference, the relative error of the image mean (`mean_rel_diff`), the RMS of the
 //!   16×16 block means' relative errors (`block_rel_rmse`, over `blocks` blocks) and, with a
 //!   coverage mask, the coverage-weighted mean's error (`covered_mean_rel_diff`) and blocks
-//!   counted only where the mask covers more than half of the block.
+//!   counted only where the mask covers more than half of the block; per-channel mean ratios
+//!   (`channel_ratio`, coverage-weighted with a mask) and the firefly measure (`diff_p9999`,
+//!   `diff_median`, `firefly_ratio`).
 //! * `exr_stats --fit OUT.exr REFERENCE.exr BASE.exr TERM.exr…`: fits per channel
 //!   `REFERENCE ≈ BASE + Σ c_k TERM_k` by least squares over all pixels, writes the fitted
 //!   image and prints the coefficients (`coefficients[k][channel]`).
@@ -15,7 +17,7 @@
 //! `cargo run --release -p fiberlab-io --example exr_stats -- …`
 
 use fiberlab_io::LinearImage;
-use fiberlab_io::block_error::{block_error, channel_means, fit_terms};
+use fiberlab_io::block_error::{block_error, channel_means, channel_ratios, firefly_ratio, fit_terms};
 use std::path::Path;
 
 fn read(p: &str) -> LinearImage {
@@ -65,6 +67,12 @@ fn main() {
         if mask.is_some() {
             out += &format!(", \"covered_mean_rel_diff\": {:.6}", e.covered_mean_rel);
         }
+        let ratios = channel_ratios(&img, &reference, mask.as_ref()).unwrap_or_else(|e| panic!("{e}"));
+        let (top, median, fireflies) = firefly_ratio(&img, &reference, mask.as_ref()).unwrap_or_else(|e| panic!("{e}"));
+        out += &format!(
+            ", \"channel_ratio\": [{:.4}, {:.4}, {:.4}], \"diff_p9999\": {top:.4e}, \"diff_median\": {median:.4e}, \"firefly_ratio\": {fireflies:.2}",
+            ratios[0], ratios[1], ratios[2]
+        );
     }
     println!("{out}}}");
 }

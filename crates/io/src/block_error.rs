@@ -9,6 +9,12 @@
 //!   of its mean luminance; the root mean square of those. Without a mask a block counts when
 //!   its reference mean is above 1 % of the image's; with a mask when the mask's mean over the
 //!   block is above ½ (the hair covers most of it).
+//! * channel ratios: per channel, the (coverage-weighted) mean of the image over that of the
+//!   reference ([`channel_ratios`]);
+//! * firefly ratio: over the counted pixels (mask above ½, or all), the 99.99th percentile of
+//!   the per-pixel `|lum(image − reference)|` over its median ([`firefly_ratio`]): about 4–6
+//!   for noise with light tails at a few thousand pixels, 10² and more when a few pixels carry
+//!   rare, huge samples.
 
 use crate::LinearImage;
 use thiserror::Error;
@@ -123,6 +129,54 @@ pub fn block_error(
     Ok(BlockError { mean_rel, covered_mean_rel, block_rmse, blocks })
 }
 
+/// Per channel, the mean of `img` over that of `reference`, both weighted by the coverage
+/// `mask` (its first channel) when given; NaN for a channel whose reference mean is 0.
+pub fn channel_ratios(
+    img: &LinearImage,
+    reference: &LinearImage,
+    mask: Option<&LinearImage>,
+) -> Result<[f64; 3], BlockErrorError> {
+    check("the image", img, reference)?;
+    if let Some(m) = mask {
+        check("the mask", m, reference)?;
+    }
+    let (w, h) = (reference.width(), reference.height());
+    let (a, b) = (mean(img, mask, 0, 0, w, h), mean(reference, mask, 0, 0, w, h));
+    Ok([0, 1, 2].map(|c| if b[c] > 0.0 { a[c] / b[c] } else { f64::NAN }))
+}
+
+/// Quantile `q` ∈ [0, 1] of `values` (sorted in place; nearest rank), NaN when empty.
+fn quantile(values: &mut [f64], q: f64) -> f64 {
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    values.sort_by(f64::total_cmp);
+    let k = ((q * (values.len() - 1) as f64).round() as usize).min(values.len() - 1);
+    values[k]
+}
+
+/// The firefly measure (module docs): `(p99.99, median, p99.99/median)` of the per-pixel
+/// `|lum(img − reference)|` over the pixels whose `mask` is above ½ (all without a mask).
+pub fn firefly_ratio(
+    img: &LinearImage,
+    reference: &LinearImage,
+    mask: Option<&LinearImage>,
+) -> Result<(f64, f64, f64), BlockErrorError> {
+    check("the image", img, reference)?;
+    if let Some(m) = mask {
+        check("the mask", m, reference)?;
+    }
+    let mut d = Vec::with_capacity(img.pixels().len());
+    for (i, (a, b)) in img.pixels().iter().zip(reference.pixels()).enumerate() {
+        if mask.is_none_or(|m| m.pixels()[i][0] > 0.5) {
+            d.push(lum([0, 1, 2].map(|c| f64::from(a[c]) - f64::from(b[c]))).abs());
+        }
+    }
+    let top = quantile(&mut d, 0.9999);
+    let median = quantile(&mut d, 0.5);
+    Ok((top, median, if median > 0.0 { top / median } else { f64::INFINITY }))
+}
+
 /// Fits, per channel and by least squares over all pixels, `reference ≈ base + Σ_k c_k·term_k`
 /// and returns the coefficients (`[channel][k]`) and the fitted image. Coefficients are not
 /// constrained in sign.
@@ -228,6 +282,36 @@ mod tests {
         let expected = ((sl + sr) / (wl + wr)) / ((tl + tr) / (wl + wr)) - 1.0;
         assert!((e.covered_mean_rel - expected).abs() < 1e-5, "{} vs {expected}", e.covered_mean_rel);
         assert!(block_error(&img, &image(8, 8, |_, _| [1.0; 3]), None).is_err());
+    }
+
+    #[test]
+    fn channel_ratios_and_the_firefly_ratio() {
+        let reference = image(100, 100, |x, _| [1.0, 2.0, 0.5 + 0.001 * x as f32]);
+        let mask = image(100, 100, |x, _| if x < 50 { [1.0; 3] } else { [0.0; 3] });
+        // 10 % brighter in red on the left, 3 × on the right; noise ±0.01·(1 + y mod 3) in
+        // green; one pixel on the left 50 above.
+        let img = image(100, 100, |x, y| {
+            let r = reference.get(x, y);
+            let noise = 0.01 * (1.0 + (y % 3) as f32) * if (x + y) % 2 == 0 { 1.0 } else { -1.0 };
+            let spike = if (x, y) == (10, 10) { 50.0 } else { 0.0 };
+            [r[0] * if x < 50 { 1.1 } else { 3.0 } + spike, r[1] + noise, r[2]]
+        });
+        let ratios = channel_ratios(&img, &reference, Some(&mask)).unwrap();
+        // Red: 1.1 plus the spike's 50/5000 = 0.01.
+        assert!((ratios[0] - 1.11).abs() < 1e-5 && (ratios[1] - 1.0).abs() < 1e-4 && (ratios[2] - 1.0).abs() < 1e-6);
+        let (top, median, ratio) = firefly_ratio(&img, &reference, Some(&mask)).unwrap();
+        // The 5000 masked pixels: the 99.99th percentile (rank 4999) is the spike. The per-pixel
+        // differences 0.2126·0.1 + 0.7152·g with g = ±0.01, ±0.02, ±0.03 in equal shares sort
+        // as 0.0002, 0.0070, 0.0141, 0.0284, 0.0356, 0.0427: the median is the third or fourth,
+        // |0.2126·0.1 ± 0.7152·0.01|.
+        let spike = 0.2126 * (50.0 + 0.1) + 0.7152 * 0.02;
+        assert!((top - spike).abs() < 0.05, "{top} vs {spike}");
+        assert!(
+            (median - (0.02126 + 0.7152 * 0.01)).abs() < 1e-4 || (median - (0.02126 - 0.7152 * 0.01)).abs() < 1e-4,
+            "{median}"
+        );
+        assert!(ratio > 100.0);
+        assert!(channel_ratios(&img, &image(8, 8, |_, _| [1.0; 3]), None).is_err());
     }
 
     #[test]

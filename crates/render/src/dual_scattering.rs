@@ -49,11 +49,13 @@
 //! the ones the slab benchmark of `bench/dual_scattering/` selected (ARCHITECTURE.md, "Dual
 //! scattering").
 
+use crate::dual_bounce::{BounceDensity, model_sampler};
 use crate::fiber_count::{Crossing, DensityGrid, FiberCount, exact_crossings, exact_crossings_until};
 use crate::scene::{FiberMaterialId, Hit, Scene};
 use fiberlab_geometry::Ray;
 use fiberlab_geometry::curves::CurveHit;
 use fiberlab_geometry::shapes::sphere_hit;
+use fiberlab_math::frame::cos_theta;
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_scatter::dual_scattering_tables::{DualTables, DualTablesError, Resolution};
 use fiberlab_scatter::{Lobes, ScatteringFunction};
@@ -169,6 +171,36 @@ pub struct DualScatteringSettings {
     /// beyond) with this probability and its weight divided by it, in (0, 1]; 1 always
     /// bounces. Unbiased; trades the bounce's cost for variance of the surface-bounced light.
     pub bounce_probability: f64,
+    /// How deep the hair behind a fiber is taken to be for its local backscatter: the paper's
+    /// half-space (default) or the layer the camera ray meets beyond the fiber (`counted`:
+    /// right over a dark head, 0.93 against 1.26 in R on sparse blond hair, but 0.81 against
+    /// 0.99 on sparse blond hair over skin, where the surface bounce does not make up for it;
+    /// ARCHITECTURE.md, issue 37).
+    pub backscatter_depth: BackscatterDepth,
+    /// How a `Through` bounce draws its direction: from the mixture of [`crate::dual_bounce`]
+    /// (default) or from the fiber's own sampler alone (the earlier form, whose weight
+    /// `F·cosθ/p_s` is unbounded where F's broadened lobes reach beyond f_s).
+    pub bounce_sampling: BounceSampling,
+}
+
+/// The hair behind a fiber that its local backscatter `f_back` assumes
+/// ([`DualScatteringSettings::backscatter_depth`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BackscatterDepth {
+    /// A half-space of hair (the paper's Ā_b, whatever the hair is like).
+    Infinite,
+    /// The fibers the camera ray meets beyond the fiber, up to the next surface, counted as
+    /// for a light ([`DualScattering::backscatter_depth`]): Ā_b times `1 − P_b²`.
+    Counted,
+}
+
+/// How the `Through` bounce draws its direction ([`DualScatteringSettings::bounce_sampling`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BounceSampling {
+    /// The mixture of the fiber's sampler and F's lobes ([`crate::dual_bounce`]).
+    Mixture,
+    /// The fiber's own sampler.
+    Model,
 }
 
 impl Default for DualScatteringSettings {
@@ -187,6 +219,8 @@ impl Default for DualScatteringSettings {
             count_cutoff: 1e-4,
             bounce_cutoff: 1e-2,
             bounce_probability: 1.0,
+            bounce_sampling: BounceSampling::Mixture,
+            backscatter_depth: BackscatterDepth::Infinite,
         }
     }
 }
@@ -195,7 +229,8 @@ impl DualScatteringSettings {
     /// The settings for fiber count `fiber_count` (`exact` or `grid`) with `KEY=VALUE` options
     /// applied over the defaults, as the command line's `--dual` and Python's `dual=` give them:
     /// `d_f`, `d_b`, `k_back`, `grid`, `grid_near`, `cutoff`, `bounce_cutoff` (finite, ≥ 0),
-    /// `bounce_p` (in (0, 1]), `surface_bounce` (`off`, `on`, `through`), `pi` (`on`, `off`),
+    /// `bounce_p` (in (0, 1]), `surface_bounce` (`off`, `on`, `through`), `bounce_sampling`
+    /// (`mixture`, `model`), `back_depth` (`counted`, `infinite`), `pi` (`on`, `off`),
     /// `spread` (`weighted`, `literal`), `global` (`energy`, `forward-mean`). The error names
     /// the option and what it accepts.
     pub fn from_options<S: AsRef<str>>(fiber_count: &str, options: &[S]) -> Result<Self, String> {
@@ -238,6 +273,14 @@ impl DualScatteringSettings {
                     s.bounce_probability = q;
                 }
                 "surface_bounce" => s.surface_bounce = SurfaceBounce::parse(value).map_err(|e| format!("dual {e}"))?,
+                "back_depth" => {
+                    s.backscatter_depth =
+                        [BackscatterDepth::Counted, BackscatterDepth::Infinite][choice(&["counted", "infinite"])?];
+                }
+                "bounce_sampling" => {
+                    s.bounce_sampling =
+                        [BounceSampling::Mixture, BounceSampling::Model][choice(&["mixture", "model"])?];
+                }
                 "pi" => s.back_pi = matches!(choice(&["on", "off", "true", "false"])?, 0 | 2),
                 "spread" => s.spread = [Spread::Weighted, Spread::Literal][choice(&["weighted", "literal"])?],
                 "global" => {
@@ -247,7 +290,7 @@ impl DualScatteringSettings {
                 _ => {
                     return Err(format!(
                         "dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, global, grid, grid_near, \
-                         surface_bounce, cutoff, bounce_cutoff, bounce_p)"
+                         surface_bounce, bounce_sampling, back_depth, cutoff, bounce_cutoff, bounce_p)"
                     ));
                 }
             }
@@ -316,6 +359,24 @@ pub struct DualScattering {
     grid: Option<DensityGrid>,
     settings: DualScatteringSettings,
 }
+
+/// What the light sample at a dual-scattering fiber ([`DualScattering::shade_fiber`]) passes
+/// on to the fiber's bounce.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FiberShading {
+    /// Light toward the camera from the light sample, `F·cosθ_i·L/p`.
+    pub radiance: Rgb,
+    /// σ̄_f² met by the light sample (luminance of the channels; 0 when nothing was counted):
+    /// the hint of [`DualScattering::sample_bounce`].
+    pub spread_hint: f64,
+    /// The backscatter's share for the hair behind the fiber
+    /// ([`DualScattering::backscatter_depth`]).
+    pub back_depth: Rgb,
+}
+
+/// The walk of [`DualScattering::backscatter_depth`] stops once `∏ā_f` is below this in every
+/// channel: the factor `1 − P_b²` is then within 10⁻³ of 1.
+pub const BACK_DEPTH_CUTOFF: f64 = 0.0316;
 
 /// Table resolution used for rendering (32 θ nodes over (−90°, 90°), linearly interpolated).
 pub const RENDER_TABLE_RESOLUTION: Resolution =
@@ -444,7 +505,9 @@ impl DualScattering {
 
     /// `F(ω_i, ω_o)` (sr⁻¹, module docs) at a fiber of `material` for local directions `wi`
     /// (toward the light) and `wo`, offset `h`, behind `n` fibers with transmittance product
-    /// `product` and spread `spread2`.
+    /// `product` and spread `spread2`, with the whole half-space of hair behind the fiber that
+    /// the paper's backscatter assumes ([`DualScattering::scattering_with_depth`] for a layer
+    /// of finite depth).
     #[must_use]
     #[allow(clippy::too_many_arguments)]
     pub fn scattering(
@@ -457,6 +520,26 @@ impl DualScattering {
         n: f64,
         product: Rgb,
         spread2: Rgb,
+    ) -> Rgb {
+        self.scattering_with_depth(scene, material, wi, wo, h, n, product, spread2, Rgb::ONE)
+    }
+
+    /// [`DualScattering::scattering`] with the backscatter scaled by `back_depth`, the share
+    /// `1 − P_b²` of the paper's Ā_b that a layer behind the fiber with forward transmittance
+    /// product `P_b` returns ([`DualScattering::backscatter_depth`]).
+    #[must_use]
+    #[allow(clippy::too_many_arguments)]
+    pub fn scattering_with_depth(
+        &self,
+        scene: &Scene,
+        material: FiberMaterialId,
+        wi: DVec3,
+        wo: DVec3,
+        h: f64,
+        n: f64,
+        product: Rgb,
+        spread2: Rgb,
+        back_depth: Rgb,
     ) -> Rgb {
         let s = &self.settings;
         let t = self.tables_of(material);
@@ -482,7 +565,7 @@ impl DualScattering {
             let sigma = base * (af * af * s.backward_density + Rgb::ONE);
             let variance = (sigma * sigma + extra).map(|v| v.max(MIN_VARIANCE));
             let shift = mix(r0.backscatter_shift, r1.backscatter_shift);
-            let ab = mix(r0.backscatter, r1.backscatter);
+            let ab = mix(r0.backscatter, r1.backscatter) * back_depth;
             ab * gaussian(Rgb::splat(theta_h) - shift, variance) * (s.back_scale * 2.0 / PI * inv_cos2)
         };
         let direct = (1.0 - n).max(0.0);
@@ -513,8 +596,10 @@ impl DualScattering {
 
     /// Light leaving the fiber hit `fiber` (of `material`, seen along `ray_d`) toward the
     /// camera, from one light sample (`u_pick`, `u_light`): [`DualScattering::scattering`] for
-    /// the sampled light direction, `F·cosθ_i·L/p`. Adds the shadow ray to `rays`. The path
-    /// tracer calls this at the first fiber a path reaches and ends the path there.
+    /// the sampled light direction, `F·cosθ_i·L/p`; and the spread σ̄_f² (luminance of the
+    /// channels; 0 when nothing was counted) the light sample met, the hint of
+    /// [`DualScattering::sample_bounce`]. Adds the shadow ray to `rays`. The path tracer calls
+    /// this at the first fiber a path reaches.
     #[must_use]
     #[allow(clippy::too_many_arguments)]
     pub fn shade_fiber(
@@ -526,29 +611,100 @@ impl DualScattering {
         u_pick: f64,
         u_light: [f64; 2],
         rays: &mut u64,
-    ) -> Rgb {
+    ) -> FiberShading {
+        let back_depth = self.backscatter_depth(scene, fiber, material, ray_d, rays);
+        let mut shading = FiberShading { radiance: Rgb::ZERO, spread_hint: 0.0, back_depth };
         let p = fiber.p;
         let eps = 1e-9 * (1.0 + p.abs().max_element());
         let picker = scene.light_picker();
-        let Some((emitter, select)) = picker.pick(u_pick) else { return Rgb::ZERO };
-        let Some(ls) = scene.sample_emitter(emitter, p, u_light) else { return Rgb::ZERO };
+        let Some((emitter, select)) = picker.pick(u_pick) else { return shading };
+        let Some(ls) = scene.sample_emitter(emitter, p, u_light) else { return shading };
         if ls.radiance.is_black() {
-            return Rgb::ZERO;
+            return shading;
         }
         let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
         let shadow = Ray { o: p, d: ls.wi, t_min: eps, t_max };
         *rays += 1;
         if !surfaces_unoccluded(scene, &shadow) {
-            return Rgb::ZERO;
+            return shading;
         }
         let assembly = scene.fibers().iter().position(|f| f.material() == material);
         let skip = assembly.map(|a| (a, fiber.strand));
         let (n, product, spread2) = self.count(scene, &shadow, skip, 4.0 * fiber.radius);
         let frame = fiber.frame(ray_d);
         let (wi, wo) = (frame.to_local(ls.wi), frame.to_local(-ray_d));
-        let f = self.scattering(scene, material, wi, wo, fiber.h, n, product, spread2);
+        let f = self.scattering_with_depth(scene, material, wi, wo, fiber.h, n, product, spread2, back_depth);
         let cos_i = (1.0 - wi.x * wi.x).max(0.0).sqrt();
-        f * ls.radiance * (cos_i / (select * ls.pdf))
+        shading.radiance = f * ls.radiance * (cos_i / (select * ls.pdf));
+        shading.spread_hint = spread2.luminance().max(0.0);
+        shading
+    }
+
+    /// The share `1 − P_b²` of the paper's backscatter Ā_b that the hair behind the fiber
+    /// returns (per channel; 1 with [`BackscatterDepth::Infinite`]). Ā_b sums the paths that
+    /// go `i ≥ 1` fibers deep by forward scattering, scatter back and return:
+    /// `Ā_1 = ā_b Σ_{i≥1} ā_f^{2i}`; a layer of `n_b` fibers keeps the terms `i ≤ n_b`,
+    /// `ā_b ā_f²(1 − ā_f^{2n_b})/(1 − ā_f²)`, i.e. the factor `1 − P_b²` with
+    /// `P_b = ∏ ā_f` over the layer (applied to the three-bounce term too). The layer is
+    /// what the camera ray meets beyond the fiber up to the next surface, counted as toward
+    /// a light (each fiber at its own inclination); the walk stops once `P_b` is below
+    /// [`BACK_DEPTH_CUTOFF`] in every channel (then the factor is 1). Adds the ray to `rays`.
+    pub fn backscatter_depth(
+        &self,
+        scene: &Scene,
+        fiber: &CurveHit,
+        material: FiberMaterialId,
+        ray_d: DVec3,
+        rays: &mut u64,
+    ) -> Rgb {
+        if self.settings.backscatter_depth == BackscatterDepth::Infinite {
+            return Rgb::ONE;
+        }
+        let p = fiber.p;
+        let eps = 1e-9 * (1.0 + p.abs().max_element());
+        let mut ray = Ray { o: p, d: ray_d, t_min: eps, t_max: f64::INFINITY };
+        *rays += 1;
+        if let Some(Hit::Surface { t, .. }) = scene.intersect_surfaces(&ray) {
+            ray.t_max = t;
+        }
+        let assembly = scene.fibers().iter().position(|f| f.material() == material);
+        let skip = assembly.map(|a| (a, fiber.strand));
+        let (_, product, _) = self.count_until(scene, &ray, skip, 4.0 * fiber.radius, BACK_DEPTH_CUTOFF);
+        (Rgb::ONE - product * product).map(|v| v.clamp(0.0, 1.0))
+    }
+
+    /// The bounce's direction at the dual-scattering fiber `fiber` (seen along `ray_d`), from
+    /// four uniforms: with `Through`, from the mixture of [`crate::dual_bounce`] (the fiber's
+    /// own sampler, the broadened global lobes, the backscatter lobe and uniform directions,
+    /// `spread_hint` the σ̄_f² of the light sample), otherwise from the fiber's own sampler.
+    /// Returns the direction (world), its density per steradian, and `f_s·cosθ/p` (the weight
+    /// of `Unobstructed`).
+    #[must_use]
+    pub fn sample_bounce(
+        &self,
+        scene: &Scene,
+        fiber: &CurveHit,
+        material: FiberMaterialId,
+        ray_d: DVec3,
+        spread_hint: f64,
+        u: [f64; 4],
+    ) -> Option<(DVec3, f64, Rgb)> {
+        let model = scene.fiber_model(material);
+        let frame = fiber.frame(ray_d);
+        let wo = frame.to_local(-ray_d);
+        if self.settings.surface_bounce != SurfaceBounce::Through
+            || self.settings.bounce_sampling == BounceSampling::Model
+        {
+            let s = model.sample(wo, fiber.h, u)?;
+            return Some((frame.to_world(s.wi).normalize(), s.pdf, s.weight));
+        }
+        let t = self.tables_of(material);
+        let hint = spread_hint + t.lookup(wo.x.clamp(-1.0, 1.0).asin(), |r| r.forward_variance).luminance();
+        let density = BounceDensity::new(t, wo, self.settings.backward_density, hint.max(0.0));
+        let wi = density.sample(u, model_sampler(model, wo, fiber.h))?;
+        let (f, model_pdf) = model.eval_and_pdf(wi, wo, fiber.h);
+        let pdf = density.pdf(wi, model_pdf);
+        (pdf > 0.0 && pdf.is_finite()).then(|| (frame.to_world(wi).normalize(), pdf, f * (cos_theta(wi) / pdf)))
     }
 }
 
@@ -572,6 +728,7 @@ impl DualScattering {
         wi: DVec3,
         pdf: f64,
         weight: Rgb,
+        back_depth: Rgb,
         rays: &mut u64,
     ) -> Option<(Hit, Rgb)> {
         let p = fiber.p;
@@ -599,7 +756,8 @@ impl DualScattering {
                 }
                 let frame = fiber.frame(ray_d);
                 let (wi_l, wo_l) = (frame.to_local(wi), frame.to_local(-ray_d));
-                let f = self.scattering(scene, material, wi_l, wo_l, fiber.h, n, product, spread2);
+                let f =
+                    self.scattering_with_depth(scene, material, wi_l, wo_l, fiber.h, n, product, spread2, back_depth);
                 let cos_i = (1.0 - wi_l.x * wi_l.x).max(0.0).sqrt();
                 let factor = f * (cos_i / pdf);
                 (!factor.is_black() && factor.is_finite()).then_some((hit, factor))
@@ -780,8 +938,9 @@ mod tests {
         let dual = DualScattering::new(&scene, settings, &small_tables()).unwrap();
         let mut rays = 0;
         let wi = -DVec3::Z;
-        let (surface, factor) =
-            dual.bounce(&scene, &hit, material, ray_d, wi, 0.7, Rgb::ONE, &mut rays).expect("the floor is met");
+        let (surface, factor) = dual
+            .bounce(&scene, &hit, material, ray_d, wi, 0.7, Rgb::ONE, Rgb::ONE, &mut rays)
+            .expect("the floor is met");
         assert!(matches!(surface, Hit::Surface { t, .. } if (t - (1.0 + hit.p.z)).abs() < 1e-6));
         let t = &dual.tables[0].1;
         let af = t.lookup(0.0, |r| r.forward);
@@ -801,9 +960,9 @@ mod tests {
             &small_tables(),
         )
         .unwrap();
-        assert!(on.bounce(&scene, &hit, material, ray_d, wi, 0.7, Rgb::ONE, &mut rays).is_none());
+        assert!(on.bounce(&scene, &hit, material, ray_d, wi, 0.7, Rgb::ONE, Rgb::ONE, &mut rays).is_none());
         // Upward, nothing but sky: the path ends.
-        assert!(dual.bounce(&scene, &hit, material, ray_d, DVec3::Z, 0.7, Rgb::ONE, &mut rays).is_none());
+        assert!(dual.bounce(&scene, &hit, material, ray_d, DVec3::Z, 0.7, Rgb::ONE, Rgb::ONE, &mut rays).is_none());
     }
 
     #[test]
@@ -1000,7 +1159,7 @@ mod tests {
 
     #[test]
     fn options_set_each_setting_and_bad_ones_name_the_key_and_the_choices() {
-        const OPTIONS: [&str; 12] = [
+        const OPTIONS: [&str; 14] = [
             "d_f=0.25",
             "d_b=2",
             "k_back=1",
@@ -1013,6 +1172,8 @@ mod tests {
             "pi=off",
             "spread=literal",
             "global=forward-mean",
+            "bounce_sampling=model",
+            "back_depth=counted",
         ];
         let s = DualScatteringSettings::from_options("grid", &OPTIONS).unwrap();
         let expected = DualScatteringSettings {
@@ -1029,6 +1190,8 @@ mod tests {
             back_pi: false,
             spread: Spread::Literal,
             global: GlobalAzimuth::ForwardMean,
+            bounce_sampling: BounceSampling::Model,
+            backscatter_depth: BackscatterDepth::Counted,
         };
         assert_eq!(s, expected);
         // Each option alone changes the defaults (so none is ignored or lands on another's field).
@@ -1049,6 +1212,8 @@ mod tests {
             ("pi=2", &["pi", "on, off"]),
             ("spread=wide", &["spread", "weighted, literal"]),
             ("global=mean", &["global", "energy, forward-mean"]),
+            ("bounce_sampling=best", &["bounce_sampling", "mixture, model"]),
+            ("back_depth=deep", &["back_depth", "counted, infinite"]),
             ("d_g=1", &["d_g", "unknown", "d_f"]),
         ] {
             let e = DualScatteringSettings::from_options("exact", &[option]).unwrap_err();
@@ -1133,12 +1298,31 @@ mod tests {
         let tolerance = 4.0 * (path_se * path_se + on_se * on_se).sqrt();
         assert!((on - path).abs() < tolerance, "surface_bounce {on} ± {on_se}, path tracer {path} ± {path_se}");
         // With no fiber between the fiber and the floor and no backscatter (d_b = 0), `through`
-        // shades the floor's light with f_s·cosθ/p, the sample's own weight: the same paths.
-        let (through, _) = fiber_radiance(&scene, &dual(SurfaceBounce::Through, 0.0), n);
+        // drawing from the fiber's sampler shades the floor's light with f_s·cosθ/p, the
+        // sample's own weight: the same paths.
+        let through_with = |bounce_sampling| {
+            let s = DualScatteringSettings {
+                surface_bounce: SurfaceBounce::Through,
+                backward_density: 0.0,
+                bounce_sampling,
+                ..Default::default()
+            };
+            Integrator::DualScattering(Arc::new(DualScattering::new(&scene, s, &small_tables()).unwrap()))
+        };
+        let (through, _) = fiber_radiance(&scene, &through_with(BounceSampling::Model), n);
         assert!((through / on - 1.0).abs() < 1e-9, "through {through}, on {on}");
+        // Drawn from the mixture (the default) the paths differ, the mean does not.
+        let (mixture, mixture_se) = fiber_radiance(&scene, &through_with(BounceSampling::Mixture), n);
+        let tolerance = 4.0 * (path_se * path_se + mixture_se * mixture_se).sqrt();
+        assert!((mixture - path).abs() < tolerance, "mixture {mixture} ± {mixture_se}, path tracer {path} ± {path_se}");
         // Russian roulette on the bounce is unbiased: with probability 0.3 and weight 1/0.3
         // the same light as the path tracer's, within 4σ (more noise, same mean).
-        let s = DualScatteringSettings { backward_density: 0.0, bounce_probability: 0.3, ..Default::default() };
+        let s = DualScatteringSettings {
+            backward_density: 0.0,
+            bounce_probability: 0.3,
+            bounce_sampling: BounceSampling::Model,
+            ..Default::default()
+        };
         let roulette = Integrator::DualScattering(Arc::new(DualScattering::new(&scene, s, &small_tables()).unwrap()));
         let (rr, rr_se) = fiber_radiance(&scene, &roulette, n);
         assert!(rr_se > 1.2 * on_se, "roulette adds noise: {rr_se} vs {on_se}");

@@ -292,11 +292,12 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
             }
             let [u_pick, _] = sampler.next_2d();
             let u_light = sampler.next_2d();
-            l += beta * dual.shade_fiber(scene, hit, *material, ray.d, u_pick, u_light, rays);
+            let shading = dual.shade_fiber(scene, hit, *material, ray.d, u_pick, u_light, rays);
+            l += beta * shading.radiance;
             if dual.settings().surface_bounce == SurfaceBounce::Off {
                 break;
             }
-            dual_vertex = Some((dual, *hit, *material));
+            dual_vertex = Some((dual, *hit, *material, shading));
         }
         let (p, local) = match hit {
             Hit::Fiber { hit, material } => (hit.p, Local::fiber(scene.fiber_model(material), &hit, ray.d)),
@@ -359,23 +360,34 @@ pub fn radiance(scene: &Scene, ray: Ray, sampler: &mut PixelSampler, settings: &
         // Scattering sample (two pairs) and Russian roulette (one pair).
         let (a, b) = (sampler.next_2d(), sampler.next_2d());
         let [u_rr, u_bounce] = sampler.next_2d();
-        let Some(s) = local.sample([a[0], a[1], b[0], b[1]]) else { break };
-        match dual_vertex {
-            Some((dual, fiber, material)) => {
+        let u = [a[0], a[1], b[0], b[1]];
+        let s = match dual_vertex {
+            Some((dual, fiber, material, shading)) => {
                 // Russian roulette on the bounce (`bounce_probability`, in (0, 1]).
                 let q = dual.settings().bounce_probability;
                 if u_bounce >= q {
                     break;
                 }
-                let Some((surface, factor)) = dual.bounce(scene, &fiber, material, ray.d, s.wi, s.pdf, s.weight, rays)
+                let Some((wi, pdf, weight)) =
+                    dual.sample_bounce(scene, &fiber, material, ray.d, shading.spread_hint, u)
+                else {
+                    break;
+                };
+                let Some((surface, factor)) =
+                    dual.bounce(scene, &fiber, material, ray.d, wi, pdf, weight, shading.back_depth, rays)
                 else {
                     break;
                 };
                 beta *= factor / q;
                 bounced = Some(surface);
+                Scatter { wi, weight, pdf, delta: false }
             }
-            None => beta *= s.weight,
-        }
+            None => {
+                let Some(s) = local.sample(u) else { break };
+                beta *= s.weight;
+                s
+            }
+        };
         if beta.is_black() || !beta.is_finite() {
             break;
         }

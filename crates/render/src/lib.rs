@@ -17,6 +17,7 @@
 pub mod accumulation;
 pub mod bench;
 pub mod camera;
+pub mod dual_bounce;
 pub mod dual_scattering;
 pub mod fiber_count;
 pub mod fiber_coverage;
@@ -28,6 +29,7 @@ pub mod region;
 pub mod render_request;
 pub mod sampler;
 pub mod scene;
+pub mod scene_family;
 pub mod scene_file;
 pub mod strand_diameters;
 pub mod surface_material;

@@ -17,9 +17,13 @@
 //!
 //! Sampling: a mixture of the exact diffuse-fiber lobe (density `cosθ_i/π²`) and the
 //! specular lobe, whose longitudinal variable `x = θ_i + θ_o` is drawn from a 4096-cell
-//! tabulation of `cos^p x`; φ is uniform. The pdf is exactly the density of the samples.
+//! tabulation of `cos^p x`; φ is uniform. The drawn θ_i goes through the pole taper
+//! ([`crate::hair::pole_taper`]: at a grazing viewer the specular lobe is centred on the fiber
+//! axis, and a density in θ_i that is not zero there is infinite per steradian). The pdf is
+//! exactly the density of the samples.
 
 use crate::function::MIN_COS;
+use crate::hair::pole_taper::{taper, taper_derivative, untaper};
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::Tabulated1D;
 use crate::{Field, LobeInfo, Lobes, ModelError, ModelInfo, Properties, Registered, Sample, ScatteringFunction};
@@ -186,24 +190,33 @@ impl KajiyaKay {
         if w_d + w_s > 0.0 { w_d / (w_d + w_s) } else { 1.0 }
     }
 
-    /// Density of the sampled θ_i (per radian of θ_i) given θ_o.
-    pub(crate) fn theta_pdf(&self, theta_i: f64, cos_i: f64, theta_o: f64) -> f64 {
+    /// Density of the sampled θ_i (per radian of θ_i) given θ_o: the mixture's density at the
+    /// tapered `W(θ_i)` times `W′(θ_i)` ([`crate::hair::pole_taper`]; the specular lobe of a
+    /// grazing viewer is centred on the pole, where an untapered density in θ_i would be
+    /// infinite per steradian).
+    pub(crate) fn theta_pdf(&self, theta_i: f64, _cos_i: f64, theta_o: f64) -> f64 {
+        let slope = taper_derivative(theta_i);
+        if slope <= 0.0 {
+            return 0.0;
+        }
+        let t = taper(theta_i);
+        let cos_t = t.cos();
         let w_d = self.diffuse_weight(theta_o);
         let (a, b) = Self::lobe_range(theta_o);
-        let diffuse = 2.0 * cos_i * cos_i / PI;
-        let specular = if w_d < 1.0 { self.lobe.density_in(a, b, theta_i + theta_o) } else { 0.0 };
-        w_d * diffuse + (1.0 - w_d) * specular
+        let diffuse = 2.0 * cos_t * cos_t / PI;
+        let specular = if w_d < 1.0 { self.lobe.density_in(a, b, t + theta_o) } else { 0.0 };
+        (w_d * diffuse + (1.0 - w_d) * specular) * slope
     }
 
     /// Draws θ_i given θ_o: `u_lobe` picks the lobe (0 diffuse, 1 specular, see
     /// [`KAJIYA_KAY_LOBES`]), `(u1, u2)` place θ_i in it; returns θ_i and the lobe.
     pub(crate) fn sample_theta(&self, theta_o: f64, u_lobe: f64, u1: f64, u2: f64) -> Option<(f64, u8)> {
         if u_lobe < self.diffuse_weight(theta_o) {
-            Some(((u1.sqrt() * (TAU * u2).cos()).clamp(-1.0, 1.0).asin(), 0))
+            Some((untaper((u1.sqrt() * (TAU * u2).cos()).clamp(-1.0, 1.0).asin()), 0))
         } else {
             let (a, b) = Self::lobe_range(theta_o);
             let (x, _) = self.lobe.sample_in(a, b, u1)?;
-            Some(((x - theta_o).clamp(-FRAC_PI_2, FRAC_PI_2), 1))
+            Some((untaper((x - theta_o).clamp(-FRAC_PI_2, FRAC_PI_2)), 1))
         }
     }
 

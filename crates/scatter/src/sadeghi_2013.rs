@@ -27,8 +27,10 @@
 //!
 //! Sampling: a mixture of the surface lobe (θ_i from a normal of width γ_s about the mirror
 //! inclination −θ_o truncated to [−π/2, π/2], φ uniform), the volume lobe (the same with γ_v)
-//! and the diffuse-fiber density `cosθ_i/π²`, one third each; the pdf is the exact mixture
-//! density.
+//! and the diffuse-fiber density `cosθ_i/π²`, one third each; the two Gaussian lobes' θ_i goes
+//! through the pole taper (`hair::pole_taper`), so that a grazing viewer's lobe, centred on
+//! the thread's axis, has a density that is finite per steradian there. The pdf is the exact
+//! mixture density.
 //!
 //! # Cloth BRDF (`sadeghi-2013`, surface)
 //!
@@ -74,6 +76,7 @@
 //! `silk-shot`, `velvet`; see [`Sadeghi2013::preset`].
 
 use crate::function::MIN_COS;
+use crate::hair::pole_taper::{taper, taper_derivative, untaper};
 use crate::params::{ParamKind, ParamSet, ParamSpec, Range, parameter_error};
 use crate::sampling::{cos_theta_direction, cos_theta_pdf, cosine_hemisphere};
 use crate::{
@@ -245,16 +248,19 @@ impl SadeghiThread {
     /// Probabilities of the surface, volume and diffuse sampling lobes.
     const LOBE_WEIGHTS: [f64; 3] = [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0];
 
-    /// Density (per sr) of a Gaussian-in-θ lobe of width `sigma` about `−θ_o`, φ uniform.
+    /// Density (per sr) of a Gaussian-in-θ lobe of width `sigma` about `−θ_o`, φ uniform, its
+    /// θ drawn through the pole taper ([`crate::hair::pole_taper`]: finite per steradian on
+    /// the thread's axis, where a grazing viewer's lobe is centred).
     fn lobe_pdf(sigma: f64, theta_o: f64, wi: DVec3) -> f64 {
         let (s, c) = (sin_theta(wi), cos_theta(wi));
         let theta_i = s.atan2(c);
         let mu = -theta_o;
         let mass = normal_mass((-FRAC_PI_2 - mu) / sigma, (FRAC_PI_2 - mu) / sigma);
-        if mass <= 0.0 {
+        let slope = taper_derivative(theta_i);
+        if mass <= 0.0 || slope <= 0.0 {
             return 0.0;
         }
-        gaussian(sigma, theta_i - mu) / mass / (TAU * c.max(MIN_COS))
+        gaussian(sigma, taper(theta_i) - mu) / mass * slope / (TAU * c.max(MIN_COS))
     }
 
     /// Density (per sr) of [`SadeghiThread::sample_local`] in the thread frame.
@@ -277,7 +283,7 @@ impl SadeghiThread {
             let (sigma, lobe) = if u[0] < a { (self.p.gamma_s, 0) } else { (self.p.gamma_v, 1) };
             let mu = -(sin_theta(wo).atan2(cos_theta(wo)));
             let z = sample_truncated_normal(u[1], (-FRAC_PI_2 - mu) / sigma, (FRAC_PI_2 - mu) / sigma);
-            let theta = (mu + sigma * z).clamp(-FRAC_PI_2, FRAC_PI_2);
+            let theta = untaper((mu + sigma * z).clamp(-FRAC_PI_2, FRAC_PI_2));
             let (s, c) = theta.sin_cos();
             (direction_from_sin_cos(s, c, phi_i), lobe)
         } else {

@@ -103,8 +103,13 @@
 //! `u[1]` from the tables' inverse-CDF samplers, whose densities are exact (not the public
 //! code's uniform sampling). The pdf per steradian is `Σ_p w_p (density in θ_i, φ) / cosθ_i`,
 //! exactly the density of the samples, and the weight `f_s cosθ_i/pdf` equals the sum of the
-//! enabled lobes' masses when the lobes are gray. `field = far` draws h uniformly with `u[2]`
-//! and returns the h-averaged pdf.
+//! enabled lobes' masses when the lobes are gray. Every θ_i is drawn through the pole taper
+//! ([`crate::hair::pole_taper`]: within 6° of the fiber axis its density is reshaped to vanish
+//! like cosθ_i, so the pdf per steradian stays finite when a lobe is centred on the axis, as
+//! at grazing viewers; and R, TT, TRT draw φ uniformly instead of from `N_p` with probability
+//! `1 − W′(θ_i)` (`pole_blend`, 1 on the axis), so that near the axis, where every azimuth
+//! meets, the density does not depend on φ; there the weight differs from the masses).
+//! `field = far` draws h uniformly with `u[2]` and returns the h-averaged pdf.
 //!
 //! # Conventions and caveats
 //! * **Tilt sign** as `chiang`: `alpha > 0` puts R toward the root. Yan 2017's released code
@@ -157,6 +162,7 @@ use crate::hair::attenuation::{chord_lengths, first_transmission, next_order, su
 use crate::hair::medulla::{MAX_SIGMA_A, MAX_SIGMA_S, MedullaError, MedullaParams, MedullaTables, Resolution};
 use crate::hair::normal_plane::exit_azimuth;
 use crate::hair::parameters::{ALPHA_RANGE, ETA, ETA_RANGE};
+use crate::hair::pole_taper::{pole_blend, taper, taper_derivative, untaper};
 use crate::hair::tilt::{marschner_ratio_tilts, rotate};
 use crate::params::{ParamKind, ParamSet, ParamSpec, ParameterError, Range};
 use crate::{
@@ -165,7 +171,7 @@ use crate::{
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
 use fiberlab_math::special::{gaussian, normal_mass, safe_asin, safe_sqrt, sample_truncated_normal, wrapped_gaussian};
 use fiberlab_math::{DVec3, Rgb, bravais};
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::Arc;
 use thiserror::Error;
 
@@ -700,10 +706,13 @@ impl YanFur {
         (total > 0.0).then(|| y.map(|x| x / total))
     }
 
-    /// `(Σ A_p M_p N_p, Σ w_p M_p N_p)`: value and sampling density per dθ_i dφ.
+    /// `(Σ A_p M_p N_p, Σ w_p M_p N_p)`: value and sampling density per dθ_i dφ; the density's
+    /// θ part is taken at the tapered `W(θ_i)` times `W′(θ_i)` (the sampler draws θ_i through
+    /// the pole taper, [`crate::hair::pole_taper`]).
     fn integrand_and_pdf_at(&self, wi: DVec3, wo: DVec3, hit: &FurHit, w: &[f64; 5]) -> (Rgb, f64) {
         let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
         let theta_i = sin_theta(wi).atan2(cos_theta(wi));
+        let (theta_star, slope, blend) = (taper(theta_i), taper_derivative(theta_i), pole_blend(theta_i));
         let dphi = phi(wi) - phi(wo);
         let (mut g, mut pdf) = (Rgb::ZERO, 0.0);
         for (p, w_p) in w.iter().enumerate() {
@@ -720,17 +729,21 @@ impl YanFur {
                 let n = tables.azimuthal(hit.theta_t, hit.h_medulla, phi_q);
                 let m = tables.longitudinal(theta_e, phi_q, theta_i);
                 g += hit.a_s[p - 3] * n * m;
-                if *w_p > 0.0 {
+                if *w_p > 0.0 && slope > 0.0 {
                     pdf += w_p
                         * tables.azimuth_pdf(hit.theta_t, hit.h_medulla, phi_q)
-                        * tables.inclination_pdf(theta_e, phi_q, theta_i);
+                        * tables.inclination_pdf(theta_e, phi_q, theta_star)
+                        * slope;
                 }
                 continue;
             }
             let m = self.longitudinal(p, theta_i, sin_o, cos_o);
             let n = wrapped_gaussian(self.beta_n[p], dphi - exit_azimuth(p, hit.gamma_o, hit.gamma_t));
             g += hit.a[p] * (m * n);
-            pdf += w_p * m * n;
+            if *w_p > 0.0 && slope > 0.0 {
+                let n_sampled = (1.0 - blend) * n + blend / TAU;
+                pdf += w_p * self.longitudinal(p, theta_star, sin_o, cos_o) * slope * n_sampled;
+            }
         }
         (g, pdf)
     }
@@ -809,13 +822,20 @@ impl YanFur {
             let (phi_q, _) = tables.sample_azimuth(hit.theta_t, hit.h_medulla, u[3])?;
             let theta_e = -sin_o.atan2(cos_o);
             let (theta_i, _) = tables.sample_inclination(theta_e, phi_q, u[1])?;
-            (theta_i.clamp(-FRAC_PI_2, FRAC_PI_2), phi_q + hit.scattered_shift(p - 3))
+            (untaper(theta_i.clamp(-FRAC_PI_2, FRAC_PI_2)), phi_q + hit.scattered_shift(p - 3))
         } else {
             let (centre, b, _) = self.longitudinal_lobe(p, sin_o, cos_o);
             let z = sample_truncated_normal(u[1], (-FRAC_PI_2 - centre) / b, (FRAC_PI_2 - centre) / b);
-            let theta_i = (centre + b * z).clamp(-FRAC_PI_2, FRAC_PI_2);
-            let dev = sample_truncated_normal(u[3], -AZIMUTH_SAMPLE_SIGMAS, AZIMUTH_SAMPLE_SIGMAS);
-            (theta_i, exit_azimuth(p, hit.gamma_o, hit.gamma_t) + self.beta_n[p] * dev)
+            let theta_i = untaper((centre + b * z).clamp(-FRAC_PI_2, FRAC_PI_2));
+            // Near the axis, φ uniform with probability `pole_blend(θ_i)` (u[3] split in two).
+            let blend = pole_blend(theta_i);
+            if u[3] < blend {
+                (theta_i, TAU * (u[3] / blend) - PI)
+            } else {
+                let v = ((u[3] - blend) / (1.0 - blend)).clamp(0.0, 1.0);
+                let dev = sample_truncated_normal(v, -AZIMUTH_SAMPLE_SIGMAS, AZIMUTH_SAMPLE_SIGMAS);
+                (theta_i, exit_azimuth(p, hit.gamma_o, hit.gamma_t) + self.beta_n[p] * dev)
+            }
         };
         let (s, c) = theta_i.sin_cos();
         let wi = direction_from_sin_cos(s, c.max(0.0), phi(wo) + dphi);

@@ -170,7 +170,8 @@ fn chi2_goodness_of_fit_down_to_beta_0_1() {
     ];
     for (bm, bn, theta_o, h, n_s, n_phi) in cases {
         let f = rough(bm, bn, 2.0, &[]);
-        let cfg = Chi2Config { bins_theta: n_s, bins_phi: n_phi, sub: 2, samples: 500_000, seed: 11 };
+        let cfg =
+            Chi2Config { bins_theta: n_s, bins_phi: n_phi, sub: 2, samples: 500_000, seed: 11, ..Default::default() };
         let r = chi2_test(&f, direction(theta_o, 0.3), h, &cfg);
         report += &format!(
             "β_m={bm} β_n={bn} θ_o={theta_o} h={h}: χ²={:.0} dof={} p={:.3} unresolved mass {:.1e}\n",

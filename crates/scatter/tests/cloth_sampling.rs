@@ -33,7 +33,7 @@ fn hemisphere(theta: f64, phi: f64) -> DVec3 {
 }
 
 fn cfg(seed: u64) -> Chi2Config {
-    Chi2Config { bins_theta: 32, bins_phi: 64, sub: 4, samples: 200_000, seed }
+    Chi2Config { bins_theta: 32, bins_phi: 64, sub: 4, samples: 200_000, seed, ..Default::default() }
 }
 
 #[test]

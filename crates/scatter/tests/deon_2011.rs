@@ -222,7 +222,14 @@ fn chi2_goodness_of_fit_down_to_beta_0_1() {
     for (bm, bn, theta_n, n_s, n_phi) in cases {
         let d = deon(bm, bn, 2.0, theta_n, &MELANIN);
         for theta_o in thetas {
-            let cfg = Chi2Config { bins_theta: n_s, bins_phi: n_phi, sub: 2, samples: 300_000, seed: 13 };
+            let cfg = Chi2Config {
+                bins_theta: n_s,
+                bins_phi: n_phi,
+                sub: 2,
+                samples: 300_000,
+                seed: 13,
+                ..Default::default()
+            };
             let r = chi2_test(&d, direction(theta_o, 0.3), 0.0, &cfg);
             report += &format!(
                 "{theta_n:?} β_m={bm} β_n={bn} θ_o={theta_o}: χ²={:.0} dof={} p={:.3} unresolved mass {:.1e}\n",

@@ -290,7 +290,11 @@ fn sampler_passes_chi2_at_low_and_high_roughness_and_weights_are_the_lobe_masses
             let mut rng = TestRng::new(5);
             for _ in 0..200 {
                 if let Some(s) = m.sample(wo, h, rng.u4()) {
-                    if params.iter().any(|&(k, v)| k == "sigma_c_a" && v == "0") {
+                    // Away from the fiber axis (within the pole taper's band the sampling density
+                    // in θ_i is reshaped, so the weight is no longer the mass there).
+                    let off_axis = fiberlab_math::frame::theta(s.wi).abs()
+                        < std::f64::consts::FRAC_PI_2 - fiberlab_scatter::hair::pole_taper::POLE_TAPER_WIDTH;
+                    if off_axis && params.iter().any(|&(k, v)| k == "sigma_c_a" && v == "0") {
                         assert!((s.weight[0] - mass).abs() < 1e-12 * mass, "{} vs {mass}", s.weight[0]);
                     }
                     assert!(s.weight.is_finite() && s.pdf > 0.0);

@@ -16,6 +16,7 @@
 //! | [`tube`] | a wall around a concentric core of another index: the kinds of wall pass, their turns and Fresnel weights | (ours; Bravais 1856 as in Marschner 2003) |
 //! | [`parameters`] | the parameter table entries the hair models share | |
 //! | [`fiber`] | the fiber parameters Chiang and d'Eon share, with presets and checks | |
+//! | [`pole_taper`] | a sampled inclination's density made to vanish on the fiber axis (finite pdf per steradian) | |
 //!
 //! The mathematics, in our words and with the peers' discrepancies, is in
 //! `docs/theory/hair.md`, `docs/theory/conventions.md`, `docs/theory/radiometry.md` and
@@ -42,6 +43,7 @@ pub mod longitudinal;
 pub mod medulla;
 pub mod normal_plane;
 pub mod parameters;
+pub mod pole_taper;
 pub mod rough_interface;
 pub mod roughness;
 pub mod tilt;

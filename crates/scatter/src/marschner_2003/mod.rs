@@ -418,6 +418,7 @@ impl From<MarschnerError> for ModelError {
 /// Angles of a direction pair used by S.
 #[derive(Clone, Copy, Debug)]
 struct PairAngles {
+    theta_i: f64,
     theta_r: f64,
     theta_h: f64,
     sin_theta_d: f64,
@@ -435,6 +436,7 @@ impl PairAngles {
         let (phi_i, phi_r) = (phi(wi), phi(wr));
         let (sin_theta_d, cos_theta_d) = (0.5 * (theta_r - theta_i)).sin_cos();
         Self {
+            theta_i,
             theta_r,
             theta_h: 0.5 * (theta_i + theta_r),
             sin_theta_d,

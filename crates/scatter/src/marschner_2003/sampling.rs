@@ -17,10 +17,19 @@
 //! with glints, probability ∝ t). The pdf is this mixture
 //! summed over all lobes: per steradian, `Σ_p w_p·½·g(β_p; θ_h − α_p)/Z_p·p_φ,p(φ)/cosθ_i`
 //! (½ = dθ_h/dθ_i, Z_p the truncated mass).
+//!
+//! The drawn `2θ_h − θ_r` goes through the pole taper ([`crate::hair::pole_taper`]): θ_i is
+//! `W⁻¹(2θ_h − θ_r)` and the θ part of the density is taken at `θ*_h = (W(θ_i) + θ_r)/2` times
+//! `W′(θ_i)`. At a grazing viewer (θ_r = ±1.555) the R lobe's Gaussian is centred beyond the
+//! pole and truncated there; without the taper its density in θ_i does not vanish on the fiber
+//! axis and the density per steradian (÷ cosθ_i) is infinite there, which a grid about the
+//! fiber normal cannot integrate (∫pdf on the 150 × 301 normal-pole grid at θ_o = 1.555, β_R =
+//! 5°: 0.98699 without the taper, 0.99993 with it).
 
 use super::{LOBE_FLOOR, Lobe, MIN_DPHI, Marschner, PairAngles};
 use crate::hair::attenuation::plane_attenuation;
 use crate::hair::normal_plane::{Caustic, NormalPlane, RootMode, representative};
+use crate::hair::pole_taper::{taper, taper_derivative, untaper};
 use crate::{MIN_COS, Sample, ScatteringFunction};
 use fiberlab_math::DVec3;
 use fiberlab_math::frame::{cos_theta, direction_from_sin_cos, phi, sin_theta, wrap_pi};
@@ -199,8 +208,14 @@ impl Marschner {
         (q_u, (1.0 - q_u) * (c.t * share).min(TRT_GLINT_MAX), c)
     }
 
-    /// Density of `sample` per dθ_i dφ (not yet divided by cosθ_i).
+    /// Density of `sample` per dθ_i dφ (not yet divided by cosθ_i). The θ part is the lobe's
+    /// Gaussian at the tapered inclination `W(θ_i)` times `W′(θ_i)` ([`crate::hair::pole_taper`]).
     fn angular_density(&self, angles: &PairAngles) -> f64 {
+        let taper_slope = taper_derivative(angles.theta_i);
+        if taper_slope <= 0.0 {
+            return 0.0;
+        }
+        let theta_h = 0.5 * (taper(angles.theta_i) + angles.theta_r);
         let w = self.lobe_weights(angles.theta_r);
         let plane = self.plane(self.params.eta, angles.sin_theta_d, angles.cos_theta_d);
         let mut q = 0.0;
@@ -214,7 +229,7 @@ impl Marschner {
                 continue;
             }
             let (a, b) = (self.lobes.alpha[lobe.p()], self.lobes.beta[lobe.p()]);
-            let p_theta = 0.5 * gaussian(b, angles.theta_h - a) / mass;
+            let p_theta = 0.5 * gaussian(b, theta_h - a) / mass * taper_slope;
             if p_theta == 0.0 {
                 continue;
             }
@@ -291,7 +306,7 @@ impl Marschner {
         }
         let z = sample_truncated_normal(u[1], zl, zu);
         let theta_h = self.lobes.alpha[lobe.p()] + self.lobes.beta[lobe.p()] * z;
-        let theta_i = (2.0 * theta_h - theta_r).clamp(-FRAC_PI_2, FRAC_PI_2);
+        let theta_i = untaper((2.0 * theta_h - theta_r).clamp(-FRAC_PI_2, FRAC_PI_2));
         let (sd, cd) = (0.5 * (theta_r - theta_i)).sin_cos();
         let plane = self.plane(self.params.eta, sd, cd);
         let phi_rel = self.sample_phi(lobe, &plane, u_component, u[2], u[3]);

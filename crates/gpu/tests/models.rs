@@ -174,7 +174,7 @@ fn kajiya_kay_eval_pdf_and_samples_match_the_cpu() {
 #[test]
 fn kajiya_kay_gpu_samples_follow_the_cpu_pdf() {
     let Some(gpu) = common::gpu() else { return };
-    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 200_000, seed: 10 };
+    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 200_000, seed: 10, ..Default::default() };
     for (name, fiber) in kajiya_kay_fibers() {
         for theta_o in [0.35, -1.1] {
             let wo = direction(theta_o, FRAC_PI_2);

@@ -3,10 +3,11 @@
 //! pipelines, made once per device.
 
 /// The WGSL source of the path tracer, in dependency order.
-pub(crate) const SHADER: [&str; 7] = [
+pub(crate) const SHADER: [&str; 8] = [
     include_str!("shaders/bindings.wgsl"),
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
+    include_str!("shaders/pole_taper.wgsl"),
     include_str!("shaders/kajiya_kay.wgsl"),
     include_str!("shaders/geometry.wgsl"),
     include_str!("shaders/lights.wgsl"),

@@ -9,9 +9,10 @@ use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-const PROBE: [&str; 4] = [
+const PROBE: [&str; 5] = [
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
+    include_str!("shaders/pole_taper.wgsl"),
     include_str!("shaders/kajiya_kay.wgsl"),
     include_str!("shaders/probe.wgsl"),
 ];

@@ -2,7 +2,8 @@
 // f_s = k_d + k_s max(0, cos(θ_i + θ_o))^p / cosθ_i, no φ dependence; sampled as on the CPU —
 // a mixture of the diffuse-fiber lobe (density 2cos²θ_i/π in θ_i) and the specular lobe, whose
 // x = θ_i + θ_o follows the CPU's tabulated cos^p x (its cells copied from the CPU's table,
-// `scene_buffers.rs::kajiya_kay_words`), φ uniform; the pdf is the density of the samples.
+// `scene_buffers.rs::kajiya_kay_words`), φ uniform, the drawn θ_i through the pole taper
+// (`pole_taper.wgsl`); the pdf is the density of the samples.
 //
 // Words at `b` (32 per material): 0 kind, 1–3 k_d, 4–6 k_s, 7 p, 8 π² lum(k_d), 9 2π lum(k_s)
 // × the table's total mass, 10 the table's first word, 11 cells n, 12 x0, 13 cell width.
@@ -71,20 +72,27 @@ fn kk_diffuse_weight(m: KajiyaKay, theta_o: f32) -> f32 {
     return 1.0;
 }
 
-/// The density of the sampled θ_i (per radian) given θ_o.
-fn kk_theta_pdf(m: KajiyaKay, theta_i: f32, cos_i: f32, theta_o: f32) -> f32 {
+/// The density of the sampled θ_i (per radian) given θ_o: the mixture's at the tapered W(θ_i)
+/// times W′(θ_i).
+fn kk_theta_pdf(m: KajiyaKay, theta_i: f32, theta_o: f32) -> f32 {
+    let slope = taper_derivative(theta_i);
+    if !(slope > 0.0) {
+        return 0.0;
+    }
+    let t = taper(theta_i);
+    let cos_t = sin_cos_f(t).y;
     let w_d = kk_diffuse_weight(m, theta_o);
-    let diffuse = 2.0 * cos_i * cos_i / PI;
+    let diffuse = 2.0 * cos_t * cos_t / PI;
     var specular = 0.0;
     let r = kk_lobe_range(theta_o);
-    let x = theta_i + theta_o;
+    let x = t + theta_o;
     if w_d < 1.0 && x >= r.x && x <= r.y {
         let mass = kk_cdf(m, r.y) - kk_cdf(m, r.x);
         if mass > 0.0 {
             specular = kk_density(m, x) / mass;
         }
     }
-    return w_d * diffuse + (1.0 - w_d) * specular;
+    return (w_d * diffuse + (1.0 - w_d) * specular) * slope;
 }
 
 /// (f_s rgb, pdf) at ω_i for the camera direction ω_o, both local.
@@ -100,7 +108,7 @@ fn kk_eval(m: KajiyaKay, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
     }
     let theta_i = atan2_f(sin_i, cos_i);
     let theta_o = atan2_f(sin_o, cos_o);
-    let pdf = kk_theta_pdf(m, theta_i, cos_i, theta_o) / (TAU * max(cos_i, MIN_COS));
+    let pdf = kk_theta_pdf(m, theta_i, theta_o) / (TAU * max(cos_i, MIN_COS));
     return vec4<f32>(f, pdf);
 }
 
@@ -143,14 +151,14 @@ fn kk_sample(m: KajiyaKay, wo: vec3<f32>, u: vec4<f32>) -> FiberSample {
     var theta_i: f32;
     if u.x < kk_diffuse_weight(m, theta_o) {
         let sc = sin_cos_f(TAU * u.z);
-        theta_i = asin_f(clamp(sqrt(u.y) * sc.y, -1.0, 1.0));
+        theta_i = untaper(asin_f(clamp(sqrt(u.y) * sc.y, -1.0, 1.0)));
     } else {
         let r = kk_lobe_range(theta_o);
         let x = kk_sample_lobe(m, r.x, r.y, u.y);
         if x < m.x0 {
             return out;
         }
-        theta_i = clamp(x - theta_o, -HALF_PI, HALF_PI);
+        theta_i = untaper(clamp(x - theta_o, -HALF_PI, HALF_PI));
     }
     let st = sin_cos_f(theta_i);
     let phi_i = local_phi(wo) - PI * (2.0 * u.w - 1.0);

@@ -326,7 +326,7 @@ impl CurveSet {
     /// and added, so the estimate stays above what was measured: the default render (512×512,
     /// 1 spp) peaks at 597 MB against 608 MB estimated in all. These figures predate building the
     /// pieces straight into `f32` records (no `f64` boxes) and the clustered build (sets of more
-    /// than 2^18 segments make and build one cluster's pieces at a time): the 5M-segment head now
+    /// than 2^14 segments — 2^18 until issue 42 — make and build a few clusters' pieces at a time): the 5M-segment head now
     /// peaks at 994 MiB, about 210 bytes per segment, so the constant errs on the safe side; with
     /// the oriented tree and pieces of at most 16 radii (2026-12-03) it peaks at 948–963 MiB.
     pub const BUILD_BYTES_PER_SEGMENT: u64 = 1200;

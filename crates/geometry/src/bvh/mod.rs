@@ -704,7 +704,8 @@ impl Builder {
 /// against 2^18, the 5M-segment thin head's load took 12 % less CPU time (a cluster's records
 /// stay in the cache while it is built) and held less memory besides the tree (ARCHITECTURE.md,
 /// issue 42); the tree over clusters is binned over whole segments' boxes a few levels further
-/// down, where a cluster spans 1/300 of a head.
+/// down, where a cluster spans 1/300 of a head (smaller sets of segments are one tree:
+/// `ONE_TREE_MAX` in `curves.rs`).
 pub const CLUSTER_MAX: usize = 1 << 14;
 
 /// What [`Bvh::build_grouped`] calls for each item: append the records of the pieces of the

@@ -50,6 +50,10 @@ const MIN_MITER_COS: f64 = 0.5;
 /// about 55 radii; render instructions against one piece per segment): 1.63 G at one piece,
 /// 1.36 G at 32 radii, 1.26 G at 20, 1.20 G at 16, 1.18 G at 12 (the book's "Performance history", "Oriented boxes").
 const PIECE_IN_RADII: f64 = 16.0;
+/// Sets of at most this many segments are built as one tree; larger ones in clusters of at most
+/// [`crate::bvh::CLUSTER_MAX`] segments (whose size is chosen for the memory and time of large
+/// heads, not for the quality of a small set's tree).
+const ONE_TREE_MAX: usize = 1 << 18;
 /// At most this many BVH pieces per segment.
 const MAX_PIECES: usize = 8;
 
@@ -144,6 +148,14 @@ pub enum CubicBasis {
     Bezier,
 }
 
+/// Strands as tubes whose tree is not built yet ([`CurveSet::tubes_of_f32_strands`],
+/// [`CurveSet::from_tubes`]).
+#[derive(Clone, Debug, Default)]
+pub struct Tubes {
+    segments: Vec<Segment>,
+    strands: usize,
+}
+
 /// A set of strands as tubes, with a BVH over tight pieces of their segments.
 #[derive(Clone, Debug, Default)]
 pub struct CurveSet {
@@ -218,6 +230,23 @@ impl CurveSet {
         ranges: &[std::ops::Range<usize>],
         radius: impl Fn(usize) -> f64,
     ) -> Self {
+        Self::from_tubes(Self::tubes_of_f32_strands(points, ranges, radius))
+    }
+
+    /// The set of `tubes`, its tree built now.
+    #[must_use]
+    pub fn from_tubes(tubes: Tubes) -> Self {
+        Self::from_segments(tubes.segments, tubes.strands)
+    }
+
+    /// The tubes of [`Self::from_f32_strands`] without their tree: the caller can free the
+    /// strands before [`Self::from_tubes`] builds it (the build is a load's peak of memory).
+    #[must_use]
+    pub fn tubes_of_f32_strands(
+        points: &[[f32; 3]],
+        ranges: &[std::ops::Range<usize>],
+        radius: impl Fn(usize) -> f64,
+    ) -> Tubes {
         let capacity = points.len().saturating_sub(ranges.len());
         let mut segments = Vec::with_capacity(capacity);
         let (mut strand_points, mut strand_radii) = (Vec::new(), Vec::new());
@@ -234,7 +263,7 @@ impl CurveSet {
             count += n as u32;
             segments.append(&mut strand);
         }
-        Self::from_segments(segments, count as usize)
+        Tubes { segments, strands: count as usize }
     }
 
     /// Tubes from cubic curves: per strand, control points and a radius per control point;
@@ -273,7 +302,10 @@ impl CurveSet {
     }
 
     fn from_segments(segments: Vec<Segment>, strands: usize) -> Self {
-        Self::from_segments_in(segments, strands, crate::bvh::CLUSTER_MAX)
+        // Up to ONE_TREE_MAX segments are one tree: the peer scene's 150k segments in clusters of
+        // CLUSTER_MAX cost 7.1 % more render instructions (ARCHITECTURE.md, issue 42).
+        let cluster_max = if segments.len() <= ONE_TREE_MAX { usize::MAX } else { crate::bvh::CLUSTER_MAX };
+        Self::from_segments_in(segments, strands, cluster_max)
     }
 
     /// [`Self::from_segments`] with BVH clusters of at most `cluster_max` segments.
@@ -326,7 +358,7 @@ impl CurveSet {
     /// and added, so the estimate stays above what was measured: the default render (512×512,
     /// 1 spp) peaks at 597 MB against 608 MB estimated in all. These figures predate building the
     /// pieces straight into `f32` records (no `f64` boxes) and the clustered build (sets of more
-    /// than 2^18 segments make and build one cluster's pieces at a time): the 5M-segment head now
+    /// than 2^14 segments — 2^18 until issue 42 — make and build a few clusters' pieces at a time): the 5M-segment head now
     /// peaks at 994 MiB, about 210 bytes per segment, so the constant errs on the safe side; with
     /// the oriented tree and pieces of at most 16 radii (2026-12-03) it peaks at 948–963 MiB.
     pub const BUILD_BYTES_PER_SEGMENT: u64 = 1200;

@@ -26,6 +26,6 @@ pub mod simd;
 mod test_random;
 
 pub use bvh::Aabb;
-pub use curves::{CubicBasis, CurveHit, CurveSet};
+pub use curves::{CubicBasis, CurveHit, CurveSet, Tubes};
 pub use ray::Ray;
 pub use shapes::TriangleMesh;

@@ -385,6 +385,18 @@ impl HairFile {
         })
     }
 
+    /// [`Self::curve_set`] of a file no longer needed: its arrays are freed once the tubes are
+    /// made, before their tree is built (the peak of a load: the 5M-segment head's points and
+    /// thicknesses are 82 MiB of it).
+    #[must_use]
+    pub fn into_curve_set(self) -> fiberlab_geometry::CurveSet {
+        let tubes = fiberlab_geometry::CurveSet::tubes_of_f32_strands(&self.points, &self.strand_ranges(), |i| {
+            0.5 * f64::from(self.thickness_at(i))
+        });
+        drop(self);
+        fiberlab_geometry::CurveSet::from_tubes(tubes)
+    }
+
     /// The flags word this file is written with.
     #[must_use]
     pub fn flags(&self) -> u32 {
@@ -623,6 +635,24 @@ mod tests {
         assert_eq!(h.points[2], [7.0, 8.0, 9.0]);
         assert_eq!(h.thickness_at(1), 0.5);
         assert_eq!(h.segments, None);
+    }
+
+    /// The tubes of a consumed file are those of a borrowed one: the same segment records,
+    /// pieces and tree, and the same hits (rays across each strand's segments).
+    #[test]
+    fn into_curve_set_builds_what_curve_set_builds() {
+        let h = two_strands();
+        let borrowed = h.curve_set();
+        let consumed = h.clone().into_curve_set();
+        assert_eq!(consumed.segment_count(), 3);
+        assert_eq!(consumed.segment_words(), borrowed.segment_words());
+        assert_eq!((consumed.piece_count(), consumed.bytes()), (borrowed.piece_count(), borrowed.bytes()));
+        for (x, y) in [(0.0, 0.5), (1.0, 0.5), (1.0, 1.5)] {
+            let ray = fiberlab_geometry::Ray::new(fiberlab_math::DVec3::new(x, y, 5.0), -fiberlab_math::DVec3::Z);
+            let (a, b) = (consumed.intersect(&ray), borrowed.intersect(&ray));
+            assert!(a.is_some(), "a ray at ({x}, {y}) crosses a strand");
+            assert_eq!(a, b);
+        }
     }
 
     #[test]

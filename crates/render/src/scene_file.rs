@@ -832,7 +832,7 @@ impl SceneFile {
             }
             strand_diameters::check(&hair).map_err(|e| self.error(span, format!("{source}: {e}")))?;
             let curves = match cubic {
-                None => hair.curve_set(),
+                None => hair.into_curve_set(),
                 Some(strands) => cubic_curves(&strands, per_curve),
             };
             scene.fibers(curves, material);

@@ -119,6 +119,16 @@ impl Aabb {
 /// Subtrees with at least this many primitives on both sides are built in parallel.
 const PARALLEL_BUILD_MIN: usize = 20_000;
 
+/// Makes room in `v` for twice the `expected` final length (a function of its length now)
+/// when it has room for less than that (the build of [`Bvh::build_clustered`]: each growth of
+/// an over-aligned vector is a copy).
+fn make_room<T>(v: &mut Vec<T>, expected: impl Fn(usize) -> usize) {
+    let expected = expected(v.len());
+    if v.capacity() < expected {
+        v.reserve_exact(2 * expected - v.len());
+    }
+}
+
 /// Most primitives in one leaf.
 pub const MAX_LEAF: usize = 8;
 
@@ -458,7 +468,8 @@ struct Builder {
 const BINS: usize = 16;
 
 /// A split of a node's records found by binning: records whose centroid falls in a bin before
-/// `bin` along `axis` go left; the two sides' boxes and centroid boxes.
+/// `bin` along `axis` go left; the two sides' boxes (their centroid boxes are made while the
+/// records are partitioned: [`Split::partition`]).
 #[derive(Clone, Copy, Debug)]
 struct Split {
     /// `Σ n A` over both sides.
@@ -467,14 +478,44 @@ struct Split {
     bin: usize,
     lo: f32,
     scale: f32,
-    sides: [(FBox, FBox); 2],
+    sides: [FBox; 2],
 }
 
 impl Split {
-    /// The bin of `p` along the split's axis, as the binning computed it.
+    /// True when `p` goes left: its bin along the split's axis, as the binning computed it,
+    /// is before the split's.
     #[inline(always)]
-    fn bin_of(&self, p: &BuildPrim) -> usize {
-        (((p.centroid()[self.axis] - self.lo) * self.scale) as usize).min(BINS - 1)
+    fn goes_left(&self, p: &BuildPrim) -> bool {
+        (((p.centroid()[self.axis] - self.lo) * self.scale) as usize).min(BINS - 1) < self.bin
+    }
+
+    /// Moves the records that go left to the front, each swapped with the first record of the
+    /// right side so far; returns how many go left and both sides' centroid boxes. Without a
+    /// branch on the side (where the sides interleave, it mispredicts): the side is a lane mask
+    /// that selects what the two slots receive, and a right record is written back where it was.
+    fn partition(&self, prims: &mut [BuildPrim]) -> (usize, [FBox; 2]) {
+        let (mut lc, mut rc) = (FBox::EMPTY, FBox::EMPTY);
+        let mut mid = 0;
+        for i in 0..prims.len() {
+            let x = prims[i];
+            let c = x.centroid();
+            let left = self.goes_left(&x);
+            let m = glam::BVec4A::splat(left);
+            let y = prims[mid];
+            prims[i] = BuildPrim { a: Vec4::select(m, y.a, x.a), b: Vec4::select(m, y.b, x.b) };
+            prims[mid] = BuildPrim { a: Vec4::select(m, x.a, y.a), b: Vec4::select(m, x.b, y.b) };
+            mid += usize::from(left);
+            let grow_l = glam::BVec3A::splat(left);
+            lc = FBox {
+                min: Vec3A::select(grow_l, lc.min.min(c), lc.min),
+                max: Vec3A::select(grow_l, lc.max.max(c), lc.max),
+            };
+            rc = FBox {
+                min: Vec3A::select(grow_l, rc.min, rc.min.min(c)),
+                max: Vec3A::select(grow_l, rc.max, rc.max.max(c)),
+            };
+        }
+        (mid, [lc, rc])
     }
 }
 
@@ -488,34 +529,63 @@ fn binned_split(prims: &[BuildPrim], cb: FBox) -> Option<Split> {
         return None;
     }
     let scale = Vec3A::select(spread, Vec3A::splat(BINS as f32) / extent, Vec3A::ZERO);
-    let mut boxes = [[FBox::EMPTY; BINS]; 3];
-    let mut centroids = [[FBox::EMPTY; BINS]; 3];
-    let mut counts = [[0u32; BINS]; 3];
-    let last = Vec3A::splat((BINS - 1) as f32);
-    for p in prims {
-        let (min, max, c) = (p.min(), p.max(), p.centroid());
-        // As `Split::bin_of` computes it, lane by lane.
-        let k = ((c - cb.min) * scale).min(last);
-        for axis in 0..3 {
-            let k = k[axis] as usize;
-            boxes[axis][k].grow(min, max);
-            centroids[axis][k].grow(c, c);
-            counts[axis][k] += 1;
-        }
-    }
+    let (boxes, counts) =
+        if prims.len() >= TWO_SETS_MIN { bins::<2>(prims, cb.min, scale) } else { bins::<1>(prims, cb.min, scale) };
     let mut best: Option<Split> = None;
     for axis in (0..3).filter(|&a| spread.test(a)) {
         let (cost, bin) = best_bin_split(&boxes[axis], &counts[axis]);
         if bin > 0 && best.is_none_or(|b| cost < b.cost) {
             let union = |b: &[FBox]| b.iter().fold(FBox::EMPTY, |a, &b| a.union(b));
-            let sides = [
-                (union(&boxes[axis][..bin]), union(&centroids[axis][..bin])),
-                (union(&boxes[axis][bin..]), union(&centroids[axis][bin..])),
-            ];
+            let sides = [union(&boxes[axis][..bin]), union(&boxes[axis][bin..])];
             best = Some(Split { cost, axis, bin, lo: cb.min[axis], scale: scale[axis], sides });
         }
     }
     best
+}
+
+/// Nodes of at least this many records are binned in two sets of bins ([`bins`]); below, the
+/// second set's clearing and merging cost more than it saves.
+const TWO_SETS_MIN: usize = 64;
+
+/// Boxes and counts of `prims` in [`BINS`] bins along each axis (bins from `lo`, `scale` bins
+/// per unit), filled as `SETS` sets by turns and then merged: consecutive records (pieces of one
+/// segment, segments of one strand) often fall in the same bin, and with one set each update
+/// waits for the previous one's store. The merged bins are the same whatever `SETS` (a union of
+/// boxes is exact in any order).
+#[inline(always)]
+fn bins<const SETS: usize>(prims: &[BuildPrim], lo: Vec3A, scale: Vec3A) -> ([[FBox; BINS]; 3], [[u32; BINS]; 3]) {
+    let mut boxes = [[[FBox::EMPTY; BINS]; 3]; SETS];
+    let mut counts = [[[0u32; BINS]; 3]; SETS];
+    let last = Vec3A::splat((BINS - 1) as f32);
+    let mut add = |set: usize, p: &BuildPrim| {
+        let (min, max, c) = (p.min(), p.max(), p.centroid());
+        // As `Split::goes_left` computes it, lane by lane.
+        let k = ((c - lo) * scale).min(last);
+        for axis in 0..3 {
+            let k = k[axis] as usize;
+            boxes[set][axis][k].grow(min, max);
+            counts[set][axis][k] += 1;
+        }
+    };
+    let mut runs = prims.chunks_exact(SETS);
+    for run in &mut runs {
+        for (set, p) in run.iter().enumerate() {
+            add(set, p);
+        }
+    }
+    for p in runs.remainder() {
+        add(0, p);
+    }
+    let (mut b, mut n) = (boxes[0], counts[0]);
+    for (bs, ns) in boxes[1..].iter().zip(&counts[1..]) {
+        for axis in 0..3 {
+            for k in 0..BINS {
+                b[axis][k] = b[axis][k].union(bs[axis][k]);
+                n[axis][k] += ns[axis][k];
+            }
+        }
+    }
+    (b, n)
 }
 
 /// The cheapest split between bins by the surface-area heuristic: its cost `Σ n A` and the
@@ -580,15 +650,10 @@ impl Builder {
         if split_cost >= prims.len() as f32 && prims.len() <= self.max_leaf {
             return leaf(&mut self.nodes);
         }
-        let mut mid = 0;
-        for i in 0..prims.len() {
-            if split.bin_of(&prims[i]) < split.bin {
-                prims.swap(i, mid);
-                mid += 1;
-            }
-        }
+        let (mid, [lc, rc]) = split.partition(prims);
         debug_assert!(mid > 0 && mid < prims.len(), "a split with records on both sides");
-        self.split_children_with(node, prims, mid, first, split.sides);
+        let [lb, rb] = split.sides;
+        self.split_children_with(node, prims, mid, first, [(lb, lc), (rb, rc)]);
     }
 
     /// Splits at `mid` and builds both sides (their boxes computed here).
@@ -635,8 +700,13 @@ impl Builder {
 }
 
 /// Up to this many items are built as one tree; more are split into clusters of at most this
-/// many ([`Bvh::build_grouped`]).
-pub const CLUSTER_MAX: usize = 1 << 18;
+/// many ([`Bvh::build_grouped`]). 2^14 segments are up to 131k pieces (4 MB of build records):
+/// against 2^18, the 5M-segment thin head's load took 12 % less CPU time (a cluster's records
+/// stay in the cache while it is built) and held less memory besides the tree (ARCHITECTURE.md,
+/// issue 42); the tree over clusters is binned over whole segments' boxes a few levels further
+/// down, where a cluster spans 1/300 of a head (smaller sets of segments are one tree:
+/// `ONE_TREE_MAX` in `curves.rs`).
+pub const CLUSTER_MAX: usize = 1 << 14;
 
 /// What [`Bvh::build_grouped`] calls for each item: append the records of the pieces of the
 /// item with this index.
@@ -837,17 +907,20 @@ impl Bvh {
                 slots.push(t.slots.map(|(b, r)| (b, ChildRef::shift(r, a, o, p))));
                 prims.extend_from_slice(&t.prims);
             }
-            // The lists grow by the clusters built so far, extrapolated to all of them (a
-            // doubling vector would copy, and for a moment hold, up to twice the tree).
+            // The lists' room, from the clusters built so far extrapolated to all of them. The
+            // wide nodes are over-aligned (64 bytes), and such a vector grows by copying: for a
+            // moment it is held twice (the 5M-segment head's oriented nodes are 270 MB). So room
+            // is made early and twice the extrapolation, and only when the extrapolation
+            // outgrows it; room not written to is never committed (ARCHITECTURE.md, issue 42).
             let done: usize = clusters[..((k + 1) * batch).min(clusters.len())]
                 .iter()
                 .map(|&(_, c)| c as usize)
                 .sum::<usize>()
                 .max(1);
-            let scale = |len: usize| (len as f64 * (items_total as f64 / done as f64) * 1.05) as usize;
-            nodes.aabb.reserve(scale(nodes.aabb.len()).saturating_sub(nodes.aabb.len()));
-            nodes.oriented.reserve(scale(nodes.oriented.len()).saturating_sub(nodes.oriented.len()));
-            prims.reserve(scale(prims.len()).saturating_sub(prims.len()));
+            let expected = |len: usize| (len as f64 * (items_total as f64 / done as f64) * 1.05) as usize;
+            make_room(&mut nodes.aabb, expected);
+            make_room(&mut nodes.oriented, expected);
+            make_room(&mut prims, expected);
         }
         drop(order);
         top_nodes.clear();
@@ -1566,6 +1639,72 @@ mod tests {
                         brute.is_finite()
                     );
                 }
+            }
+        }
+    }
+
+    /// Segment records along random strands (consecutive records near each other, as the
+    /// pieces of a strand are), some of them degenerate.
+    fn strand_records(seed: u64, n: usize) -> Vec<BuildPrim> {
+        let mut rnd = uniforms(seed);
+        let mut p = DVec3::ZERO;
+        (0..n)
+            .map(|i| {
+                if i % 40 == 0 {
+                    p = DVec3::new(rnd(), rnd(), rnd()) * 10.0;
+                }
+                let d = if i % 97 == 0 { DVec3::ZERO } else { (DVec3::new(rnd(), rnd(), rnd()) - 0.5) * 0.3 };
+                let r = BuildPrim::segment(p, p + d, 0.001 + 0.01 * rnd(), i as u32);
+                p += d;
+                r
+            })
+            .collect()
+    }
+
+    /// Binning in two sets filled by turns gives the same bins as one set (every record
+    /// counted once, the boxes exact), for every length's remainder.
+    #[test]
+    fn bins_in_two_sets_equal_one_set() {
+        for n in [1, 2, 3, 17, 64, 1001] {
+            let records = strand_records(n as u64, n);
+            let (_, cb) = FBox::of(&records);
+            let extent = cb.max - cb.min;
+            let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), Vec3A::splat(BINS as f32) / extent, Vec3A::ZERO);
+            let (b1, n1) = bins::<1>(&records, cb.min, scale);
+            let (b2, n2) = bins::<2>(&records, cb.min, scale);
+            assert_eq!(n1, n2, "{n} records");
+            assert_eq!(n1.iter().map(|a| a.iter().sum::<u32>()).collect::<Vec<_>>(), vec![n as u32; 3]);
+            for (a, b) in b1.iter().flatten().zip(b2.iter().flatten()) {
+                assert!(a.min == b.min && a.max == b.max, "{n} records: {a:?} against {b:?}");
+            }
+        }
+    }
+
+    /// The branch-free partition moves records as the swap loop does (record for record) and
+    /// returns each side's centroid box exactly.
+    #[test]
+    fn partition_matches_the_swap_loop_and_boxes_the_centroids() {
+        for n in [9, 100, 2000] {
+            let records = strand_records(7 + n as u64, n);
+            let (_, cb) = FBox::of(&records);
+            let split = binned_split(&records, cb).expect("records that spread");
+            let mut swapped = records.clone();
+            let mut mid = 0;
+            for i in 0..swapped.len() {
+                if split.goes_left(&swapped[i]) {
+                    swapped.swap(i, mid);
+                    mid += 1;
+                }
+            }
+            let mut moved = records.clone();
+            let (m, [lc, rc]) = split.partition(&mut moved);
+            assert_eq!(m, mid);
+            assert!(0 < m && m < n, "{n} records: a split with both sides");
+            let order = |v: &[BuildPrim]| v.iter().map(BuildPrim::index).collect::<Vec<_>>();
+            assert_eq!(order(&moved), order(&swapped));
+            for (side, c) in [(&moved[..m], lc), (&moved[m..], rc)] {
+                let (_, expected) = FBox::of(side);
+                assert!(c.min == expected.min && c.max == expected.max);
             }
         }
     }

@@ -51,15 +51,23 @@ def block_agreement(reference, test, mask):
     return [float(r) for r in ratio], rel_rms
 
 
-def side_by_side(path, images, reference, shape):
-    """Row 1: the images (None: a grey panel); row 2: |image - reference| × DIFF_SCALE."""
+def side_by_side(path, images, names, reference, shape, fiberlab, spp, ref_spp):
+    """Row 1: the images (None: a grey panel) labelled with their renderer; row 2:
+    |image - reference| × DIFF_SCALE, laid out and labelled by `fiberlab montage`."""
+    import subprocess
+    import tempfile
     h, w = shape[:2]
     grey = np.full((h, w, 3), 0.18, np.float32)
     top = [grey if im is None else im for im in images]
     bottom = [grey if im is None else np.abs(im - reference) * DIFF_SCALE for im in images]
-    canvas = np.ones((2 * h + GAP, len(images) * (w + GAP) - GAP, 3), np.float32)
-    for col, (a, b) in enumerate(zip(top, bottom)):
-        x = col * (w + GAP)
-        canvas[:h, x:x + w] = a
-        canvas[h + GAP:, x:x + w] = b
-    write_png(path, canvas)
+    with tempfile.TemporaryDirectory() as tmp:
+        panels = []
+        for k, (a, name, missing) in enumerate(zip(top, names, [im is None for im in images])):
+            write_png(f"{tmp}/top{k}.png", a)
+            panels.append(f"{tmp}/top{k}.png={name}, {spp} spp" + (" (not available)" if missing else ""))
+        for k, (b, name) in enumerate(zip(bottom, names)):
+            write_png(f"{tmp}/diff{k}.png", b)
+            panels.append(f"{tmp}/diff{k}.png=|{name} - reference| x {DIFF_SCALE:g}")
+        title = f"peer scene: top, each renderer at {spp} spp; bottom, |image - fiberlab {ref_spp}-spp reference| x {DIFF_SCALE:g}"
+        subprocess.run([str(fiberlab), "montage", "--columns", str(len(images)), "--title", title,
+                        "--out", str(path), *panels], check=True)

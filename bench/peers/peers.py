@@ -289,7 +289,10 @@ def image_outputs(cfg, s, fl16, peers):
         if name != "fiberlab":
             compare(out / "reference.exr", res["exr"], out / f"compare_{name}")
         pictures.append(image)
-    images.side_by_side(out / "side_by_side.png", pictures, reference, reference.shape)
+    labels = {"mitsuba_llvm": "Mitsuba llvm_ad_rgb", "mitsuba_scalar": "Mitsuba scalar_rgb",
+              "mitsuba_cuda": "Mitsuba cuda_ad_rgb", "cycles": "Cycles"}
+    images.side_by_side(out / "side_by_side.png", pictures, [labels.get(n, n) for n in rows], reference,
+                        reference.shape, FIBERLAB, cfg["spp"], cfg["ref_spp"])
     return (f"{out / 'side_by_side.png'}: row 1 {' | '.join(rows)} at {cfg['spp']} spp; row 2 "
             f"|image - fiberlab {cfg['ref_spp']}-spp reference| x {images.DIFF_SCALE:g} (same scale); "
             f"grey = not available. {int(mask.sum())} non-sky {images.BLOCK}x{images.BLOCK} blocks.")

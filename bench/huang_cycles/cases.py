@@ -118,7 +118,8 @@ def cases():
 
 def slug(name):
     """A file-name form of a case name."""
-    keep = {"α": "a", "°": "deg", "→": "-to-", ".": "p", " ": "_", "(": "", ")": "", "+": "plus", "=": ""}
+    keep = {"α": "a", "°": "deg", "→": "-to-", ".": "p", " ": "_", "(": "", ")": "", "+": "plus",
+            "=": ""}
     return "".join(keep.get(c, c) for c in name)
 
 

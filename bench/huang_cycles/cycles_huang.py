@@ -65,7 +65,8 @@ def huang_material(c):
     node_input(bsdf, "Aspect Ratio").default_value = c["aspect"]
     node_input(bsdf, "IOR").default_value = c["eta"]
     node_input(bsdf, "Offset").default_value = math.radians(c["tilt"])
-    for lobe, multiplier in zip(("Reflection", "Transmission", "Secondary Reflection"), c["cycles_lobes"]):
+    lobes = ("Reflection", "Transmission", "Secondary Reflection")
+    for lobe, multiplier in zip(lobes, c["cycles_lobes"]):
         node_input(bsdf, lobe).default_value = multiplier
     node_input(bsdf, "Random Color").default_value = 0.0
     node_input(bsdf, "Random Roughness").default_value = 0.0

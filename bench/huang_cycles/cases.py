@@ -105,11 +105,11 @@ def cases():
         # Opaque fibers (σ_a = 40 per radius: every internal path is absorbed): R alone.
         case("opaque α0.2 (R only)", horizontal, FRONT_LIGHT, 0.2, sigma_a=OPAQUE),
         case("opaque α0.5 (R only)", horizontal, FRONT_LIGHT, 0.5, sigma_a=OPAQUE),
-        # Cases 1 and 2 lobe by lobe: TRT = 0 (Cycles: R + TT; fiberlab: R + TT + TRRT+), then
+        # Cases 1, 2 and 5 lobe by lobe: TRT = 0 (Cycles: R + TT; fiberlab: R + TT + TRRT+), then
         # R = TT = 0: TRT + TRRT+, then TRRT+ alone (TRT_AND_RESIDUAL above).
-        *(case(f"fiber α{alpha} {what}", horizontal, FRONT_LIGHT, alpha, lobes=lobes,
-               cycles_lobes=cycles_lobes)
-          for alpha in (0.2, 0.5)
+        *(case(f"fiber α{alpha}{'' if tilt == 2.0 else f' tilt {tilt:g}°'} {what}", horizontal,
+               FRONT_LIGHT, alpha, tilt=tilt, lobes=lobes, cycles_lobes=cycles_lobes)
+          for alpha, tilt in ((0.2, 2.0), (0.5, 2.0), (0.2, 6.0))
           for what, lobes, cycles_lobes in (("TRT=0", (1.0, 1.0, 0.0), None),
                                             ("TRT+TRRT+", TRT_AND_RESIDUAL, None),
                                             ("TRRT+ only", RESIDUAL_ONLY, RESIDUAL_ONLY_CYCLES))),

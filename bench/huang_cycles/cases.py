@@ -65,11 +65,26 @@ def tress(strands=48, seed=3):
 
 
 def case(name, strands, light, roughness, aspect=1.0, orientation=0.0, tilt=2.0, eta=1.55,
-         region="horizontal", depth=32, sigma_a=SIGMA_A):
+         region="horizontal", depth=32, sigma_a=SIGMA_A, lobes=(1.0, 1.0, 1.0), cycles_lobes=None):
+    """`lobes`: the R, TT, TRT multipliers (fiberlab's `reflection`, `transmission`,
+    `secondary_reflection`; Blender's Reflection, Transmission, Secondary Reflection), the same in
+    both renderers unless `cycles_lobes` says otherwise (see TRT_AND_RESIDUAL below)."""
     polylines, radii = strands
     return {"name": name, "polylines": polylines, "radii": radii, "light": light,
             "roughness": roughness, "aspect": aspect, "orientation": orientation, "tilt": tilt,
-            "eta": eta, "sigma_a": sigma_a, "region": region, "max_depth": depth}
+            "eta": eta, "sigma_a": sigma_a, "region": region, "max_depth": depth,
+            "lobes": tuple(lobes), "cycles_lobes": tuple(cycles_lobes or lobes)}
+
+
+# The lobe multipliers do not gate TRRT+ alike (issue 40's lobe-by-lobe split of the front-lit red
+# excess). fiberlab's TRRT+ follows none of them: (0, 0, 0) leaves TRRT+ alone. Cycles computes
+# TRRT+ inside its TRT branch (`bsdf_hair_huang_eval_residual`: run when TRT > 0, TRRT+ not
+# scaled by it; nothing at all when TT = TRT = 0): TRT = 1e-4 leaves TRRT+ whole and TRT at 10⁻⁴
+# of itself, TRT = 0 drops both. Delta lights only reach Cycles' `eval`, not its sampler (which
+# draws TRRT+ whatever TRT is).
+TRT_AND_RESIDUAL = (0.0, 0.0, 1.0)        # both renderers: TRT + TRRT+
+RESIDUAL_ONLY = (0.0, 0.0, 0.0)           # fiberlab: TRRT+ alone
+RESIDUAL_ONLY_CYCLES = (0.0, 0.0, 1e-4)   # Cycles: TRRT+ and 10⁻⁴ TRT
 
 
 def cases():
@@ -90,12 +105,21 @@ def cases():
         # Opaque fibers (σ_a = 40 per radius: every internal path is absorbed): R alone.
         case("opaque α0.2 (R only)", horizontal, FRONT_LIGHT, 0.2, sigma_a=OPAQUE),
         case("opaque α0.5 (R only)", horizontal, FRONT_LIGHT, 0.5, sigma_a=OPAQUE),
+        # Cases 1, 2 and 5 lobe by lobe: TRT = 0 (Cycles: R + TT; fiberlab: R + TT + TRRT+), then
+        # R = TT = 0: TRT + TRRT+, then TRRT+ alone (TRT_AND_RESIDUAL above).
+        *(case(f"fiber α{alpha}{'' if tilt == 2.0 else f' tilt {tilt:g}°'} {what}", horizontal,
+               FRONT_LIGHT, alpha, tilt=tilt, lobes=lobes, cycles_lobes=cycles_lobes)
+          for alpha, tilt in ((0.2, 2.0), (0.5, 2.0), (0.2, 6.0))
+          for what, lobes, cycles_lobes in (("TRT=0", (1.0, 1.0, 0.0), None),
+                                            ("TRT+TRRT+", TRT_AND_RESIDUAL, None),
+                                            ("TRRT+ only", RESIDUAL_ONLY, RESIDUAL_ONLY_CYCLES))),
     ]
 
 
 def slug(name):
     """A file-name form of a case name."""
-    keep = {"α": "a", "°": "deg", "→": "-to-", ".": "p", " ": "_", "(": "", ")": ""}
+    keep = {"α": "a", "°": "deg", "→": "-to-", ".": "p", " ": "_", "(": "", ")": "", "+": "plus",
+            "=": ""}
     return "".join(keep.get(c, c) for c in name)
 
 
@@ -117,6 +141,7 @@ def write_hair(path, polylines, radii):
 def fiberlab_toml(c, hair_file, spp):
     """The fiberlab scene of a case: the same camera, light and strands; no environment."""
     s = c["sigma_a"]
+    r, tt, trt = c["lobes"]
     return f"""# huang-2022 vs Cycles: {c['name']} (written by bench/huang_cycles/cases.py)
 [camera]
 eye = {EYE}
@@ -132,7 +157,7 @@ max_depth = {c['max_depth']}
 
 [materials.hair]
 model = "huang-2022"
-params = {{ eta = {c['eta']}, roughness = {c['roughness']}, aspect = {c['aspect']}, orientation = "{c['orientation']}", alpha = {c['tilt']}, sigma_a = [{s[0]}, {s[1]}, {s[2]}] }}
+params = {{ eta = {c['eta']}, roughness = {c['roughness']}, aspect = {c['aspect']}, orientation = "{c['orientation']}", alpha = {c['tilt']}, sigma_a = [{s[0]}, {s[1]}, {s[2]}], reflection = {r}, transmission = {tt}, secondary_reflection = {trt} }}
 
 [[hair]]
 material = "hair"

@@ -17,7 +17,8 @@ coverage). How fiberlab's parameters map onto Blender's (checked against Cycles'
   tilt        Offset = +alpha in radians: Cycles negates it internally and tilts the
               mesonormal toward the root for Offset > 0, as fiberlab's alpha > 0.
   eta         IOR = eta.
-  multipliers Reflection, Transmission, Secondary Reflection ("R/TT/TRT lobe") = 1.
+  multipliers Reflection, Transmission, Secondary Reflection ("R/TT/TRT lobe") = the case's
+              lobes (1 unless said; Cycles gates TRRT+ with TRT, see cases.py's LOBES).
   random      Random Roughness = Random Color = 0 (every strand the same).
   depth       Cycles counts bounces after the first hit: bounces = max_depth - 1.
   film        box filter of one pixel, no adaptive sampling, denoising, clamping or
@@ -64,8 +65,9 @@ def huang_material(c):
     node_input(bsdf, "Aspect Ratio").default_value = c["aspect"]
     node_input(bsdf, "IOR").default_value = c["eta"]
     node_input(bsdf, "Offset").default_value = math.radians(c["tilt"])
-    for lobe in ("Reflection", "Transmission", "Secondary Reflection"):
-        node_input(bsdf, lobe).default_value = 1.0
+    lobes = ("Reflection", "Transmission", "Secondary Reflection")
+    for lobe, multiplier in zip(lobes, c["cycles_lobes"]):
+        node_input(bsdf, lobe).default_value = multiplier
     node_input(bsdf, "Random Color").default_value = 0.0
     node_input(bsdf, "Random Roughness").default_value = 0.0
     output = nodes.new("ShaderNodeOutputMaterial")

@@ -118,6 +118,26 @@ fn white_furnace_of_lossless_chiang_hair_is_one() {
 /// What a case adds to the scene: its lights (and a mirror).
 type AddLights = Box<dyn Fn(&mut SceneBuilder)>;
 
+/// GPU against CPU at the same seed, 32 spp: per-channel means within 1 %, and the 4×4-block
+/// RMS difference below the noise (the RMS difference of two CPU renders with different seeds).
+fn assert_matches_the_cpu(gpu: &Gpu, scene: &Scene, name: &str) {
+    let s = settings(32);
+    let g = gpu_render(gpu, scene, &s);
+    let c = cpu_render(scene, &s);
+    let c2 = cpu_render(scene, &RenderSettings { seed: 11, ..s.clone() });
+    let (gm, cm) = (channel_means(&g.image), channel_means(&c.image));
+    let (err, noise) = (block_rms(&g.image, &c.image), block_rms(&c2.image, &c.image));
+    eprintln!(
+        "{name}: GPU means {gm:.4?}, CPU {cm:.4?}; block RMS GPU−CPU {err:.5}, CPU−CPU {noise:.5}; rays GPU {} CPU {}",
+        g.stats.rays, c.stats.rays
+    );
+    assert_eq!(g.stats.nonfinite_samples, 0, "{name}");
+    for k in 0..3 {
+        assert!((gm[k] / cm[k] - 1.0).abs() < 0.01, "{name}: channel {k}: GPU {} CPU {}", gm[k], cm[k]);
+    }
+    assert!(err < noise, "{name}: block RMS {err} above the noise {noise}");
+}
+
 /// Each light type (and the surface materials), GPU against CPU at the same seed: per-channel
 /// means within 1 %, and the 4×4-block RMS difference below the noise (the RMS difference of
 /// two CPU renders with different seeds).
@@ -175,22 +195,7 @@ fn images_match_the_cpu_for_each_light_and_material() {
             lights(&mut b);
             b.build()
         };
-        let scene = make();
-        let s = settings(32);
-        let g = gpu_render(gpu, &scene, &s);
-        let c = cpu_render(&scene, &s);
-        let c2 = cpu_render(&scene, &RenderSettings { seed: 11, ..s.clone() });
-        let (gm, cm) = (channel_means(&g.image), channel_means(&c.image));
-        let (err, noise) = (block_rms(&g.image, &c.image), block_rms(&c2.image, &c.image));
-        eprintln!(
-            "{name}: GPU means {gm:.4?}, CPU {cm:.4?}; block RMS GPU−CPU {err:.5}, CPU−CPU {noise:.5}; rays GPU {} CPU {}",
-            g.stats.rays, c.stats.rays
-        );
-        assert_eq!(g.stats.nonfinite_samples, 0, "{name}");
-        for k in 0..3 {
-            assert!((gm[k] / cm[k] - 1.0).abs() < 0.01, "{name}: channel {k}: GPU {} CPU {}", gm[k], cm[k]);
-        }
-        assert!(err < noise, "{name}: block RMS {err} above the noise {noise}");
+        assert_matches_the_cpu(gpu, &make(), name);
     }
 }
 
@@ -207,19 +212,7 @@ fn kajiya_kay_images_match_the_cpu() {
     b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
     b.light(Light::sun(DVec3::new(1.0, 1.3, 0.5), 0.05, Rgb::new(3.0, 2.8, 2.5)));
     b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
-    let scene = b.build();
-    let s = settings(32);
-    let g = gpu_render(gpu, &scene, &s);
-    let c = cpu_render(&scene, &s);
-    let c2 = cpu_render(&scene, &RenderSettings { seed: 11, ..s.clone() });
-    let (gm, cm) = (channel_means(&g.image), channel_means(&c.image));
-    let (err, noise) = (block_rms(&g.image, &c.image), block_rms(&c2.image, &c.image));
-    eprintln!("kajiya-kay: GPU means {gm:.4?}, CPU {cm:.4?}; block RMS GPU−CPU {err:.5}, CPU−CPU {noise:.5}");
-    assert_eq!(g.stats.nonfinite_samples, 0);
-    for k in 0..3 {
-        assert!((gm[k] / cm[k] - 1.0).abs() < 0.01, "channel {k}: GPU {} CPU {}", gm[k], cm[k]);
-    }
-    assert!(err < noise, "block RMS {err} above the noise {noise}");
+    assert_matches_the_cpu(gpu, &b.build(), "kajiya-kay");
 }
 
 /// An importance-sampled environment map (a blue-white sky gradient with a small warm bright
@@ -244,19 +237,7 @@ fn environment_map_images_match_the_cpu() {
     b.fibers(hair(200), hair_m);
     b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
     b.light(Light::Map(Box::new(map)));
-    let scene = b.build();
-    let s = settings(32);
-    let g = gpu_render(gpu, &scene, &s);
-    let c = cpu_render(&scene, &s);
-    let c2 = cpu_render(&scene, &RenderSettings { seed: 11, ..s.clone() });
-    let (gm, cm) = (channel_means(&g.image), channel_means(&c.image));
-    let (err, noise) = (block_rms(&g.image, &c.image), block_rms(&c2.image, &c.image));
-    eprintln!("environment map: GPU means {gm:.4?}, CPU {cm:.4?}; block RMS GPU−CPU {err:.5}, CPU−CPU {noise:.5}");
-    assert_eq!(g.stats.nonfinite_samples, 0);
-    for k in 0..3 {
-        assert!((gm[k] / cm[k] - 1.0).abs() < 0.01, "channel {k}: GPU {} CPU {}", gm[k], cm[k]);
-    }
-    assert!(err < noise, "block RMS {err} above the noise {noise}");
+    assert_matches_the_cpu(gpu, &b.build(), "environment map");
 }
 
 /// The progressive state on the GPU: a render stopped at 4 spp and continued to 8 equals one

@@ -7,7 +7,7 @@ mod common;
 
 use fiberlab_check::chi2::{Chi2Config, chi2_test};
 use fiberlab_check::rng::TestRng;
-use fiberlab_gpu::model_probe::{self, ChiangCase};
+use fiberlab_gpu::model_probe::{self, ChiangCase, ChiangResult};
 use fiberlab_math::frame::{cos_theta, direction};
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_render::sampler::PixelSampler;
@@ -68,44 +68,80 @@ fn chiang_eval_pdf_and_samples_match_the_cpu() {
     for (name, fiber) in fibers() {
         let cases: Vec<ChiangCase> = (0..4000).map(|k| case(&mut rng, k)).collect();
         let got = model_probe::chiang(gpu, &fiber, &cases).unwrap();
-        let (mut compared, mut sampled, mut worst) = (0, 0, 0.0f64);
-        for (c, g) in cases.iter().zip(&got) {
-            let (wo, wi, h) = (dvec(c.wo), dvec(c.wi), f64::from(c.h));
-            let (f, pdf) = fiber.eval_and_pdf(wi, wo, h);
-            let scale = f.max_component().max(1e-3);
-            for k in 0..3 {
-                let err = (f64::from(g.f[k]) - f[k]).abs() / scale;
-                worst = worst.max(err);
-                assert!(err < 5e-4, "{name}: f[{k}] {} vs {} at {c:?}", g.f[k], f[k]);
-            }
-            assert!((f64::from(g.pdf) - pdf).abs() <= 5e-4 * pdf.max(1e-3), "{name}: pdf {} vs {pdf} at {c:?}", g.pdf);
-            compared += 1;
-            if g.sample_pdf > 0.0 {
-                let swi = dvec(g.sample_wi);
-                assert!((swi.length() - 1.0).abs() < 1e-5, "{name}: |ω_i| = {}", swi.length());
-                let (f, pdf) = fiber.eval_and_pdf(swi, wo, h);
-                if pdf > 1e-2 {
+        matches_the_cpu(name, &fiber, &cases, &got);
+    }
+}
+
+/// Checks the GPU's results on `cases` against `cpu`: f_s to 5·10⁻⁴ of the largest channel, the
+/// pdf to 5·10⁻⁴ relative, sampled directions unit vectors whose pdf (to 3·10⁻³) and weight the
+/// CPU confirms, and more than 2,000 samples checked.
+fn matches_the_cpu<M: ScatteringFunction>(name: &str, cpu: &M, cases: &[ChiangCase], got: &[ChiangResult]) {
+    let (mut sampled, mut worst) = (0, 0.0f64);
+    for (c, g) in cases.iter().zip(got) {
+        let (wo, wi, h) = (dvec(c.wo), dvec(c.wi), f64::from(c.h));
+        let (f, pdf) = (cpu.eval(wi, wo, h), cpu.pdf(wi, wo, h));
+        let scale = f.max_component().max(1e-3);
+        for k in 0..3 {
+            let err = (f64::from(g.f[k]) - f[k]).abs() / scale;
+            worst = worst.max(err);
+            assert!(err < 5e-4, "{name}: f[{k}] {} vs {} at {c:?}", g.f[k], f[k]);
+        }
+        assert!((f64::from(g.pdf) - pdf).abs() <= 5e-4 * pdf.max(1e-3), "{name}: pdf {} vs {pdf} at {c:?}", g.pdf);
+        if g.sample_pdf > 0.0 {
+            let swi = dvec(g.sample_wi);
+            assert!((swi.length() - 1.0).abs() < 1e-5, "{name}: |ω_i| = {}", swi.length());
+            let (f, pdf) = (cpu.eval(swi, wo, h), cpu.pdf(swi, wo, h));
+            if pdf > 1e-2 {
+                assert!(
+                    (f64::from(g.sample_pdf) / pdf - 1.0).abs() < 3e-3,
+                    "{name}: sample pdf {} vs {pdf}",
+                    g.sample_pdf
+                );
+                let weight = f * (cos_theta(swi) / pdf);
+                for k in 0..3 {
+                    let err = (f64::from(g.sample_weight[k]) - weight[k]).abs();
                     assert!(
-                        (f64::from(g.sample_pdf) / pdf - 1.0).abs() < 3e-3,
-                        "{name}: sample pdf {} vs {pdf}",
-                        g.sample_pdf
+                        err < 3e-3 * weight.max_component().max(1e-2),
+                        "{name}: weight {:?} vs {weight:?}",
+                        g.sample_weight
                     );
-                    let weight = f * (cos_theta(swi) / pdf);
-                    for k in 0..3 {
-                        let err = (f64::from(g.sample_weight[k]) - weight[k]).abs();
-                        assert!(
-                            err < 3e-3 * weight.max_component().max(1e-2),
-                            "{name}: weight {:?} vs {weight:?}",
-                            g.sample_weight
-                        );
-                    }
-                    sampled += 1;
                 }
+                sampled += 1;
             }
         }
-        eprintln!("{name}: {compared} evaluations, {sampled} samples checked, worst relative f error {worst:.2e}");
-        assert!(sampled > 2000, "{name}: only {sampled} samples checked");
     }
+    eprintln!("{name}: {} evaluations, {sampled} samples checked, worst relative f error {worst:.2e}", cases.len());
+    assert!(sampled > 2000, "{name}: only {sampled} samples checked");
+}
+
+/// `cfg.samples` cases at one camera direction and offset, with the χ² seed's uniforms.
+fn sample_cases(wo: DVec3, h: f64, cfg: &Chi2Config) -> Vec<ChiangCase> {
+    let mut rng = TestRng::new(cfg.seed);
+    (0..cfg.samples)
+        .map(|_| ChiangCase {
+            wo: wo.as_vec3(),
+            h: h as f32,
+            wi: Vec3::X,
+            u: rng.u4().map(|x| (x as f32).min(1.0 - f32::EPSILON / 2.0)),
+        })
+        .collect()
+}
+
+/// χ² of the GPU's samples `got` (of [`sample_cases`]) against `cpu`'s pdf at the f32 camera
+/// direction and offset the GPU used.
+fn gpu_samples_follow_the_cpu_pdf<M: ScatteringFunction>(
+    name: &str,
+    cpu: &M,
+    wo: DVec3,
+    h: f64,
+    got: &[ChiangResult],
+    cfg: &Chi2Config,
+) {
+    let samples = got.iter().map(|g| (g.sample_pdf > 0.0).then(|| dvec(g.sample_wi))).collect();
+    let f = GpuSamples { cpu, samples, next: AtomicUsize::new(0) };
+    let out = chi2_test(&f, dvec(wo.as_vec3()), f64::from(h as f32), cfg);
+    eprintln!("{name}: χ² {:.1} dof {} p {:.3}", out.statistic, out.dof, out.p_value);
+    assert!(out.passes(1e-3), "{name}: {out:?}");
 }
 
 fn kajiya_kay_fibers() -> Vec<(&'static str, KajiyaKay)> {
@@ -127,45 +163,7 @@ fn kajiya_kay_eval_pdf_and_samples_match_the_cpu() {
     for (name, fiber) in kajiya_kay_fibers() {
         let cases: Vec<ChiangCase> = (0..4000).map(|k| case(&mut rng, k)).collect();
         let got = model_probe::kajiya_kay(gpu, &fiber, &cases).unwrap();
-        let (mut sampled, mut worst) = (0, 0.0f64);
-        for (c, g) in cases.iter().zip(&got) {
-            let (wo, wi) = (dvec(c.wo), dvec(c.wi));
-            let (f, pdf) = (fiber.eval(wi, wo, 0.0), fiber.pdf(wi, wo, 0.0));
-            let scale = f.max_component().max(1e-3);
-            for k in 0..3 {
-                let err = (f64::from(g.f[k]) - f[k]).abs() / scale;
-                worst = worst.max(err);
-                assert!(err < 5e-4, "{name}: f[{k}] {} vs {} at {c:?}", g.f[k], f[k]);
-            }
-            assert!((f64::from(g.pdf) - pdf).abs() <= 5e-4 * pdf.max(1e-3), "{name}: pdf {} vs {pdf} at {c:?}", g.pdf);
-            if g.sample_pdf > 0.0 {
-                let swi = dvec(g.sample_wi);
-                assert!((swi.length() - 1.0).abs() < 1e-5, "{name}: |ω_i| = {}", swi.length());
-                let (f, pdf) = (fiber.eval(swi, wo, 0.0), fiber.pdf(swi, wo, 0.0));
-                if pdf > 1e-2 {
-                    assert!(
-                        (f64::from(g.sample_pdf) / pdf - 1.0).abs() < 3e-3,
-                        "{name}: sample pdf {} vs {pdf}",
-                        g.sample_pdf
-                    );
-                    let weight = f * (cos_theta(swi) / pdf);
-                    for k in 0..3 {
-                        let err = (f64::from(g.sample_weight[k]) - weight[k]).abs();
-                        assert!(
-                            err < 3e-3 * weight.max_component().max(1e-2),
-                            "{name}: weight {:?} vs {weight:?}",
-                            g.sample_weight
-                        );
-                    }
-                    sampled += 1;
-                }
-            }
-        }
-        eprintln!(
-            "kajiya-kay {name}: {} evaluations, {sampled} samples checked, worst relative f error {worst:.2e}",
-            cases.len()
-        );
-        assert!(sampled > 2000, "{name}: only {sampled} samples checked");
+        matches_the_cpu(&format!("kajiya-kay {name}"), &fiber, &cases, &got);
     }
 }
 
@@ -178,21 +176,8 @@ fn kajiya_kay_gpu_samples_follow_the_cpu_pdf() {
     for (name, fiber) in kajiya_kay_fibers() {
         for theta_o in [0.35, -1.1] {
             let wo = direction(theta_o, FRAC_PI_2);
-            let mut rng = TestRng::new(cfg.seed);
-            let cases: Vec<ChiangCase> = (0..cfg.samples)
-                .map(|_| ChiangCase {
-                    wo: wo.as_vec3(),
-                    h: 0.0,
-                    wi: Vec3::X,
-                    u: rng.u4().map(|x| (x as f32).min(1.0 - f32::EPSILON / 2.0)),
-                })
-                .collect();
-            let got = model_probe::kajiya_kay(gpu, &fiber, &cases).unwrap();
-            let samples = got.iter().map(|g| (g.sample_pdf > 0.0).then(|| dvec(g.sample_wi))).collect();
-            let f = GpuSamples { cpu: &fiber, samples, next: AtomicUsize::new(0) };
-            let out = chi2_test(&f, dvec(wo.as_vec3()), 0.0, &cfg);
-            eprintln!("kajiya-kay {name} θ_o {theta_o}: χ² {:.1} dof {} p {:.3}", out.statistic, out.dof, out.p_value);
-            assert!(out.passes(1e-3), "kajiya-kay {name} θ_o {theta_o}: {out:?}");
+            let got = model_probe::kajiya_kay(gpu, &fiber, &sample_cases(wo, 0.0, &cfg)).unwrap();
+            gpu_samples_follow_the_cpu_pdf(&format!("kajiya-kay {name} θ_o {theta_o}"), &fiber, wo, 0.0, &got, &cfg);
         }
     }
 }
@@ -230,22 +215,8 @@ fn chiang_gpu_samples_follow_the_cpu_pdf() {
     for (name, fiber) in fibers() {
         for (theta_o, h) in [(0.35, 0.3), (-1.1, -0.85)] {
             let wo = direction(theta_o, FRAC_PI_2);
-            let mut rng = TestRng::new(cfg.seed);
-            let cases: Vec<ChiangCase> = (0..cfg.samples)
-                .map(|_| ChiangCase {
-                    wo: wo.as_vec3(),
-                    h: h as f32,
-                    wi: Vec3::X,
-                    u: rng.u4().map(|x| (x as f32).min(1.0 - f32::EPSILON / 2.0)),
-                })
-                .collect();
-            let got = model_probe::chiang(gpu, &fiber, &cases).unwrap();
-            let samples = got.iter().map(|g| (g.sample_pdf > 0.0).then(|| dvec(g.sample_wi))).collect();
-            let f = GpuSamples { cpu: &fiber, samples, next: AtomicUsize::new(0) };
-            // The CPU's pdf at the f32 camera direction the GPU used.
-            let out = chi2_test(&f, dvec(wo.as_vec3()), f64::from(h as f32), &cfg);
-            eprintln!("{name} θ_o {theta_o} h {h}: χ² {:.1} dof {} p {:.3}", out.statistic, out.dof, out.p_value);
-            assert!(out.passes(1e-3), "{name} θ_o {theta_o} h {h}: {out:?}");
+            let got = model_probe::chiang(gpu, &fiber, &sample_cases(wo, h, &cfg)).unwrap();
+            gpu_samples_follow_the_cpu_pdf(&format!("{name} θ_o {theta_o} h {h}"), &fiber, wo, h, &got, &cfg);
         }
     }
 }

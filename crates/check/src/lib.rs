@@ -188,6 +188,14 @@ const NORMAL_POLE_VIEWERS: [usize; 2] = [4, 5];
 /// grid is 1.035 at θ_o = 1.555 (h = 0.8) and 0.991 at θ_o = −1.555 (h = −0.2), χ² p = 2e−6.
 /// Open work (issue 37).
 const NORMAL_POLE_REPORTED: [&str; 2] = ["yan-fur", "hollow-fiber"];
+/// Models whose camera-side furnace at the grazing viewers ([`NORMAL_POLE_VIEWERS`]) is
+/// reported, not enforced, against the default quadrature. `measured`: a table is a staircase
+/// in θ_i whose steps (bin edges moved along the cone) crowd toward the axis at a grazing
+/// viewer, and the default 256 × 512 midpoint rule integrates it 0.6 % high there (a table of
+/// Kajiya–Kay, 90 × 72 bins, θ_o = ±1.555: 0.24898 against 0.247534 from a rule 36× finer,
+/// which the Monte Carlo estimate, 0.24760, agrees with). The model's own test
+/// `measured::tests::grazing_furnace_and_pdf_by_a_fine_rule` enforces both at these viewers.
+const GRAZING_QUADRATURE_REPORTED: [&str; 1] = ["measured"];
 /// Light inclinations of the albedo table.
 pub const ALBEDO_THETAS: [f64; 4] = [0.0, 0.5, 1.0, 1.4];
 
@@ -214,6 +222,8 @@ fn max_rel(a: Rgb, b: Rgb) -> f64 {
 pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
     let props = f.properties();
     let mut t = Table { label, rows: Vec::new() };
+    // The registry name, the label's first word ("measured (tabulated KK)" → "measured").
+    let model_name = label.split_whitespace().next().unwrap_or("");
     let mut rng = TestRng::new(0x5eed);
     let wos: Vec<DVec3> = WO_THETAS.iter().enumerate().map(|(k, &t)| direction(t, 0.4 + 1.3 * k as f64)).collect();
 
@@ -273,13 +283,15 @@ pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
         }
         let tol = MC_SIGMAS * se.luminance() + MC_QUADRATURE_REL * quad.luminance().abs() + ROUNDING_REL;
         let pass = (mc.luminance() - quad.luminance()).abs() <= tol;
-        t.test(
-            format!("furnace θ_o={:.3} h={h}: MC vs quadrature", WO_THETAS[k]),
-            mc.luminance(),
-            quad.luminance(),
-            tol,
-            pass,
-        );
+        let test = format!("furnace θ_o={:.3} h={h}: MC vs quadrature", WO_THETAS[k]);
+        if NORMAL_POLE_VIEWERS.contains(&k) && GRAZING_QUADRATURE_REPORTED.contains(&model_name) {
+            t.report(
+                format!("{test} (reported: GRAZING_QUADRATURE_REPORTED; quadrature {:.6})", quad.luminance()),
+                mc.luminance(),
+            );
+        } else {
+            t.test(test, mc.luminance(), quad.luminance(), tol, pass);
+        }
     }
 
     // 4. reciprocity (a model that does not claim it gets a report at the cost of the default
@@ -310,7 +322,7 @@ pub fn check_model(label: &str, f: &Model, effort: &Effort) -> Vec<Row> {
     // 5–7. pdf normalization, sample consistency, χ²
     let cases = direction_cases(f);
     let alpha = CHI2_SIGNIFICANCE / cases.len() as f64;
-    let normal_reported = NORMAL_POLE_REPORTED.contains(&label.split_whitespace().next().unwrap_or(""));
+    let normal_reported = NORMAL_POLE_REPORTED.contains(&model_name);
     let results: Vec<_> = cases
         .par_iter()
         .map(|&(k, h)| {

@@ -118,7 +118,7 @@ fn tabulated_measured_model_passes_the_harness() {
     use fiberlab_scatter::measured::{Measured, MeasuredTable};
     use std::f64::consts::{FRAC_PI_2, PI, TAU};
     let kk = KajiyaKay::new(KajiyaKayParams { k_d: Rgb::splat(0.03), k_s: Rgb::splat(0.2), p: 8.0 }).unwrap();
-    let (nt, np) = (36, 72);
+    let (nt, np) = (90, 72);
     let theta_in: Vec<f64> = (-7..=7).map(|k| k as f64 * 0.2).collect();
     let f = theta_in
         .iter()

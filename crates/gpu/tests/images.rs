@@ -215,6 +215,37 @@ fn kajiya_kay_images_match_the_cpu() {
     assert_matches_the_cpu(gpu, &b.build(), "kajiya-kay");
 }
 
+/// Marschner hair (exact roots, glints) under sun and sky, GPU against CPU at the same seed, as
+/// above.
+#[test]
+fn marschner_images_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let hair_m = b.fiber_material(fiberlab_scatter::build("marschner", &[("sigma_a", "0.4,0.6,1.0")]).unwrap());
+    let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::new(0.6, 0.45, 0.35)));
+    b.fibers(hair(200), hair_m);
+    b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
+    b.light(Light::sun(DVec3::new(1.0, 1.3, 0.5), 0.05, Rgb::new(3.0, 2.8, 2.5)));
+    b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+    assert_matches_the_cpu(gpu, &b.build(), "marschner");
+}
+
+/// d'Eon hair (its azimuthal table copied to the GPU) under sun and sky, GPU against CPU at the
+/// same seed, as above.
+#[test]
+fn deon_images_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let hair_m =
+        b.fiber_material(fiberlab_scatter::build("deon", &[("eumelanin", "0.3"), ("beta_m", "0.25")]).unwrap());
+    let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::new(0.6, 0.45, 0.35)));
+    b.fibers(hair(200), hair_m);
+    b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
+    b.light(Light::sun(DVec3::new(1.0, 1.3, 0.5), 0.05, Rgb::new(3.0, 2.8, 2.5)));
+    b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+    assert_matches_the_cpu(gpu, &b.build(), "deon");
+}
+
 /// An importance-sampled environment map (a blue-white sky gradient with a small warm bright
 /// patch, 64 × 32 cells), GPU against CPU at the same seed, as above: the map's cells, row and
 /// column CDFs are copied to the GPU and sampled there as on the CPU.
@@ -294,11 +325,11 @@ fn progressive_state_resumes_across_stops_tiles_chunks_and_devices() {
 fn unsupported_models_are_refused_by_name() {
     let Some(gpu) = common::gpu() else { return };
     let mut b = builder();
-    let m = b.fiber_material(fiberlab_scatter::build::<&str, &str>("marschner", &[]).unwrap());
+    let m = b.fiber_material(fiberlab_scatter::build::<&str, &str>("yan-fur", &[]).unwrap());
     b.fibers(hair(10), m).light(Light::Constant { radiance: Rgb::ONE });
     let err =
         fiberlab_gpu::render(gpu, &b.build(), &settings(1), GpuOptions::default(), &|_| {}, &AtomicBool::new(false))
             .unwrap_err()
             .to_string();
-    assert!(err.contains("marschner") && err.contains("--device cpu"), "{err}");
+    assert!(err.contains("`yan-fur`") && err.contains("--device cpu"), "{err}");
 }

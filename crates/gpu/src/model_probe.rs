@@ -50,20 +50,36 @@ pub struct ChiangResult {
     pub sample_weight: [f32; 3],
 }
 
-fn run_probe(gpu: &Gpu, entry: &str, material: &[u32], input: &[[f32; 4]]) -> Result<Vec<[f32; 4]>, GpuRenderError> {
+/// The probe's pipeline for `entry`, compiled once per device.
+fn probe_pipeline(gpu: &Gpu, entry: &'static str) -> wgpu::ComputePipeline {
+    let mut cache = gpu.probe_pipelines.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    cache
+        .entry(entry)
+        .or_insert_with(|| {
+            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("fiberlab probe"),
+                source: wgpu::ShaderSource::Wgsl(PROBE.concat().into()),
+            });
+            gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                cache: None,
+            })
+        })
+        .clone()
+}
+
+fn run_probe(
+    gpu: &Gpu,
+    entry: &'static str,
+    material: &[u32],
+    input: &[[f32; 4]],
+) -> Result<Vec<[f32; 4]>, GpuRenderError> {
     let device = &gpu.device;
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("fiberlab probe"),
-        source: wgpu::ShaderSource::Wgsl(PROBE.concat().into()),
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: None,
-        module: &module,
-        entry_point: Some(entry),
-        compilation_options: wgpu::PipelineCompilationOptions::default(),
-        cache: None,
-    });
+    let pipeline = probe_pipeline(gpu, entry);
     let init = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
         device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytes, usage })
     };

@@ -186,6 +186,9 @@ pub struct Gpu {
     pub(crate) limits: wgpu::Limits,
     /// The path tracer's compiled kernels, made on first use.
     pub(crate) pipelines: std::sync::OnceLock<crate::kernels::Pipelines>,
+    /// The model probe's compiled entry points ([`crate::model_probe`]), made on first use
+    /// (each costs lavapipe a second or two to compile).
+    pub(crate) probe_pipelines: std::sync::Mutex<std::collections::HashMap<&'static str, wgpu::ComputePipeline>>,
 }
 
 impl fmt::Debug for Gpu {
@@ -255,7 +258,14 @@ impl Gpu {
         };
         let (device, queue) = block_on(adapter.request_device(&desc))
             .map_err(|e| DeviceError::Open { name: description.name.clone(), error: e.to_string() })?;
-        Ok(Self { device, queue, description, limits, pipelines: std::sync::OnceLock::new() })
+        Ok(Self {
+            device,
+            queue,
+            description,
+            limits,
+            pipelines: std::sync::OnceLock::new(),
+            probe_pipelines: std::sync::Mutex::default(),
+        })
     }
 
     /// The adapter this device runs on.

@@ -3,12 +3,14 @@
 //! pipelines, made once per device.
 
 /// The WGSL source of the path tracer, in dependency order.
-pub(crate) const SHADER: [&str; 8] = [
+pub(crate) const SHADER: [&str; 10] = [
     include_str!("shaders/bindings.wgsl"),
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
     include_str!("shaders/pole_taper.wgsl"),
     include_str!("shaders/kajiya_kay.wgsl"),
+    include_str!("shaders/marschner.wgsl"),
+    include_str!("shaders/deon.wgsl"),
     include_str!("shaders/geometry.wgsl"),
     include_str!("shaders/lights.wgsl"),
     include_str!("shaders/wavefront.wgsl"),

@@ -2,18 +2,22 @@
 //! CPU's (the tests in `tests/`): each case is evaluated, and sampled, by one GPU thread.
 
 use crate::device::Gpu;
-use crate::scene_buffers::{chiang_words, kajiya_kay_words};
+use crate::scene_buffers::{chiang_words, deon_words, kajiya_kay_words, marschner_words};
 use crate::wavefront::GpuRenderError;
 use fiberlab_scatter::chiang_2016::Chiang;
+use fiberlab_scatter::deon_2011::Deon;
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
+use fiberlab_scatter::marschner_2003::Marschner;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-const PROBE: [&str; 5] = [
+const PROBE: [&str; 7] = [
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
     include_str!("shaders/pole_taper.wgsl"),
     include_str!("shaders/kajiya_kay.wgsl"),
+    include_str!("shaders/marschner.wgsl"),
+    include_str!("shaders/deon.wgsl"),
     include_str!("shaders/probe.wgsl"),
 ];
 
@@ -46,20 +50,36 @@ pub struct ChiangResult {
     pub sample_weight: [f32; 3],
 }
 
-fn run_probe(gpu: &Gpu, entry: &str, material: &[u32], input: &[[f32; 4]]) -> Result<Vec<[f32; 4]>, GpuRenderError> {
+/// The probe's pipeline for `entry`, compiled once per device.
+fn probe_pipeline(gpu: &Gpu, entry: &'static str) -> wgpu::ComputePipeline {
+    let mut cache = gpu.probe_pipelines.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    cache
+        .entry(entry)
+        .or_insert_with(|| {
+            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("fiberlab probe"),
+                source: wgpu::ShaderSource::Wgsl(PROBE.concat().into()),
+            });
+            gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                cache: None,
+            })
+        })
+        .clone()
+}
+
+fn run_probe(
+    gpu: &Gpu,
+    entry: &'static str,
+    material: &[u32],
+    input: &[[f32; 4]],
+) -> Result<Vec<[f32; 4]>, GpuRenderError> {
     let device = &gpu.device;
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("fiberlab probe"),
-        source: wgpu::ShaderSource::Wgsl(PROBE.concat().into()),
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: None,
-        module: &module,
-        entry_point: Some(entry),
-        compilation_options: wgpu::PipelineCompilationOptions::default(),
-        cache: None,
-    });
+    let pipeline = probe_pipeline(gpu, entry);
     let init = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
         device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytes, usage })
     };
@@ -121,6 +141,26 @@ pub fn kajiya_kay(gpu: &Gpu, model: &KajiyaKay, cases: &[ChiangCase]) -> Result<
     let (words, table) = kajiya_kay_words(model, 32);
     let material: Vec<u32> = words.iter().chain(&table).copied().collect();
     let out = run_probe(gpu, "probe_kajiya_kay_cases", &material, &input)?;
+    Ok(results(&out))
+}
+
+/// The GPU's Marschner model on each case.
+pub fn marschner(gpu: &Gpu, model: &Marschner, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let (words, table) = marschner_words(model, 32);
+    let material: Vec<u32> = words.iter().chain(&table).copied().collect();
+    let out = run_probe(gpu, "probe_marschner_cases", &material, &input)?;
+    Ok(results(&out))
+}
+
+/// The GPU's d'Eon model on each case.
+pub fn deon(gpu: &Gpu, model: &Deon, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let (words, table) = deon_words(model, 32);
+    let material: Vec<u32> = words.iter().chain(&table).copied().collect();
+    let out = run_probe(gpu, "probe_deon_cases", &material, &input)?;
     Ok(results(&out))
 }
 

@@ -10,9 +10,11 @@ use fiberlab_render::light::{EnvironmentMap, Light};
 use fiberlab_render::scene::{Scene, SurfaceMaterial};
 use fiberlab_scatter::Model;
 use fiberlab_scatter::chiang_2016::Chiang;
+use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, TABLE_ROWS};
 use fiberlab_scatter::hair::roughness::lobe_variances;
 use fiberlab_scatter::hair::tilt::lobe_tilts;
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
+use fiberlab_scatter::marschner_2003::Marschner;
 use std::f64::consts::PI;
 
 /// Why a scene cannot be rendered on the GPU.
@@ -20,7 +22,7 @@ use std::f64::consts::PI;
 pub enum Unsupported {
     /// A fiber model without a GPU implementation.
     #[error(
-        "fiber model `{0}` is not implemented on the GPU (supported: chiang, kajiya-kay); render with --device cpu"
+        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner); render with --device cpu"
     )]
     FiberModel(String),
     /// A surface material without a GPU implementation.
@@ -51,6 +53,8 @@ const MATERIAL_LAMBERT: u32 = 0;
 const MATERIAL_MIRROR: u32 = 1;
 const MATERIAL_CHIANG: u32 = 2;
 const MATERIAL_KAJIYA_KAY: u32 = 3;
+const MATERIAL_MARSCHNER: u32 = 4;
+const MATERIAL_DEON: u32 = 5;
 /// Primitive kinds of the objects (as the shaders' `KIND_*`).
 const KIND_SEGMENT: u32 = 1;
 const KIND_TRIANGLE: u32 = 3;
@@ -152,16 +156,99 @@ pub fn kajiya_kay_words(k: &KajiyaKay, table_at: u32) -> ([u32; MATERIAL_WORDS],
     (w, table)
 }
 
+/// The words of a Marschner material (the order of `load_marschner` in the shaders) whose lobe
+/// table starts at word `table_at`, and that table: the CPU sampler's unnormalized lobe weights,
+/// three per row.
+#[must_use]
+pub fn marschner_words(m: &Marschner, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    use fiberlab_scatter::hair::attenuation::PathLength;
+    use fiberlab_scatter::hair::normal_plane::RootMode;
+    let p = m.params();
+    let lobes = m.gaussian_lobes();
+    let (e1, e2) = m.eccentric_indices();
+    let mut flags = 0;
+    if p.roots == RootMode::Cubic {
+        flags |= 1;
+    }
+    if p.glints {
+        flags |= 2;
+    }
+    if p.absorption == PathLength::Paper {
+        flags |= 4;
+    }
+    for (k, &on) in p.lobes.iter().enumerate() {
+        if on {
+            flags |= 8 << k;
+        }
+    }
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_MARSCHNER;
+    w[1] = f(p.eta);
+    w[2..5].copy_from_slice(&rgb(p.sigma_a));
+    w[5] = f(lobes.k_m);
+    w[6] = f(p.k_g);
+    w[7] = f(p.w_c);
+    w[8] = f(p.delta_eta);
+    w[9] = f(p.delta_h_m);
+    w[10] = table_at;
+    w[11] = flags;
+    w[12] = f(p.eccentricity);
+    w[13] = f(e1);
+    w[14] = f(e2);
+    for k in 0..3 {
+        w[15 + k] = f(lobes.alpha[k]);
+        w[18 + k] = f(lobes.beta[k]);
+    }
+    let table = m.sampling_lobe_table().iter().flatten().map(|&x| f(x)).collect();
+    (w, table)
+}
+
+/// The words of a d'Eon material (the order of `load_deon` in the shaders) whose table starts at
+/// word `table_at`, and that table: per lobe its longitudinal constants and tilt, then the CPU's
+/// azimuthal table (values, luminances, CDFs, residual masses) as `eval` and `sample` read it.
+#[must_use]
+pub fn deon_words(d: &Deon, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    let view = d.azimuthal_table();
+    let p_max = d.p_max();
+    let n = view.phi_nodes;
+    let mut table = Vec::with_capacity(6 * (p_max + 1) + 5 * view.lum.len() + view.cdf.len() + 3 * TABLE_ROWS);
+    for p in 0..=p_max {
+        let (m, (sin_tau, cos_tau)) = d.lobe(p);
+        let v = m.v();
+        let expm1 = (-2.0 / v).exp_m1();
+        table.extend([f(v), f(1.0 / (v * -expm1)), f(expm1), f(sin_tau), f(cos_tau), 0]);
+    }
+    let values = table.len();
+    table.extend(view.values.iter().flat_map(|&c| rgb(c)));
+    let lum = table.len();
+    table.extend(view.lum.iter().map(|&x| f(x)));
+    let cdf = table.len();
+    table.extend(view.cdf.iter().map(|&x| f(x)));
+    let residual = table.len();
+    table.extend(view.residual.iter().flat_map(|&c| rgb(c)));
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_DEON;
+    w[1] = u32::from(d.azimuthal_inclination() == AzimuthalInclination::Difference);
+    w[2] = p_max as u32;
+    w[3] = n as u32;
+    w[4] = f(std::f64::consts::TAU / n as f64);
+    w[5] = values as u32;
+    w[6] = lum as u32;
+    w[7] = cdf as u32;
+    w[8] = residual as u32;
+    w[10] = table_at;
+    (w, table)
+}
+
 /// A fiber material's words and its table (empty for most), whose first word is at
 /// `table_at`.
 fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS], Vec<u32>), Unsupported> {
     match model {
         Model::Chiang(c) => Ok((chiang_words(c), Vec::new())),
         Model::KajiyaKay(k) => Ok(kajiya_kay_words(k, table_at)),
-        other => {
-            let debug = format!("{other:?}");
-            Err(Unsupported::FiberModel(debug.split(['(', ' ', '{']).next().unwrap_or("?").to_lowercase()))
-        }
+        Model::Marschner(m) => Ok(marschner_words(m, table_at)),
+        Model::Deon(d) => Ok(deon_words(d, table_at)),
+        other => Err(Unsupported::FiberModel(other.name().to_string())),
     }
 }
 

@@ -207,6 +207,7 @@ impl<'g> Prepared<'g> {
             ("BVH leaves", sb.prims.len()),
             ("segments", sb.segments.len()),
             ("triangles", sb.triangles.len()),
+            ("materials, lights and their tables", sb.words.len()),
         ] {
             let bytes = 4 * words as u64;
             if bytes > limit {

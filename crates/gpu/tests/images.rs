@@ -88,31 +88,45 @@ fn block_rms(a: &LinearImage, b: &LinearImage) -> f64 {
     (sum / f64::from(n)).sqrt()
 }
 
-/// A lossless Chiang fiber under a white sky integrates to the sky: every pixel of hair and
-/// background is 1 (the sample weight of lossless Chiang is exactly 1 on the camera side).
-#[test]
-fn white_furnace_of_lossless_chiang_hair_is_one() {
-    let Some(gpu) = common::gpu() else { return };
+/// Hair of `model` under a white sky, rendered on the GPU without a depth limit: every channel's
+/// mean within 0.5 % of 1 and every pixel's green within 0.25 of 1.
+fn assert_white_furnace(gpu: &Gpu, model: fiberlab_scatter::Model, name: &str) {
     let mut b = builder();
-    let m = b.fiber_material(chiang(&[("sigma_a", "0")]));
+    let m = b.fiber_material(model);
     b.fibers(hair(400), m).light(Light::Constant { radiance: Rgb::ONE });
     let scene = b.build();
     let out = gpu_render(gpu, &scene, &RenderSettings { max_depth: u32::MAX, ..settings(32) });
     assert_eq!(out.stats.nonfinite_samples, 0);
     let means = channel_means(&out.image);
-    eprintln!("furnace means {means:?}, {} rays", out.stats.rays);
+    eprintln!("{name} furnace means {means:?}, {} rays", out.stats.rays);
     for m in means {
-        assert!((m - 1.0).abs() < 0.005, "mean {m}");
+        assert!((m - 1.0).abs() < 0.005, "{name}: mean {m}");
     }
     for p in out.image.pixels() {
-        assert!((f64::from(p[1]) - 1.0).abs() < 0.25, "pixel {p:?}");
+        assert!((f64::from(p[1]) - 1.0).abs() < 0.25, "{name}: pixel {p:?}");
     }
+}
+
+/// A lossless Chiang fiber under a white sky integrates to the sky: every pixel of hair and
+/// background is 1 (the sample weight of lossless Chiang is exactly 1 on the camera side).
+#[test]
+fn white_furnace_of_lossless_chiang_hair_is_one() {
+    let Some(gpu) = common::gpu() else { return };
+    assert_white_furnace(gpu, chiang(&[("sigma_a", "0")]), "chiang");
     // A lossy fiber is darker: the test can fail.
     let mut b = builder();
     let m = b.fiber_material(chiang(&[("eumelanin", "1")]));
     b.fibers(hair(400), m).light(Light::Constant { radiance: Rgb::ONE });
     let dark = gpu_render(gpu, &b.build(), &settings(8));
     assert!(channel_means(&dark.image)[0] < 0.95);
+}
+
+/// The same for a lossless d'Eon fiber (`theta_n = camera`): its sample weight is the sum of its
+/// tabulated lobe masses at the camera's inclination, 1 to the table's 2·10⁻³ between rows.
+#[test]
+fn white_furnace_of_lossless_deon_hair_is_one() {
+    let Some(gpu) = common::gpu() else { return };
+    assert_white_furnace(gpu, fiberlab_scatter::build("deon", &[("sigma_a", "0")]).unwrap(), "deon");
 }
 
 /// What a case adds to the scene: its lights (and a mirror).
@@ -215,6 +229,37 @@ fn kajiya_kay_images_match_the_cpu() {
     assert_matches_the_cpu(gpu, &b.build(), "kajiya-kay");
 }
 
+/// Marschner hair (exact roots, glints) under sun and sky, GPU against CPU at the same seed, as
+/// above.
+#[test]
+fn marschner_images_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let hair_m = b.fiber_material(fiberlab_scatter::build("marschner", &[("sigma_a", "0.4,0.6,1.0")]).unwrap());
+    let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::new(0.6, 0.45, 0.35)));
+    b.fibers(hair(200), hair_m);
+    b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
+    b.light(Light::sun(DVec3::new(1.0, 1.3, 0.5), 0.05, Rgb::new(3.0, 2.8, 2.5)));
+    b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+    assert_matches_the_cpu(gpu, &b.build(), "marschner");
+}
+
+/// d'Eon hair (its azimuthal table copied to the GPU) under sun and sky, GPU against CPU at the
+/// same seed, as above.
+#[test]
+fn deon_images_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let hair_m =
+        b.fiber_material(fiberlab_scatter::build("deon", &[("eumelanin", "0.3"), ("beta_m", "0.25")]).unwrap());
+    let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::new(0.6, 0.45, 0.35)));
+    b.fibers(hair(200), hair_m);
+    b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
+    b.light(Light::sun(DVec3::new(1.0, 1.3, 0.5), 0.05, Rgb::new(3.0, 2.8, 2.5)));
+    b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+    assert_matches_the_cpu(gpu, &b.build(), "deon");
+}
+
 /// An importance-sampled environment map (a blue-white sky gradient with a small warm bright
 /// patch, 64 × 32 cells), GPU against CPU at the same seed, as above: the map's cells, row and
 /// column CDFs are copied to the GPU and sampled there as on the CPU.
@@ -294,11 +339,11 @@ fn progressive_state_resumes_across_stops_tiles_chunks_and_devices() {
 fn unsupported_models_are_refused_by_name() {
     let Some(gpu) = common::gpu() else { return };
     let mut b = builder();
-    let m = b.fiber_material(fiberlab_scatter::build::<&str, &str>("marschner", &[]).unwrap());
+    let m = b.fiber_material(fiberlab_scatter::build::<&str, &str>("yan-fur", &[]).unwrap());
     b.fibers(hair(10), m).light(Light::Constant { radiance: Rgb::ONE });
     let err =
         fiberlab_gpu::render(gpu, &b.build(), &settings(1), GpuOptions::default(), &|_| {}, &AtomicBool::new(false))
             .unwrap_err()
             .to_string();
-    assert!(err.contains("marschner") && err.contains("--device cpu"), "{err}");
+    assert!(err.contains("`yan-fur`") && err.contains("--device cpu"), "{err}");
 }

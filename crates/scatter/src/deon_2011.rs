@@ -260,6 +260,24 @@ fn row_position(cos_d: f64) -> (usize, usize, f64) {
     (j0, j0 + 1, x - j0 as f64)
 }
 
+/// The tabulated `N_p` of a [`Deon`] fiber, read-only: [`TABLE_ROWS`] rows uniform in
+/// `cosθ_n ∈ [0, 1]`, `phi_nodes` nodes per row at `φ = −π + 2πk/phi_nodes` (periodic), both
+/// interpolated linearly.
+#[derive(Clone, Copy, Debug)]
+pub struct AzimuthalTableView<'a> {
+    /// Nodes per row.
+    pub phi_nodes: usize,
+    /// `N_p` at node k of row j of lobe p: index `(p·TABLE_ROWS + j)·phi_nodes + k`.
+    pub values: &'a [Rgb],
+    /// Luminance of `values`.
+    pub lum: &'a [f64],
+    /// Trapezoid CDF of `lum` per row: index `(p·TABLE_ROWS + j)·(phi_nodes + 1) + k`; its last
+    /// entry is the lobe's luminance mass.
+    pub cdf: &'a [f64],
+    /// Residual mass `Ā_res` per row.
+    pub residual: &'a [Rgb],
+}
+
 /// `N_p(φ; cosθ_n)` for the explicit lobes and the residual masses, tabulated.
 struct AzimuthalTable {
     n_phi: usize,
@@ -523,6 +541,20 @@ impl Deon {
     #[must_use]
     pub fn table_phi_nodes(&self) -> usize {
         self.table.n_phi
+    }
+
+    /// Lobe p's longitudinal function and the tilt rotation `(sin τ_p, cos τ_p)` of its fixed
+    /// direction, for p ≤ p_max (p = p_max: the residual).
+    #[must_use]
+    pub fn lobe(&self, p: usize) -> (&Longitudinal, (f64, f64)) {
+        (&self.longitudinal[p], self.tilt[p])
+    }
+
+    /// The azimuthal table as `eval` and `sample` read it (layouts in [`AzimuthalTableView`]).
+    #[must_use]
+    pub fn azimuthal_table(&self) -> AzimuthalTableView<'_> {
+        let t = &self.table;
+        AzimuthalTableView { phi_nodes: t.n_phi, values: &t.values, lum: &t.lum, cdf: &t.cdf, residual: &t.residual }
     }
 
     /// Tabulated `N_p(φ; cosθ_d)` (sr⁻¹ per radian of φ, RGB) for an explicit lobe `p < p_max`,

@@ -12,7 +12,7 @@ fn probe_f(i: u32) -> f32 {
     return bitcast<f32>(probe_material[i]);
 }
 
-/// The material's words as `kajiya_kay.wgsl` reads them.
+/// The material's words as `kajiya_kay.wgsl`, `marschner.wgsl` and `deon.wgsl` read them.
 fn word_f(i: u32) -> f32 {
     return bitcast<f32>(probe_material[i]);
 }
@@ -67,6 +67,40 @@ fn probe_kajiya_kay_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
     let u = probe_in[3u * i + 2u];
     probe_out[3u * i] = kk_eval(m, wi, a.xyz);
     let s = kk_sample(m, a.xyz, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
+/// As `probe_chiang_cases` for the Marschner material at word 0 (its table after it).
+@compute @workgroup_size(64)
+fn probe_marschner_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let m = load_marschner(0u);
+    let a = probe_in[3u * i];
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    probe_out[3u * i] = ms_eval(m, wi, a.xyz);
+    let s = ms_sample(m, a.xyz, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
+/// As `probe_chiang_cases` for the d'Eon material at word 0 (its table after it).
+@compute @workgroup_size(64)
+fn probe_deon_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let m = load_deon(0u);
+    let a = probe_in[3u * i];
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    probe_out[3u * i] = deon_eval(m, wi, a.xyz);
+    let s = deon_sample(m, a.xyz, u);
     probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
     probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
 }

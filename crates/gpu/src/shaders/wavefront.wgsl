@@ -10,7 +10,13 @@
 const MATERIAL_LAMBERT: u32 = 0u;
 const MATERIAL_MIRROR: u32 = 1u;
 const MATERIAL_CHIANG: u32 = 2u;
-// MATERIAL_KAJIYA_KAY (3) is in kajiya_kay.wgsl.
+// MATERIAL_KAJIYA_KAY (3) is in kajiya_kay.wgsl, MATERIAL_MARSCHNER (4) in marschner.wgsl,
+// MATERIAL_DEON (5) in deon.wgsl.
+
+fn is_fiber_material(kind: u32) -> bool {
+    return kind == MATERIAL_CHIANG || kind == MATERIAL_KAJIYA_KAY || kind == MATERIAL_MARSCHNER
+        || kind == MATERIAL_DEON;
+}
 
 fn material_kind(m: u32) -> u32 {
     return scene_words[params.material_base + 32u * m];
@@ -161,6 +167,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     var chm: Chiang;
     var chv: ChiangVertex;
     var kkm: KajiyaKay;
+    var msm: Marschner;
+    var dem: Deon;
     // ω_o in the fiber frame.
     var wo_l: vec3<f32>;
     if kind == KIND_SEGMENT {
@@ -184,9 +192,14 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             fv = cross(fw, fu);
         }
         wo_l = vec3<f32>(dot(wo, fu), dot(wo, fv), dot(wo, fw));
-        if material_kind(material) == MATERIAL_CHIANG {
+        let fiber_kind = material_kind(material);
+        if fiber_kind == MATERIAL_CHIANG {
             chm = load_chiang(material);
             chv = chiang_at_vertex(chm, wo_l, s.hit_h);
+        } else if fiber_kind == MATERIAL_MARSCHNER {
+            msm = load_marschner(params.material_base + 32u * material);
+        } else if fiber_kind == MATERIAL_DEON {
+            dem = load_deon(params.material_base + 32u * material);
         } else {
             kkm = load_kajiya_kay(params.material_base + 32u * material);
         }
@@ -227,11 +240,15 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             if ls.pdf > 0.0 {
                 var f = vec3<f32>(0.0);
                 var bsdf_pdf = 0.0;
-                if mkind == MATERIAL_CHIANG || mkind == MATERIAL_KAJIYA_KAY {
+                if is_fiber_material(mkind) {
                     let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
                     var e: vec4<f32>;
                     if mkind == MATERIAL_CHIANG {
                         e = chiang_eval(chm, chv, wi_l);
+                    } else if mkind == MATERIAL_MARSCHNER {
+                        e = ms_eval(msm, wi_l, wo_l);
+                    } else if mkind == MATERIAL_DEON {
+                        e = deon_eval(dem, wi_l, wo_l);
                     } else {
                         e = kk_eval(kkm, wi_l, wo_l);
                     }
@@ -271,10 +288,14 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     var weight: vec3<f32>;
     var pdf = 0.0;
     var sampled_delta = false;
-    if mkind == MATERIAL_CHIANG || mkind == MATERIAL_KAJIYA_KAY {
+    if is_fiber_material(mkind) {
         var fs: FiberSample;
         if mkind == MATERIAL_CHIANG {
             fs = chiang_sample(chm, chv, vec4<f32>(ua, ub));
+        } else if mkind == MATERIAL_MARSCHNER {
+            fs = ms_sample(msm, wo_l, vec4<f32>(ua, ub));
+        } else if mkind == MATERIAL_DEON {
+            fs = deon_sample(dem, wo_l, vec4<f32>(ua, ub));
         } else {
             fs = kk_sample(kkm, wo_l, vec4<f32>(ua, ub));
         }

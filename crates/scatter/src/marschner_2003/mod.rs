@@ -522,6 +522,25 @@ impl Marschner {
         &self.params
     }
 
+    /// The longitudinal lobes: α_p, β_p (radians) and k_M.
+    #[must_use]
+    pub fn gaussian_lobes(&self) -> &GaussianLobes {
+        &self.lobes
+    }
+
+    /// The eccentricity correction's indices `(η*₁, η*₂)` (both η for a circular fiber).
+    #[must_use]
+    pub fn eccentric_indices(&self) -> (f64, f64) {
+        self.eta_star
+    }
+
+    /// The sampler's unnormalized lobe-selection weights `[R, TT, TRT]` at
+    /// `|θ_r| = kπ/(2n)`, k = 0..=n (n + 1 rows; linear in between), as `sample` reads them.
+    #[must_use]
+    pub fn sampling_lobe_table(&self) -> &[[f64; 3]] {
+        &self.lobe_table[..]
+    }
+
     fn plane(&self, eta: f64, sin_theta_d: f64, cos_theta_d: f64) -> NormalPlane {
         NormalPlane::new(eta, sin_theta_d, cos_theta_d, self.params.roots)
     }

@@ -16,6 +16,8 @@
 //!                     # curves, default 8) (strand diameters: crate::strand_diameters);
 //!                     # basis = "linear" | "bspline" | "catmull-rom" | "bezier": how the
 //!                     # points of a .hair file or the generator make curves (default linear)
+//!                     # a surface material on a ribbon or flat curve file (pbrt ribbon/flat,
+//!                     # USD with normals) renders it as ribbons (crate::ribbon_curves)
 //! [[sphere]]          # center, radius, material, optional emission = [r, g, b] (a light)
 //! [[mesh]]            # file = "x.obj", material, scale, translate; or floor = y;
 //!                     # or cabochon = { radius, height, rings, sectors }, translate
@@ -791,12 +793,18 @@ impl SceneFile {
         }
     }
 
-    /// `[[hair]]`: strands read from a file or generated, as tubes in a BVH.
+    /// `[[hair]]`: strands read from a file or generated, as tubes in a BVH; with a surface
+    /// material, ribbon and flat curves from a file as a ribbon mesh.
     fn hair(&self, scene: &mut SceneBuilder, names: &MaterialNames) -> Result<(), SceneError> {
         for h in &self.desc.hair {
             let hd = h.get_ref();
-            let material = self.fiber_material(names, &hd.material)?;
             let per_curve = self.segments_per_curve(hd)?;
+            if let MaterialRef::Surface(surface) = self.material(names, &hd.material)? {
+                let mesh = self.ribbons(h, per_curve)?;
+                scene.mesh(mesh, surface);
+                continue;
+            }
+            let material = self.fiber_material(names, &hd.material)?;
             let basis = (self.basis(hd)?, hd.basis.as_ref().map_or(h.span(), Spanned::span));
             // The hair, where its errors are reported, and what it is called in them; cubic
             // curves come with their control points, the hair then holds their polylines.
@@ -838,6 +846,34 @@ impl SceneFile {
             scene.fibers(curves, material);
         }
         Ok(())
+    }
+
+    /// The ribbon mesh of a `[[hair]]` entry with a surface material: ribbon or flat curves
+    /// from its file (or `--hair`), [`crate::ribbon_curves`].
+    fn ribbons(&self, h: &Spanned<HairDesc>, per_curve: usize) -> Result<TriangleMesh, SceneError> {
+        let hd = h.get_ref();
+        let (path, span) = match (&self.hair_override, &hd.file, &hd.generator) {
+            (Some(p), _, _) => (p.clone(), h.span()),
+            (None, Some(f), None) => (self.resolve(f.get_ref()), f.span()),
+            (None, None, Some(_)) => {
+                return Err(self.error(
+                    hd.material.span(),
+                    format!(
+                        "material `{}` is a surface; the hair generator grows round strands, which need a fiber model                          (a surface model goes on ribbon or flat curves from a file)",
+                        hd.material.get_ref()
+                    ),
+                ));
+            }
+            _ => return Err(self.error(h.span(), "hair: give exactly one of file, generator".into())),
+        };
+        if hd.basis.is_some() {
+            return Err(self.error(h.span(), "hair: basis applies to .hair files and the generator".into()));
+        }
+        let strands = fiberlab_io::strand_files::read(&path).map_err(|e| self.error(span.clone(), e.to_string()))?;
+        let eye = dvec(self.desc.camera.get_ref().eye);
+        crate::ribbon_curves::ribbon_mesh(&strands, per_curve, eye).map_err(|e| {
+            self.error(span, format!("material `{}` (a surface): {}: {e}", hd.material.get_ref(), path.display()))
+        })
     }
 
     /// `segments_per_curve` of a `[[hair]]` entry, checked.
@@ -905,7 +941,9 @@ impl SceneFile {
             let hair = HairFile::read(path).map_err(|e| self.error(span.clone(), e.to_string()))?;
             return self.with_basis(hair, per_curve, basis, source);
         }
-        let strands = fiberlab_io::strand_files::read(path).map_err(fail)?;
+        let mut strands = fiberlab_io::strand_files::read(path).map_err(fail)?;
+        // Round tubes: ribbon normals do not apply.
+        strands.normals.clear();
         if basis.0 != Basis::Linear && basis.0 != strands.basis {
             return Err(self.error(
                 basis.1,
@@ -1184,6 +1222,47 @@ mod tests {
         std::fs::write(&path, &text).unwrap();
         let f = SceneFile::parse(&text, &path).unwrap();
         (dir, f, strands)
+    }
+
+    /// A `[[hair]]` entry with a surface material renders ribbon curves from its file as a
+    /// ribbon mesh (two triangles per polyline segment: 2 curves of 2 Bézier spans × 4
+    /// segments), with a fiber material as tubes; round curves with a surface material, and
+    /// the generator with one, are refused at the entry, naming the scene's line and the file.
+    #[test]
+    fn hair_files_of_ribbons_take_a_surface_model() {
+        let dir = tempfile::tempdir().unwrap();
+        let curves = |normals: &str| {
+            format!(
+                "#usda 1.0\ndef BasisCurves \"c\"\n{{\n    int[] curveVertexCounts = [7, 7]\n    point3f[] points = [(0, 0, 0), (0, 0.1, 0), (0, 0.2, 0), (0, 0.3, 0), (0, 0.4, 0), (0, 0.5, 0), (0, 0.6, 0), (0.2, 0, 0), (0.2, 0.1, 0), (0.2, 0.2, 0), (0.2, 0.3, 0), (0.2, 0.4, 0), (0.2, 0.5, 0), (0.3, 0.6, 0)]\n    float[] widths = [0.05] (interpolation = \"constant\")\n{normals}}}\n"
+            )
+        };
+        std::fs::write(
+            dir.path().join("r.usda"),
+            curves("    normal3f[] normals = [(0, 0, 1)] (interpolation = \"constant\")\n"),
+        )
+        .unwrap();
+        std::fs::write(dir.path().join("t.usda"), curves("")).unwrap();
+        let scene = |file: &str, material: &str| {
+            let text = format!(
+                "{CAMERA}[materials.leaf]\nmodel = \"leaf\"\n[materials.hair]\nmodel = \"chiang\"\n[[hair]]\nmaterial = \"{material}\"\n{file}\nsegments_per_curve = 4\n"
+            );
+            let path = dir.path().join("s.toml");
+            SceneFile::parse(&text, &path).and_then(|f| f.build())
+        };
+        let (ribbons, _) = scene("file = \"r.usda\"", "leaf").unwrap();
+        assert_eq!((ribbons.meshes().len(), ribbons.fibers().len()), (1, 0));
+        assert_eq!(ribbons.meshes()[0].mesh().len(), 2 * 2 * 2 * 4);
+        // Facing +z (the normal), the first ribbon spans x in ±0.025 at y = 0.3.
+        let hit = |x: f64| {
+            ribbons.meshes()[0].mesh().intersect(&fiberlab_geometry::Ray::new(DVec3::new(x, 0.3, 1.0), DVec3::NEG_Z))
+        };
+        assert!(hit(0.02).is_some() && hit(-0.02).is_some() && hit(0.03).is_none());
+        let (tubes, _) = scene("file = \"r.usda\"", "hair").unwrap();
+        assert_eq!((tubes.meshes().len(), tubes.fibers().len()), (0, 1));
+        let e = scene("file = \"t.usda\"", "leaf").unwrap_err().to_string();
+        assert!(e.contains("s.toml:13:8: material `leaf` (a surface): ") && e.contains("round"), "{e}");
+        let e = scene("generator = { strands = 2 }", "leaf").unwrap_err().to_string();
+        assert!(e.contains("s.toml:12:12: material `leaf` is a surface; the hair generator"), "{e}");
     }
 
     /// `basis = "bspline"` on `.hair` points: the tubes' axis runs through the uniform cubic
@@ -1481,6 +1560,13 @@ mod tests {
             if text.contains("file = \"cloth_patch.usda\"") && !dir.join("cloth_patch.usda").exists() {
                 let fibers = fiberlab_procedural::woven_patch::WovenPatch::default().fibers(1, 1).unwrap();
                 fiberlab_io::strand_files::write(&made.path().join("cloth_patch.usda"), &fibers.strands(), 1).unwrap();
+                path = made.path().join(path.file_name().unwrap());
+                std::fs::write(&path, &text).unwrap();
+            }
+            // Likewise the grass ribbons of `fiberlab hair generate --style grass` (100 blades).
+            if text.contains("file = \"grass_ribbons.usda\"") && !dir.join("grass_ribbons.usda").exists() {
+                let blades = GrassParams { blades: 100, ..GrassParams::default() }.strands().unwrap();
+                fiberlab_io::strand_files::write(&made.path().join("grass_ribbons.usda"), &blades, 1).unwrap();
                 path = made.path().join(path.file_name().unwrap());
                 std::fs::write(&path, &text).unwrap();
             }

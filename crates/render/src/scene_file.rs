@@ -12,7 +12,8 @@
 //!                     # or lambert = [r, g, b] | mirror = [r, g, b]            (surfaces)
 //!                     # uv_scale = [su, sv]: pattern repeats of a model with a position u, v
 //! [[hair]]            # material; file = "x.hair" | "x.pbrt" | "x.pbrt.gz" | "x.usda"
-//!                     # or generator = { … HairParams … }; segments_per_curve (cubic
+//!                     # or generator = { … HairParams … }
+//!                     # or cotton = { … CottonBollParams … }; segments_per_curve (cubic
 //!                     # curves, default 8) (strand diameters: crate::strand_diameters);
 //!                     # basis = "linear" | "bspline" | "catmull-rom" | "bezier": how the
 //!                     # points of a .hair file or the generator make curves (default linear)
@@ -42,6 +43,7 @@ use fiberlab_geometry::shapes::TriangleMesh;
 use fiberlab_io::Basis;
 use fiberlab_io::{HairFile, LinearImage};
 use fiberlab_math::{DVec3, Rgb};
+use fiberlab_procedural::cotton_boll::CottonBollParams;
 use fiberlab_procedural::generator::HairParams;
 use fiberlab_procedural::grass::GrassParams;
 use fiberlab_scatter::{Model, ModelError};
@@ -203,6 +205,8 @@ struct HairDesc {
     material: Spanned<String>,
     file: Option<Spanned<String>>,
     generator: Option<Spanned<HairParams>>,
+    /// A generated cotton boll ([`fiberlab_procedural::cotton_boll`]).
+    cotton: Option<Spanned<CottonBollParams>>,
     /// Polyline segments each span of a cubic curve file becomes (default
     /// [`DEFAULT_SEGMENTS_PER_CURVE`]); linear files and `.hair` are not subdivided.
     segments_per_curve: Option<Spanned<usize>>,
@@ -545,6 +549,16 @@ impl SceneFile {
             };
             let estimate = match (&self.hair_override, &hd.file, &hd.generator) {
                 (Some(p), _, _) => from_file(p, h.span())?,
+                (None, None, None) if hd.cotton.is_some() && basis == Basis::Linear => {
+                    let c = hd.cotton.as_ref().expect("checked").get_ref();
+                    HairEstimate {
+                        source: "cotton boll".into(),
+                        strands: c.fibers as u64,
+                        segments: c.segment_count(),
+                        hair_bytes: Some(c.estimated_bytes()),
+                        bvh_bytes: CurveSet::estimated_bytes(c.segment_count()),
+                    }
+                }
                 (None, Some(f), None) => from_file(&self.resolve(f.get_ref()), f.span())?,
                 (None, None, Some(g)) => {
                     let g = g.get_ref();
@@ -812,18 +826,23 @@ impl SceneFile {
                 let source = format!("--hair {}", p.display());
                 (self.hair_file(p, h.span(), per_curve, basis, &source)?, h.span(), source)
             } else {
-                match (&hd.file, &hd.generator) {
-                    (Some(f), None) => {
+                match (&hd.file, &hd.generator, &hd.cotton) {
+                    (Some(f), None, None) => {
                         let path = self.resolve(f.get_ref());
                         let source = format!("hair file {}", path.display());
                         (self.hair_file(&path, f.span(), per_curve, basis, &source)?, f.span(), source)
                     }
-                    (None, Some(g)) => {
+                    (None, Some(g), None) => {
                         let hair = g.get_ref().generate().map_err(|e| self.error(g.span(), e.to_string()))?;
                         let source = "hair generator".to_string();
                         (self.with_basis(hair, per_curve, basis, &source)?, g.span(), source)
                     }
-                    _ => return Err(self.error(h.span(), "hair: give exactly one of file, generator".into())),
+                    (None, None, Some(c)) => {
+                        let hair = c.get_ref().generate().map_err(|e| self.error(c.span(), e.to_string()))?;
+                        let source = "cotton boll".to_string();
+                        (self.with_basis(hair, per_curve, basis, &source)?, c.span(), source)
+                    }
+                    _ => return Err(self.error(h.span(), "hair: give exactly one of file, generator, cotton".into())),
                 }
             };
             let (hair, cubic) = loaded;
@@ -855,11 +874,12 @@ impl SceneFile {
         let (path, span) = match (&self.hair_override, &hd.file, &hd.generator) {
             (Some(p), _, _) => (p.clone(), h.span()),
             (None, Some(f), None) => (self.resolve(f.get_ref()), f.span()),
-            (None, None, Some(_)) => {
+            (None, None, Some(_)) | (None, None, None) if hd.generator.is_some() || hd.cotton.is_some() => {
                 return Err(self.error(
                     hd.material.span(),
                     format!(
-                        "material `{}` is a surface; the hair generator grows round strands, which need a fiber model                          (a surface model goes on ribbon or flat curves from a file)",
+                        "material `{}` is a surface; the hair generator and the cotton boll grow round strands, which need a fiber \
+                         model (a surface model goes on ribbon or flat curves from a file)",
                         hd.material.get_ref()
                     ),
                 ));
@@ -1224,6 +1244,29 @@ mod tests {
         (dir, f, strands)
     }
 
+    /// `[[hair]] cotton = { … }` grows the boll's fibres as tubes (one fiber set of
+    /// fibers × segments), counted by the memory estimate; with a generator too, or with a
+    /// surface material, it is refused at the entry.
+    #[test]
+    fn a_cotton_boll_is_a_hair_entry() {
+        let text = |extra: &str, material: &str| {
+            format!(
+                "{CAMERA}[materials.lint]\nmodel = \"hollow-fiber\"\n[materials.leaf]\nmodel = \"leaf\"\n[[hair]]\nmaterial = \"{material}\"\ncotton = {{ fibers = 30, segments = 10 }}\n{extra}"
+            )
+        };
+        let f = SceneFile::parse(&text("", "lint"), Path::new("s.toml")).unwrap();
+        let e = f.memory_estimate().unwrap();
+        assert_eq!((e.hair[0].strands, e.hair[0].segments), (30, 300));
+        let (scene, _) = f.build().unwrap();
+        assert_eq!(scene.fibers().len(), 1);
+        let e = err(&text("generator = { strands = 2 }\n", "lint")).to_string();
+        assert!(e.contains("give exactly one of file, generator, cotton"), "{e}");
+        let e = err(&text("", "leaf")).to_string();
+        assert!(e.contains("the cotton boll grow round strands"), "{e}");
+        let e = err(&text("", "lint").replace("segments = 10", "segments = 0")).to_string();
+        assert!(e.contains("cotton: `segments` = 0"), "{e}");
+    }
+
     /// A `[[hair]]` entry with a surface material renders ribbon curves from its file as a
     /// ribbon mesh (two triangles per polyline segment: 2 curves of 2 Bézier spans × 4
     /// segments), with a fiber material as tubes; round curves with a surface material, and
@@ -1574,6 +1617,9 @@ mod tests {
             for h in &mut f.desc.hair {
                 if let Some(g) = h.get_mut().generator.as_mut() {
                     g.get_mut().strands = 100;
+                }
+                if let Some(c) = h.get_mut().cotton.as_mut() {
+                    c.get_mut().fibers = 100;
                 }
             }
             f.build().unwrap_or_else(|e| panic!("{e}"));

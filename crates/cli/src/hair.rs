@@ -1,9 +1,10 @@
-//! `fiberlab hair`: generate procedural hair as a `.hair` file, describe a hair file of any
-//! format, or convert between formats (chosen by extension: `.hair`, `.pbrt`/`.pbrt.gz`
-//! (read only), `.usda`).
+//! `fiberlab hair`: generate procedural hair as a `.hair` file (or a grass patch as ribbon
+//! curves in a `.usda` file), describe a hair file of any format, or convert between formats
+//! (chosen by extension: `.hair`, `.pbrt`/`.pbrt.gz` (read only), `.usda`).
 
 use fiberlab_io::{Format, StrandsError, strand_files};
 use fiberlab_procedural::generator::{HairParams, Style};
+use fiberlab_procedural::grass::GrassParams;
 use std::path::PathBuf;
 
 /// Flags of `fiberlab hair`.
@@ -15,7 +16,9 @@ pub struct Args {
 
 #[derive(clap::Subcommand)]
 enum HairCommand {
-    /// Grow strands over a unit head sphere (or fur over the whole sphere) and write a .hair file.
+    /// Grow strands over a unit head sphere (or fur over the whole sphere) and write a .hair
+    /// file; or grow a grass patch (--style grass) and write its blades as ribbon curves with
+    /// normals to a .usda file.
     Generate(Box<GenerateArgs>),
     /// Print counts, bounds, widths and basis of a hair file (.hair, .pbrt, .pbrt.gz, .usda;
     /// reading it validates it).
@@ -41,20 +44,21 @@ enum HairCommand {
 /// ([`HairParams::fur`]); a flag given overrides the style's default.
 #[derive(clap::Args)]
 struct GenerateArgs {
-    /// straight, wavy, curly (hair on a head) or fur (short, tapered, clumped strands over the
-    /// whole unit sphere; the defaults below in parentheses).
-    #[arg(long, default_value_t = HairParams::default().style)]
-    style: Style,
-    /// Number of strands [default: 20000 (fur: 60000)].
+    /// straight, wavy, curly (hair on a head), fur (short, tapered, clumped strands over the
+    /// whole unit sphere; the defaults below in parentheses) or grass (blades as ribbons over
+    /// a patch of the plane y = 0, written as .usda; the defaults in brackets with "grass").
+    #[arg(long, default_value_t = GenerateStyle::Hair(HairParams::default().style))]
+    style: GenerateStyle,
+    /// Number of strands [default: 20000 (fur: 60000; grass: 4000 blades)].
     #[arg(long)]
     strands: Option<usize>,
-    /// Segments per strand [default: 24 (fur: 6)].
+    /// Segments per strand [default: 24 (fur: 6; grass: 8)].
     #[arg(long)]
     segments: Option<usize>,
-    /// Strand length, head radius = 1 [default: 1.6 (fur: 0.14)].
+    /// Strand length, head radius = 1 [default: 1.6 (fur: 0.14; grass: 0.25, the longest blade)].
     #[arg(long)]
     length: Option<f64>,
-    /// Each strand's length is uniform in [length·(1 − j), length], j in [0, 1) [default: 0 (fur: 0.35)].
+    /// Each strand's length is uniform in [length·(1 − j), length], j in [0, 1) [default: 0 (fur: 0.35; grass: 0.4)].
     #[arg(long)]
     length_jitter: Option<f64>,
     /// Wave/curl amplitude, head radius = 1 [default: 0.03 (fur: no waves)].
@@ -63,7 +67,7 @@ struct GenerateArgs {
     /// Wave/curl length (pitch) [default: 0.35].
     #[arg(long)]
     wavelength: Option<f64>,
-    /// Number of clumps, 0: none [default: 400 (fur: 3000)].
+    /// Number of clumps (grass: tufts), 0: none [default: 400 (fur: 3000; grass: 200)].
     #[arg(long)]
     clumps: Option<usize>,
     /// Blend toward the clump guide at the tip, [0, 1] [default: 0.35 (fur: 0.6)].
@@ -78,9 +82,28 @@ struct GenerateArgs {
     /// Root diameter [default: 0.002 (fur: 0.005)].
     #[arg(long)]
     root_diameter: Option<f64>,
-    /// Tip diameter as a fraction of the root diameter, 1: constant radius [default: 0.5 (fur: 0.1)].
+    /// Tip diameter as a fraction of the root diameter, 1: constant radius [default: 0.5 (fur: 0.1;
+    /// grass: 0, pointed blades)].
     #[arg(long)]
     tip_ratio: Option<f64>,
+    /// Grass: largest blade width at the root [default: 0.01].
+    #[arg(long)]
+    width: Option<f64>,
+    /// Grass: the patch's size along x and z, centred on the origin [default: 1,1].
+    #[arg(long, value_delimiter = ',', value_name = "SX,SZ")]
+    size: Option<Vec<f64>>,
+    /// Grass: largest lean of a blade's root from vertical, degrees [default: 20].
+    #[arg(long)]
+    lean_deg: Option<f64>,
+    /// Grass: largest turn of a blade's tangent from root to tip, degrees [default: 50].
+    #[arg(long)]
+    bend_deg: Option<f64>,
+    /// Grass: largest twist of a blade about its centreline, degrees [default: 60].
+    #[arg(long)]
+    twist_deg: Option<f64>,
+    /// Grass: radius of a tuft [default: 0.04].
+    #[arg(long)]
+    clump_radius: Option<f64>,
     /// Random seed.
     #[arg(long, default_value_t = HairParams::default().seed)]
     seed: u64,
@@ -89,6 +112,89 @@ struct GenerateArgs {
     out: PathBuf,
     #[command(flatten)]
     memory: crate::memory_budget::MemoryLimit,
+}
+
+/// `--style`: a hair style of the hair generator, or grass (the grass generator).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum GenerateStyle {
+    Hair(Style),
+    Grass,
+}
+
+impl std::fmt::Display for GenerateStyle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Hair(s) => s.fmt(f),
+            Self::Grass => f.write_str("grass"),
+        }
+    }
+}
+
+impl std::str::FromStr for GenerateStyle {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s == "grass" {
+            return Ok(Self::Grass);
+        }
+        s.parse::<Style>()
+            .map(Self::Hair)
+            .map_err(|_| format!("unknown style `{s}`; expected straight, wavy, curly, fur or grass"))
+    }
+}
+
+impl GenerateArgs {
+    /// The grass generator's parameters: its defaults, overridden by the flags given; a flag of
+    /// the hair generator only is an error naming it.
+    fn grass(&self) -> anyhow::Result<GrassParams> {
+        let hair_only = [
+            ("--amplitude", self.amplitude.is_some()),
+            ("--wavelength", self.wavelength.is_some()),
+            ("--clumping", self.clumping.is_some()),
+            ("--gravity", self.gravity.is_some()),
+            ("--noise", self.noise.is_some()),
+            ("--root-diameter", self.root_diameter.is_some()),
+        ];
+        if let Some((flag, _)) = hair_only.iter().find(|(_, given)| *given) {
+            anyhow::bail!(
+                "{flag} is a hair flag; --style grass takes --width, --size, --lean-deg, --bend-deg, --twist-deg, --clump-radius"
+            );
+        }
+        let d = GrassParams::default();
+        let size = match self.size.as_deref() {
+            None => d.size,
+            Some(&[sx, sz]) => [sx, sz],
+            Some(v) => anyhow::bail!("--size takes two numbers SX,SZ; got {}", v.len()),
+        };
+        Ok(GrassParams {
+            blades: self.strands.unwrap_or(d.blades),
+            segments: self.segments.unwrap_or(d.segments),
+            size,
+            height: self.length.unwrap_or(d.height),
+            height_jitter: self.length_jitter.unwrap_or(d.height_jitter),
+            width: self.width.unwrap_or(d.width),
+            tip_ratio: self.tip_ratio.unwrap_or(d.tip_ratio),
+            lean_deg: self.lean_deg.unwrap_or(d.lean_deg),
+            bend_deg: self.bend_deg.unwrap_or(d.bend_deg),
+            twist_deg: self.twist_deg.unwrap_or(d.twist_deg),
+            clumps: self.clumps.unwrap_or(d.clumps),
+            clump_radius: self.clump_radius.unwrap_or(d.clump_radius),
+            seed: self.seed,
+        })
+    }
+
+    /// A grass flag given with a hair style, by name.
+    fn grass_flag(&self) -> Option<&'static str> {
+        [
+            ("--width", self.width.is_some()),
+            ("--size", self.size.is_some()),
+            ("--lean-deg", self.lean_deg.is_some()),
+            ("--bend-deg", self.bend_deg.is_some()),
+            ("--twist-deg", self.twist_deg.is_some()),
+            ("--clump-radius", self.clump_radius.is_some()),
+        ]
+        .into_iter()
+        .find_map(|(flag, given)| given.then_some(flag))
+    }
 }
 
 impl Args {
@@ -105,9 +211,35 @@ impl Args {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     match &args.command {
         HairCommand::Generate(g) => {
-            let base = if g.style == Style::Fur { HairParams::fur() } else { HairParams::default() };
+            let style = match g.style {
+                GenerateStyle::Grass => {
+                    if Format::of(&g.out)? != Format::Usda {
+                        anyhow::bail!(
+                            "{}: grass blades are ribbon curves with normals, which only .usda holds; name the output .usda",
+                            g.out.display()
+                        );
+                    }
+                    let params = g.grass()?;
+                    params.validate()?;
+                    g.memory.check(&crate::memory_budget::grass_generate_needs(&params))?;
+                    let strands = params.strands()?;
+                    strand_files::write(&g.out, &strands, 1)?;
+                    eprintln!(
+                        "{} blades, {} points (ribbon curves with normals) → {}",
+                        strands.strand_count(),
+                        strands.points.len(),
+                        g.out.display()
+                    );
+                    return Ok(());
+                }
+                GenerateStyle::Hair(style) => style,
+            };
+            if let Some(flag) = g.grass_flag() {
+                anyhow::bail!("{flag} is a grass flag; use it with --style grass");
+            }
+            let base = if style == Style::Fur { HairParams::fur() } else { HairParams::default() };
             let params = HairParams {
-                style: g.style,
+                style,
                 strands: g.strands.unwrap_or(base.strands),
                 segments: g.segments.unwrap_or(base.segments),
                 length: g.length.unwrap_or(base.length),

@@ -24,6 +24,7 @@ use fiberlab_gonio::Setup;
 use fiberlab_io::memory_budget as budget;
 pub use fiberlab_io::memory_budget::{Need, memory_size};
 use fiberlab_procedural::generator::HairParams;
+use fiberlab_procedural::grass::GrassParams;
 use fiberlab_render::scene_file::{MemoryEstimate, SceneFile};
 
 /// `--memory-limit SIZE`, the flag of every verb that runs the check.
@@ -114,6 +115,13 @@ pub fn measure_needs(setup: &Setup, incidences: usize, threads: usize) -> Vec<Ne
 #[must_use]
 pub fn hair_generate_needs(p: &HairParams) -> Vec<Need> {
     vec![Need::new(format!("hair {} strands × {} segments", p.strands, p.segments), p.estimated_bytes())]
+}
+
+/// `hair generate --style grass`: the blades as ribbon curves and their `.usda` text
+/// ([`GrassParams::estimated_strand_bytes`]).
+#[must_use]
+pub fn grass_generate_needs(p: &GrassParams) -> Vec<Need> {
+    vec![Need::new(format!("grass {} blades × {} segments", p.blades, p.segments), Some(p.estimated_strand_bytes()))]
 }
 
 #[cfg(test)]

@@ -191,3 +191,70 @@ fn the_memory_budget_counts_the_points_of_text_files_before_loading() {
     // 2000 strands × 7 spans × 4 segments.
     assert!(err.contains("hair 2000 strands × 56000 segments") && err.contains("big.usda"), "{err}");
 }
+
+/// `hair generate --style grass` writes the grass generator's blades as ribbon curves with
+/// normals (the same strands as the library's, flags mapped to its parameters); rendered
+/// with a leaf material from that file, the patch looks like the same patch generated in the
+/// scene (`[[mesh]] grass`): the ribbons differ only at the blades' roots and tips (module docs
+/// of `fiberlab_procedural::grass`), so the images agree to a few percent. Wrong output
+/// formats and flags of the other generator are refused by name.
+#[test]
+fn grass_generated_to_usda_renders_like_the_scene_generated_patch() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let flags = ["--strands", "400", "--segments", "6", "--size", "0.6,0.4", "--width", "0.02", "--bend-deg", "70"];
+    stdout_of(
+        fiberlab_in(d).args(["hair", "generate", "--style", "grass", "--seed", "3", "--out", "g.usda"]).args(flags),
+    );
+    let read = fiberlab_io::strand_files::read(&d.join("g.usda")).unwrap();
+    let params = fiberlab_procedural::grass::GrassParams {
+        blades: 400,
+        segments: 6,
+        size: [0.6, 0.4],
+        width: 0.02,
+        bend_deg: 70.0,
+        seed: 3,
+        ..Default::default()
+    };
+    assert_eq!(read, params.strands().unwrap());
+    assert_eq!(read.kind, fiberlab_io::CurveKind::Ribbon);
+    let scene = |geometry: &str| {
+        format!(
+            "[camera]\neye = [0.0, 0.25, -1.0]\ntarget = [0.0, 0.08, 0.0]\nfov = 35\nwidth = 40\nheight = 28\n\
+             [render]\nspp = 8\nseed = 1\n[materials.blade]\nmodel = \"leaf\"\n{geometry}\n\
+             [[light]]\ntype = \"environment\"\nradiance = [0.2, 0.25, 0.3]\n\
+             [[light]]\ntype = \"sun\"\ndirection = [0.1, 0.3, 1.0]\nangular_radius_deg = 2.0\nirradiance = [5, 5, 5]\n"
+        )
+    };
+    std::fs::write(d.join("file.toml"), scene("[[hair]]\nmaterial = \"blade\"\nfile = \"g.usda\"")).unwrap();
+    std::fs::write(
+        d.join("gen.toml"),
+        scene("[[mesh]]\nmaterial = \"blade\"\ngrass = { blades = 400, segments = 6, size = [0.6, 0.4], width = 0.02, bend_deg = 70.0, seed = 3 }"),
+    )
+    .unwrap();
+    let mut images = Vec::new();
+    for s in ["file", "gen"] {
+        stdout_of(fiberlab_in(d).args(["render", &format!("{s}.toml"), "--quiet", "--threads", "2", "--out", s]));
+        images.push(fiberlab_io::LinearImage::read_exr(&d.join(format!("{s}.exr"))).unwrap());
+    }
+    let sum = |img: &fiberlab_io::LinearImage| img.pixels().iter().flatten().map(|&v| f64::from(v)).sum::<f64>();
+    let diff: f64 = images[0]
+        .pixels()
+        .iter()
+        .flatten()
+        .zip(images[1].pixels().iter().flatten())
+        .map(|(a, b)| (f64::from(*a) - f64::from(*b)).abs())
+        .sum();
+    let sky_only = 40.0 * 28.0 * 3.0 * 0.2;
+    assert!(sum(&images[1]) > 0.5 * sky_only, "the patch is lit");
+    assert!(diff < 0.05 * sum(&images[1]), "mean |Δ| {diff} of {}", sum(&images[1]));
+    let e = refused(fiberlab_in(d).args(["hair", "generate", "--style", "grass", "--out", "g.hair"]));
+    assert!(e.contains("g.hair: grass blades are ribbon curves with normals, which only .usda holds"), "{e}");
+    let e = refused(fiberlab_in(d).args(["hair", "generate", "--style", "grass", "--gravity", "2", "--out", "g.usda"]));
+    assert!(e.contains("--gravity is a hair flag"), "{e}");
+    let e = refused(fiberlab_in(d).args(["hair", "generate", "--twist-deg", "2", "--out", "h.hair"]));
+    assert!(e.contains("--twist-deg is a grass flag"), "{e}");
+    let e =
+        refused(fiberlab_in(d).args(["hair", "generate", "--style", "grass", "--bend-deg", "nan", "--out", "g.usda"]));
+    assert!(e.contains("bend_deg"), "{e}");
+}

@@ -8,7 +8,8 @@
 //! * [`simd`]: the node and leaf tests in explicit SIMD chosen at run time — the workspace's one
 //!   module allowed `unsafe` (ARCHITECTURE.md, "Unsafe code: one audited SIMD module");
 //! * [`shapes`]: spheres and triangle meshes; [`mesh`]: their shading geometry (texture
-//!   coordinates, shading normals, tangents).
+//!   coordinates, shading normals, tangents); [`ribbons`]: flat strips along curves (ribbon
+//!   and camera-facing flat curves) as triangle meshes.
 //!
 //! It stops at geometry: no scattering, no files (OBJ and hair files are read by `fiberlab-io`),
 //! no rendering. It depends only on `fiberlab-math`, so the renderer, the goniophotometers and
@@ -19,6 +20,7 @@ pub mod bvh;
 pub mod curves;
 pub mod mesh;
 pub mod ray;
+pub mod ribbons;
 pub mod shapes;
 pub mod simd;
 

@@ -13,7 +13,8 @@
 //!   `bezier` (default) or `bspline`, `"integer degree"` 2 or 3 (default 3), `"string type"`
 //!   `flat` (default), `ribbon` or `cylinder`, `"float width"` (default 1), `"float width0"`
 //!   and `"float width1"` (default `width`), `"normal N"` (required for ribbons: one per
-//!   segment end, as pbrt requires; read and checked, then dropped: fiberlab renders tubes),
+//!   segment end, as pbrt requires; kept in [`Strands::normals`], transformed by the inverse
+//!   transpose of the current transformation; ignored for other types, as pbrt does),
 //!   `"integer splitdepth"` (ignored). Other parameters of the shape are skipped.
 //! * pbrt-v4's control point rules: a Bézier curve of degree `d` has `d·k + 1` points (`k`
 //!   segments sharing end points); a B-spline of degree `d` has `n ≥ d + 1` points and `n − d`
@@ -317,6 +318,24 @@ fn width_scale(m: &Mat4) -> f64 {
     d.abs().cbrt()
 }
 
+/// A normal carried through `m`: by the inverse transpose of its 3×3 part (the cofactor
+/// matrix, which is that times `det`; the sign of `det` is kept so that a mirror flips the
+/// normal as the inverse transpose does), normalised to unit length.
+fn transform_normal(m: &Mat4, n: [f32; 3]) -> [f32; 3] {
+    let a = |r: usize, c: usize| m[r][c];
+    let n = n.map(f64::from);
+    // Cofactor C_rc of the 3×3 part (cyclic indices give the signs); M⁻ᵀ = C / det.
+    let det = a(0, 0) * (a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1)) - a(0, 1) * (a(1, 0) * a(2, 2) - a(1, 2) * a(2, 0))
+        + a(0, 2) * (a(1, 0) * a(2, 1) - a(1, 1) * a(2, 0));
+    let cof = |r: usize, c: usize| {
+        let (r0, r1, c0, c1) = ((r + 1) % 3, (r + 2) % 3, (c + 1) % 3, (c + 2) % 3);
+        a(r0, c0) * a(r1, c1) - a(r0, c1) * a(r1, c0)
+    };
+    let out: [f64; 3] = [0, 1, 2].map(|r| det.signum() * (0..3).map(|c| cof(r, c) * n[c]).sum::<f64>());
+    let l = (out[0] * out[0] + out[1] * out[1] + out[2] * out[2]).sqrt();
+    out.map(|v| (v / l) as f32)
+}
+
 /// One value of a parameter list.
 struct Param<'a> {
     ty: &'a str,
@@ -334,8 +353,8 @@ struct State {
 
 struct Object {
     strands: Strands,
-    /// (points start, strands start) in the output when its definition began.
-    start: (usize, usize),
+    /// (points start, strands start, normals start) in the output when its definition began.
+    start: (usize, usize, usize),
 }
 
 struct Parser {
@@ -370,6 +389,7 @@ impl Parser {
                 counts: Vec::new(),
                 basis: Basis::Bezier,
                 kind: CurveKind::Flat,
+                normals: Vec::new(),
             },
             state: State { ctm: IDENTITY, active_start: true },
             stack: Vec::new(),
@@ -552,23 +572,25 @@ impl Parser {
                         return Err(Failure::from((t.offset, "ObjectBegin inside another object definition".into())));
                     }
                     self.stack.push(self.state);
-                    let start = (self.out.points.len(), self.out.counts.len());
+                    let start = (self.out.points.len(), self.out.counts.len(), self.out.normals.len());
                     let empty = Strands {
                         points: Vec::new(),
                         widths: Vec::new(),
                         counts: Vec::new(),
                         basis: Basis::Bezier,
                         kind: CurveKind::Flat,
+                        normals: Vec::new(),
                     };
                     self.defining = Some((unescape(name.text), Object { strands: empty, start }));
                 }
                 "ObjectEnd" => {
                     let (name, mut object) =
                         self.defining.take().ok_or((t.offset, "ObjectEnd without ObjectBegin".to_string()))?;
-                    let (p, s) = object.start;
+                    let (p, s, n) = object.start;
                     object.strands.points = self.out.points.split_off(p);
                     object.strands.widths = self.out.widths.split_off(p);
                     object.strands.counts = self.out.counts.split_off(s);
+                    object.strands.normals = self.out.normals.split_off(n);
                     self.objects.insert(name, object.strands);
                     if self.stack.len() <= attribute_depth {
                         return Err(Failure::from((
@@ -614,9 +636,11 @@ impl Parser {
                     }
                     let widths: Vec<f32> = object.widths.iter().map(|&w| (f64::from(w) * ws) as f32).collect();
                     let counts = object.counts.clone();
+                    let normals: Vec<[f32; 3]> = object.normals.iter().map(|n| transform_normal(&m, *n)).collect();
                     self.out.points.extend(points);
                     self.out.widths.extend(widths);
                     self.out.counts.extend(counts);
+                    self.out.normals.extend(normals);
                 }
                 "Shape" => {
                     let name = string(lx, t)?;
@@ -787,6 +811,7 @@ impl Parser {
             }
             (n - 1) / degree
         };
+        let mut ribbon_normals = Vec::new();
         if let Some(normals) = find("N", &["normal", "normal3"])? {
             if kind == CurveKind::Ribbon {
                 if normals.values.len() != 3 * (segments + 1) {
@@ -799,8 +824,15 @@ impl Parser {
                         ),
                     )));
                 }
-                for v in &normals.values {
-                    number(*v)?;
+                for (j, c) in normals.values.chunks_exact(3).enumerate() {
+                    let n = [number(c[0])?, number(c[1])?, number(c[2])?];
+                    if n == [0.0; 3] {
+                        return Err(Failure::from((
+                            c[0].offset,
+                            format!("ribbon normal {j} is (0, 0, 0); a normal orients the ribbon and must be non-zero"),
+                        )));
+                    }
+                    ribbon_normals.push(n);
                 }
             }
         } else if kind == CurveKind::Ribbon {
@@ -856,6 +888,9 @@ impl Parser {
             self.out.points.push(q);
             let w = width0 + (width1 - width0) * (j as f64 / last);
             self.out.widths.push((w * ws) as f32);
+        }
+        for n in ribbon_normals {
+            self.out.normals.push(transform_normal(&m, n.map(|v| v as f32)));
         }
         Ok(())
     }

@@ -22,6 +22,14 @@
 //! `width` and USD's `widths`), interpolated along the curve with the same basis as the
 //! points. Turning a cubic set into polylines ([`Strands::to_polylines`]) evaluates each span
 //! at uniform parameter steps, points and widths alike, in `f64`, rounding the results to `f32`.
+//!
+//! # Ribbon normals
+//! A [`CurveKind::Ribbon`] set carries `normals`: one per **span end** of each strand (`spans + 1`
+//! per strand, strand after strand), pbrt's `"normal N"` rule and USD's `varying`
+//! interpolation. Between the ends of a span the normal is interpolated spherically (pbrt-v4's
+//! `Slerp`); [`Strands::to_polylines`] evaluates it at the polylines' points. A ribbon's width
+//! runs along `n × t` (`t` the tangent) and its face is perpendicular to `t × (n × t)`, the part
+//! of `n` perpendicular to the tangent: the normal need not be perpendicular to the curve.
 
 use crate::hair::{HairError, HairFile};
 use std::fmt;
@@ -109,13 +117,15 @@ impl fmt::Display for Basis {
     }
 }
 
-/// The cross-section a file asks for. fiberlab renders every strand as a round tube; the kind
-/// is kept so that `hair info` can report it and a conversion does not silently drop it.
+/// The cross-section a file asks for. With a fiber model every strand renders as a round tube;
+/// with a surface model ribbons render as oriented ribbons and flat curves as ribbons facing
+/// the camera (`fiberlab_render::ribbons`). The kind is kept so that `hair info` reports it and
+/// a conversion does not silently drop it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum CurveKind {
     /// A round tube (pbrt `cylinder`, USD curves without normals, `.hair`).
     Cylinder,
-    /// A flat ribbon oriented by normals (pbrt `ribbon`).
+    /// A flat ribbon oriented by normals (pbrt `ribbon`, USD curves with `normals`).
     Ribbon,
     /// A flat ribbon facing the viewer (pbrt `flat`, pbrt's default).
     Flat,
@@ -144,6 +154,9 @@ pub struct Strands {
     pub basis: Basis,
     /// The cross-section asked for.
     pub kind: CurveKind,
+    /// Ribbon normals, one per span end of each strand (module docs); empty when the curves
+    /// have none (every kind but [`CurveKind::Ribbon`]).
+    pub normals: Vec<[f32; 3]>,
 }
 
 /// Why a hair file could not be read, converted or written. Parse errors name the file, the
@@ -194,7 +207,14 @@ impl From<&HairFile> for Strands {
     fn from(hair: &HairFile) -> Self {
         let counts = hair.strand_ranges().into_iter().map(|r| r.len() as u32).collect();
         let widths = (0..hair.points.len()).map(|i| hair.thickness_at(i)).collect();
-        Self { points: hair.points.clone(), widths, counts, basis: Basis::Linear, kind: CurveKind::Cylinder }
+        Self {
+            points: hair.points.clone(),
+            widths,
+            counts,
+            basis: Basis::Linear,
+            kind: CurveKind::Cylinder,
+            normals: Vec::new(),
+        }
     }
 }
 
@@ -225,6 +245,12 @@ impl Strands {
         self.counts.iter().map(|&c| self.basis.spans(c as usize).unwrap_or(0) as u64).sum()
     }
 
+    /// Span ends of all strands: how many ribbon normals the set takes (module docs).
+    #[must_use]
+    pub fn span_end_count(&self) -> u64 {
+        self.counts.iter().map(|&c| self.basis.spans(c as usize).map_or(0, |s| s as u64 + 1)).sum()
+    }
+
     /// Smallest and largest corner of the control points' box (`None` without points).
     #[must_use]
     pub fn bounds(&self) -> Option<([f32; 3], [f32; 3])> {
@@ -246,7 +272,8 @@ impl Strands {
     }
 
     /// Checks the invariants the readers guarantee: lengths agree, every strand fits its basis,
-    /// points are finite and widths finite and ≥ 0.
+    /// points are finite, widths finite and ≥ 0, and normals (if any) one per span end, finite
+    /// and non-zero.
     pub fn validate(&self) -> Result<(), StrandsError> {
         let bad = |m: String| Err(StrandsError::Inconsistent(m));
         let total: u64 = self.counts.iter().map(|&c| u64::from(c)).sum();
@@ -268,12 +295,25 @@ impl Strands {
         if let Some(i) = self.widths.iter().position(|w| !(w.is_finite() && *w >= 0.0)) {
             return bad(format!("width {i} = {} must be finite and ≥ 0", self.widths[i]));
         }
+        if !self.normals.is_empty() && self.normals.len() as u64 != self.span_end_count() {
+            return bad(format!(
+                "{} ribbon normals for {} span ends (one per span end of each strand)",
+                self.normals.len(),
+                self.span_end_count()
+            ));
+        }
+        if let Some(i) =
+            self.normals.iter().position(|n| !(n.iter().all(|v| v.is_finite()) && n.iter().any(|&v| v != 0.0)))
+        {
+            return bad(format!("normal {i} = {:?} must be finite and non-zero", self.normals[i]));
+        }
         Ok(())
     }
 
     /// The curves as polylines: each span evaluated at `segments_per_span` uniform steps of
-    /// its parameter (points and widths with the basis' weights, in `f64`, rounded to `f32`),
-    /// consecutive spans sharing their end point. A linear set is returned unchanged.
+    /// its parameter (points and widths with the basis' weights, in `f64`, rounded to `f32`;
+    /// normals spherically between the span's end normals), consecutive spans sharing their
+    /// end point. A linear set is returned unchanged.
     pub fn to_polylines(&self, segments_per_span: usize) -> Result<Self, StrandsError> {
         self.validate()?;
         if self.basis == Basis::Linear {
@@ -289,8 +329,15 @@ impl Strands {
             16,
         )])
         .map_err(|e| StrandsError::Inconsistent(e.to_string()))?;
-        let mut out =
-            Self { points: Vec::new(), widths: Vec::new(), counts: Vec::new(), basis: Basis::Linear, kind: self.kind };
+        let mut out = Self {
+            points: Vec::new(),
+            widths: Vec::new(),
+            counts: Vec::new(),
+            basis: Basis::Linear,
+            kind: self.kind,
+            normals: Vec::new(),
+        };
+        let mut first_normal = 0;
         for r in self.strand_ranges() {
             let (c, w) = (&self.points[r.clone()], &self.widths[r]);
             let spans = self.basis.spans(c.len()).unwrap_or(0);
@@ -311,9 +358,14 @@ impl Strands {
                     // Catmull–Rom weights can be negative: a width can dip below 0 between
                     // thin control points; a diameter is ≥ 0.
                     out.widths.push((width as f32).max(0.0));
+                    if !self.normals.is_empty() {
+                        let (a, b) = (self.normals[first_normal + i], self.normals[first_normal + i + 1]);
+                        out.normals.push(slerp(a, b, j as f64 / steps as f64));
+                    }
                     count += 1;
                 }
             }
+            first_normal += spans + 1;
             out.counts.push(count);
         }
         Ok(out)
@@ -324,6 +376,11 @@ impl Strands {
     /// holds it) and a thickness per point (none when all widths are equal, likewise).
     pub fn to_hair(&self) -> Result<HairFile, StrandsError> {
         self.validate()?;
+        if !self.normals.is_empty() {
+            return Err(StrandsError::Inconsistent(
+                "ribbon normals cannot be stored in .hair (it holds round strands); write .usda".into(),
+            ));
+        }
         if self.basis != Basis::Linear {
             return Err(StrandsError::Inconsistent(format!(
                 "{} curves cannot be stored in .hair as they are; turn them into polylines first",
@@ -363,6 +420,30 @@ impl Strands {
     }
 }
 
+/// The spherical interpolation of the directions of `a` and `b` at `t ∈ [0, 1]` (a unit
+/// vector; pbrt-v4's `Slerp` of normals): along the great circle from `â` to `b̂`. Nearly
+/// equal directions, and opposite ones (no unique great circle), fall back to the normalised
+/// linear blend, then to `â`.
+#[must_use]
+pub fn slerp(a: [f32; 3], b: [f32; 3], t: f64) -> [f32; 3] {
+    let unit = |v: [f32; 3]| {
+        let v = v.map(f64::from);
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        v.map(|x| x / l)
+    };
+    let (a, b) = (unit(a), unit(b));
+    let cos = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).clamp(-1.0, 1.0);
+    let theta = cos.acos();
+    let blend = if theta > 1e-6 && theta < std::f64::consts::PI - 1e-6 {
+        let (wa, wb) = (((1.0 - t) * theta).sin() / theta.sin(), (t * theta).sin() / theta.sin());
+        [0, 1, 2].map(|k| wa * a[k] + wb * b[k])
+    } else {
+        [0, 1, 2].map(|k| (1.0 - t) * a[k] + t * b[k])
+    };
+    let l = (blend[0] * blend[0] + blend[1] * blend[1] + blend[2] * blend[2]).sqrt();
+    if l > 1e-9 { blend.map(|x| (x / l) as f32) } else { a.map(|x| x as f32) }
+}
+
 /// Line and column (1-based, in characters) of byte `offset` of `text`.
 #[must_use]
 pub fn line_column(text: &str, offset: usize) -> (usize, usize) {
@@ -396,6 +477,7 @@ mod tests {
             counts: vec![4],
             basis: Basis::Bezier,
             kind: CurveKind::Cylinder,
+            normals: Vec::new(),
         }
     }
 

@@ -13,6 +13,15 @@
 //!   basis` (`bezier`, the default, `bspline` or `catmullRom`), `uniform token wrap`
 //!   (`nonperiodic`, the default, or `pinned`; `periodic` is refused). Without `widths`
 //!   every width is 1, USD's fallback.
+//! * `normal3f[] normals` (or `primvars:normals`), with its `interpolation` (`constant`,
+//!   `uniform`, `vertex` — the default — or `varying`): curves with normals are ribbons
+//!   ([`CurveKind::Ribbon`], the width along `n × tangent`), without them round tubes. They are
+//!   kept one per span end ([`Strands::normals`]): `varying` as given; `vertex` normals are
+//!   blended with the basis' weights at each span end (the control points there for linear and
+//!   Bézier curves), normalised; inside a span the normal is then interpolated spherically
+//!   between its ends (exact for `varying`, an approximation of a cubic blend for `vertex`).
+//!   Normals are carried by the inverse transpose of the transforms. Zero and non-finite
+//!   normals are refused; all curves of a file have normals or none do.
 //! * Transforms: `xformOp:translate`, `xformOp:scale`, `xformOp:rotateX|Y|Z`,
 //!   `xformOp:rotateXYZ` (and the five other axis orders), `xformOp:transform` (a row-vector
 //!   `matrix4d`, translation in the last row, as USD writes it), each with an optional
@@ -40,7 +49,7 @@
 //! # What is written
 //! One `def BasisCurves "hair"` prim with `type`, `basis`, `wrap = "nonperiodic"`,
 //! `curveVertexCounts`, `points` and `widths` (`constant` when all are equal, else
-//! `vertex`). Numbers are printed in Rust's shortest form that reads back to the same `f32`,
+//! `vertex`), and `normals` (`varying`) for ribbons. Numbers are printed in Rust's shortest form that reads back to the same `f32`,
 //! so a write then a read gives the same bits.
 
 use crate::lookahead::{Located, Lookahead, Scan};
@@ -115,6 +124,13 @@ pub fn to_text(strands: &Strands) -> Result<String, StrandsError> {
             }
             s.push_str("] (\n        interpolation = \"vertex\"\n    )\n");
         }
+    }
+    if !strands.normals.is_empty() {
+        s.push_str("    normal3f[] normals = [");
+        for (i, n) in strands.normals.iter().enumerate() {
+            let _ = write!(s, "{}({}, {}, {})", if i > 0 { ", " } else { "" }, n[0], n[1], n[2]);
+        }
+        s.push_str("] (\n        interpolation = \"varying\"\n    )\n");
     }
     s.push_str("}\n");
     Ok(s)
@@ -310,6 +326,16 @@ fn affine_inverse(m: &Mat4) -> Option<Mat4> {
     Some(inv)
 }
 
+/// A normal carried through `m`: by the inverse transpose of its 3×3 part, normalised.
+fn transform_normal(m: &Mat4, n: [f32; 3]) -> [f32; 3] {
+    let inv = affine_inverse(m).unwrap_or(IDENTITY);
+    let n = n.map(f64::from);
+    // (M⁻ᵀ n)_r = Σ_c (M⁻¹)_{c r} n_c.
+    let out: [f64; 3] = [0, 1, 2].map(|r| (0..3).map(|c| inv[c][r] * n[c]).sum::<f64>());
+    let l = (out[0] * out[0] + out[1] * out[1] + out[2] * out[2]).sqrt();
+    out.map(|v| (v / l) as f32)
+}
+
 fn det3(m: &Mat4) -> f64 {
     m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
@@ -321,6 +347,10 @@ struct CurvePrim {
     points: Vec<[f32; 3]>,
     counts: Vec<u32>,
     widths: Vec<f32>,
+    /// One per span end, or none (module docs).
+    normals: Vec<[f32; 3]>,
+    /// `normals` is authored (also in count mode, where they are not read).
+    has_normals: bool,
     basis: Basis,
     /// Parent-from-prim so far (the prim's own ops and those of the ancestors applied).
     to_parent: Mat4,
@@ -331,12 +361,16 @@ struct CurvePrim {
 /// `widths`: where its value starts, the values, and the `interpolation` metadata (where, what).
 type Widths = (usize, Vec<f32>, Option<(usize, String)>);
 
+/// `normals`: where its value starts, the values, and the `interpolation` metadata.
+type Normals = (usize, Vec<[f32; 3]>, Option<(usize, String)>);
+
 /// What a prim body holds that this reader uses.
 #[derive(Default)]
 struct Props {
     points: Option<(usize, Vec<[f32; 3]>)>,
     counts: Option<(usize, Vec<u32>)>,
     widths: Option<Widths>,
+    normals: Option<Normals>,
     ty: Option<(usize, String)>,
     basis: Option<(usize, String)>,
     wrap: Option<(usize, String)>,
@@ -384,7 +418,9 @@ fn parse(text: &str, path: &Path, count_only: bool) -> Result<Strands, StrandsEr
         counts: Vec::new(),
         basis: Basis::Linear,
         kind: CurveKind::Cylinder,
+        normals: Vec::new(),
     };
+    let mut first_ribbon: Option<bool> = None;
     let mut first_basis: Option<Basis> = None;
     for prim in prims {
         match first_basis {
@@ -395,6 +431,22 @@ fn parse(text: &str, path: &Path, count_only: bool) -> Result<Strands, StrandsEr
                     format!(
                         "these curves are {} but the file's earlier curves are {b}; fiberlab reads one basis per file",
                         prim.basis
+                    ),
+                )));
+            }
+            Some(_) => {}
+        }
+        let ribbon = prim.has_normals;
+        match first_ribbon {
+            None => first_ribbon = Some(ribbon),
+            Some(r) if r != ribbon => {
+                return Err(located((
+                    prim.offset,
+                    format!(
+                        "these curves have {} but the file's earlier curves {}; fiberlab reads one curve type per \
+                         file (ribbons with normals, or tubes without)",
+                        if ribbon { "normals" } else { "no normals" },
+                        if r { "have normals" } else { "do not" }
                     ),
                 )));
             }
@@ -426,8 +478,12 @@ fn parse(text: &str, path: &Path, count_only: bool) -> Result<Strands, StrandsEr
         }
         out.widths.extend(prim.widths.iter().map(|&w| if m == IDENTITY { w } else { (f64::from(w) * scale) as f32 }));
         out.counts.extend(prim.counts);
+        out.normals.extend(prim.normals.iter().map(|&n| if m == IDENTITY { n } else { transform_normal(&m, n) }));
     }
     out.basis = first_basis.unwrap_or(Basis::Linear);
+    if first_ribbon == Some(true) {
+        out.kind = CurveKind::Ribbon;
+    }
     Ok(out)
 }
 
@@ -646,9 +702,11 @@ impl<'a> Parser<'a> {
             Some((b, s @ ("timeSamples" | "connect" | "spline"))) => (b, Some(s)),
             _ => (name.text, None),
         };
-        let read_here =
-            matches!(base, "points" | "curveVertexCounts" | "widths" | "type" | "basis" | "wrap" | "xformOpOrder")
-                || base.starts_with("xformOp:");
+        let base = if base == "primvars:normals" { "normals" } else { base };
+        let read_here = matches!(
+            base,
+            "points" | "curveVertexCounts" | "widths" | "normals" | "type" | "basis" | "wrap" | "xformOpOrder"
+        ) || base.starts_with("xformOp:");
         if let Some(s) = suffix {
             if s == "timeSamples" && read_here && props.animated.is_none() {
                 // An error only if the prim turns out to hold or to move curves.
@@ -690,7 +748,7 @@ impl<'a> Parser<'a> {
             "points" => {
                 check_type("point3f", true)?;
                 let mut count = 0;
-                let points = self.points(&mut count)?;
+                let points = self.points(&mut count, "point")?;
                 props.point_count = if self.count_only { count } else { points.len() };
                 props.points = Some((at, points));
             }
@@ -710,6 +768,25 @@ impl<'a> Parser<'a> {
                 )?;
                 let interpolation = self.interpolation()?;
                 props.widths = Some((at, v, interpolation));
+                return Ok(());
+            }
+            "normals" => {
+                if ty != "normal3f" || !array {
+                    return Err((
+                        t.offset,
+                        format!("`{}` must be `normal3f[]`, found `{ty}{}`", name.text, if array { "[]" } else { "" }),
+                    ));
+                }
+                let mut count = 0;
+                let normals = self.points(&mut count, "normal")?;
+                if let Some(i) = normals.iter().position(|n| *n == [0.0; 3]) {
+                    return Err((
+                        at,
+                        format!("normal {i} is (0, 0, 0); a normal orients the ribbon and must be non-zero"),
+                    ));
+                }
+                let interpolation = self.interpolation()?;
+                props.normals = Some((at, normals, interpolation));
                 return Ok(());
             }
             "type" | "basis" | "wrap" => {
@@ -789,7 +866,8 @@ impl<'a> Parser<'a> {
     }
 
     /// `[ (x, y, z), … ]` as `f32`; in count mode the tuples are only counted (`count`).
-    fn points(&mut self, count: &mut usize) -> Result<Vec<[f32; 3]>, Located> {
+    /// `what` names an element in errors (`point`, `normal`).
+    fn points(&mut self, count: &mut usize, what: &str) -> Result<Vec<[f32; 3]>, Located> {
         if self.count_only {
             let start = self.lx.scanner.pos;
             self.skip_balanced()?;
@@ -809,39 +887,39 @@ impl<'a> Parser<'a> {
                 if !t.is(",") {
                     return Err((
                         t.offset,
-                        format!("expected `,` or `]` after point {}, found {}", out.len() - 1, t.describe()),
+                        format!("expected `,` or `]` after {what} {}, found {}", out.len() - 1, t.describe()),
                     ));
                 }
                 if self.lx.peek()?.is_some_and(|x| x.is("]")) {
                     continue;
                 }
-                let t2 = self.lx.expect("a point `(x, y, z)`")?;
-                out.push(self.point(t2, out.len())?);
+                let t2 = self.lx.expect("a tuple `(x, y, z)`")?;
+                out.push(self.point(t2, out.len(), what)?);
             } else {
-                out.push(self.point(t, 0)?);
+                out.push(self.point(t, 0, what)?);
             }
         }
     }
 
-    fn point(&mut self, open: Token<'a>, index: usize) -> Result<[f32; 3], Located> {
+    fn point(&mut self, open: Token<'a>, index: usize, what: &str) -> Result<[f32; 3], Located> {
         if !open.is("(") {
-            return Err((open.offset, format!("point {index}: expected `(x, y, z)`, found {}", open.describe())));
+            return Err((open.offset, format!("{what} {index}: expected `(x, y, z)`, found {}", open.describe())));
         }
         let mut p = [0.0f32; 3];
         for (k, v) in p.iter_mut().enumerate() {
             if k > 0 {
-                self.lx.punct_with(",", || format!("between the coordinates of point {index}"))?;
+                self.lx.punct_with(",", || format!("between the coordinates of {what} {index}"))?;
             }
             let t = self.lx.expect("a coordinate")?;
             *v = match (t.kind, t.text.parse::<f32>()) {
                 (Kind::Number, Ok(x)) if x.is_finite() => x,
                 (Kind::Number | Kind::Ident, Ok(x)) => {
-                    return Err((t.offset, format!("point {index}: coordinate {} is not finite ({x})", t.text)));
+                    return Err((t.offset, format!("{what} {index}: coordinate {} is not finite ({x})", t.text)));
                 }
-                _ => return Err((t.offset, format!("point {index}: expected a number, found {}", t.describe()))),
+                _ => return Err((t.offset, format!("{what} {index}: expected a number, found {}", t.describe()))),
             };
         }
-        self.lx.punct_with(")", || format!("to close point {index} (3 coordinates)"))?;
+        self.lx.punct_with(")", || format!("to close {what} {index} (3 coordinates)"))?;
         Ok(p)
     }
 
@@ -1074,6 +1152,8 @@ impl<'a> Parser<'a> {
                 points: Vec::new(),
                 counts: out_counts,
                 widths: Vec::new(),
+                normals: Vec::new(),
+                has_normals: props.normals.is_some(),
                 basis,
                 to_parent: IDENTITY,
                 reset: false,
@@ -1145,6 +1225,75 @@ impl<'a> Parser<'a> {
                 }
             }
         };
+        let has_normals = props.normals.is_some();
+        let normals = match props.normals {
+            None => Vec::new(),
+            Some((at, n, interpolation)) => {
+                let spans_plus_one = |c: u32| basis.spans(c as usize + if phantom { 2 } else { 0 }).unwrap_or(0) + 1;
+                let (interp_at, interp) = interpolation.unwrap_or((at, "vertex".into()));
+                let expected = match interp.as_str() {
+                    "constant" => 1,
+                    "uniform" => counts.len(),
+                    "vertex" => points.len(),
+                    "varying" => counts.iter().map(|&c| spans_plus_one(c)).sum(),
+                    other => {
+                        return Err((
+                            interp_at,
+                            format!(
+                                "normals interpolation must be constant, uniform, vertex or varying, found \"{other}\""
+                            ),
+                        ));
+                    }
+                };
+                if n.len() != expected {
+                    return Err((at, format!("{} normals, but `{interp}` interpolation needs {expected}", n.len())));
+                }
+                let mut out = Vec::new();
+                let mut start = 0;
+                for (i, (&c, r)) in counts.iter().zip(&ranges).enumerate() {
+                    let ends = spans_plus_one(c);
+                    match interp.as_str() {
+                        "constant" => out.extend(std::iter::repeat_n(n[0], ends)),
+                        "uniform" => out.extend(std::iter::repeat_n(n[i], ends)),
+                        "varying" => {
+                            out.extend_from_slice(&n[start..start + ends]);
+                            start += ends;
+                        }
+                        _ => {
+                            // Per control point (phantom points take the end normals), blended
+                            // with the basis' weights at each span end.
+                            let mut v: Vec<[f32; 3]> = n[r.clone()].to_vec();
+                            if phantom {
+                                v.insert(0, v[0]);
+                                v.push(v[v.len() - 1]);
+                            }
+                            for e in 0..ends {
+                                let (span, t) = if e + 1 < ends { (e, 0.0) } else { (e - 1, 1.0) };
+                                let s0 = basis.span_start(span);
+                                let w = basis.weights(t);
+                                let mut b = [0.0f64; 3];
+                                for (m, &wm) in w.iter().enumerate().filter(|(_, w)| **w != 0.0) {
+                                    for (k, bk) in b.iter_mut().enumerate() {
+                                        *bk += wm * f64::from(v[s0 + m][k]);
+                                    }
+                                }
+                                let l = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+                                if l.is_nan() || l <= 1e-12 {
+                                    return Err((
+                                        at,
+                                        format!(
+                                            "curve {i}: the vertex normals blend to zero at span end {e}; give varying normals"
+                                        ),
+                                    ));
+                                }
+                                out.push(b.map(|x| (x / l) as f32));
+                            }
+                        }
+                    }
+                }
+                out
+            }
+        };
         let (points, widths) = if phantom {
             let mut p2 = Vec::with_capacity(points.len() + 2 * counts.len());
             let mut w2 = Vec::with_capacity(p2.capacity());
@@ -1168,6 +1317,8 @@ impl<'a> Parser<'a> {
             points,
             counts: out_counts,
             widths,
+            normals,
+            has_normals,
             basis,
             to_parent: IDENTITY,
             reset: false,

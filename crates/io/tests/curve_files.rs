@@ -174,6 +174,52 @@ fn pbrt_ribbons_need_one_normal_per_segment_end() {
     assert!(e.contains("needs \"normal N\""), "{e}");
 }
 
+/// Ribbon normals are kept, one per segment end of each curve (a B-spline of 5 points: 2
+/// segments, 3 normals), carried by the inverse transpose of the transform: under
+/// `Scale 2 1 1` a normal (1, 1, 0) becomes (½, 1, 0) normalised, still perpendicular to the
+/// scaled plane it was perpendicular to. Object instances carry theirs; other curve types drop
+/// `N`, as pbrt does.
+#[test]
+fn pbrt_ribbon_normals_are_kept_per_segment_end_and_transformed() {
+    let text = "WorldBegin\nAttributeBegin\nScale 2 1 1\nShape \"curve\" \"string type\" \"ribbon\" \"string basis\" \"bspline\" \"point3 P\" [0 0 0 1 0 0 2 0 0 3 0 0 4 0 0] \"normal N\" [1 1 0 0 0 1 0 0 -3]\nAttributeEnd\n";
+    let s = pbrt(text).unwrap();
+    assert_eq!((s.kind, s.counts.clone(), s.normals.len()), (CurveKind::Ribbon, vec![7], 3));
+    s.validate().unwrap();
+    let l = (0.25f64 + 1.0).sqrt();
+    assert!(close(s.normals[0], [0.5 / l, 1.0 / l, 0.0], 1e-6), "{:?}", s.normals[0]);
+    assert!(close(s.normals[1], [0.0, 0.0, 1.0], 1e-6) && close(s.normals[2], [0.0, 0.0, -1.0], 1e-6));
+    // Polylines carry them: at a span end the end normal, half way the spherical midpoint.
+    let lines = s.to_polylines(2).unwrap();
+    assert_eq!(lines.normals.len(), lines.points.len());
+    let mid = lines.normals[1].map(f64::from);
+    let want = [0.5 / l, 1.0 / l, 1.0];
+    let wl = (want[0] * want[0] + want[1] * want[1] + 1.0).sqrt();
+    assert!(close(lines.normals[1], want.map(|v| v / wl), 1e-6), "{mid:?}");
+    let inst = "WorldBegin\nObjectBegin \"r\"\nShape \"curve\" \"string type\" \"ribbon\" \"point3 P\" [0 0 0 1 0 0 2 0 0 3 0 0] \"normal N\" [0 1 0 0 1 0]\nObjectEnd\nAttributeBegin\nRotate 90 1 0 0\nObjectInstance \"r\"\nAttributeEnd\nObjectInstance \"r\"\n";
+    let s = pbrt(inst).unwrap();
+    assert_eq!(s.normals.len(), 4);
+    assert!(
+        close(s.normals[0], [0.0, 0.0, 1.0], 1e-6) && close(s.normals[3], [0.0, 1.0, 0.0], 1e-6),
+        "{:?}",
+        s.normals
+    );
+    let flat = pbrt("WorldBegin\nShape \"curve\" \"point3 P\" [0 0 0 1 0 0 2 0 0 3 0 0] \"normal N\" [0 0 1 0 0 1]\n")
+        .unwrap();
+    assert_eq!((flat.kind, flat.normals.len()), (CurveKind::Flat, 0));
+}
+
+/// Zero, NaN and infinite normals are refused at their place (file, line, column).
+#[test]
+fn pbrt_bad_ribbon_normals_name_the_file_line_and_column() {
+    let ok = "WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" \"point3 P\" [0 0 0 1 0 0 2 0 0 3 0 0]\n  \"normal N\" [0 0 1 0 0 1]\n";
+    let e = pbrt(&ok.replace("[0 0 1 0 0 1]", "[0 0 1 0 0 0]")).unwrap_err();
+    assert!(e.starts_with("scene.pbrt:3:") && e.contains("ribbon normal 1 is (0, 0, 0)"), "{e}");
+    let e = pbrt(&ok.replace("[0 0 1 0 0 1]", "[0 0 1 nan 0 1]")).unwrap_err();
+    assert!(e.starts_with("scene.pbrt:3:21:"), "{e}");
+    let e = pbrt(&ok.replace("[0 0 1 0 0 1]", "[0 0 1 0 1e999 1]")).unwrap_err();
+    assert!(e.starts_with("scene.pbrt:3:") && e.contains("not finite"), "{e}");
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
@@ -609,7 +655,7 @@ fn cubic_curves_convert_to_hair_as_sampled_polylines() {
 }
 
 fn arb_strands() -> impl Strategy<Value = Strands> {
-    (proptest::collection::vec(2u32..7, 1..6), any::<u64>()).prop_map(|(counts, seed)| {
+    (proptest::collection::vec(2u32..7, 1..6), any::<u64>(), any::<bool>()).prop_map(|(counts, seed, ribbon)| {
         let n: u32 = counts.iter().sum();
         let mut x = seed | 1;
         let mut next = move || {
@@ -630,7 +676,19 @@ fn arb_strands() -> impl Strategy<Value = Strands> {
             .map(|_| (f32::from_bits(next() as u32)).abs().min(1e30))
             .map(|w| if w.is_finite() { w } else { 0.5 })
             .collect();
-        Strands { points, widths, counts, basis: Basis::Linear, kind: CurveKind::Cylinder }
+        // Ribbons: a non-zero finite normal per point (a linear strand's span ends).
+        let normals = if ribbon {
+            (0..n)
+                .map(|_| {
+                    let v = [0; 3].map(|_| f32::from_bits(next() as u32)).map(|v| if v.is_finite() { v } else { 2.0 });
+                    if v == [0.0; 3] { [1.0, 0.0, 0.0] } else { v }
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let kind = if ribbon { CurveKind::Ribbon } else { CurveKind::Cylinder };
+        Strands { points, widths, counts, basis: Basis::Linear, kind, normals }
     })
 }
 
@@ -641,6 +699,9 @@ proptest! {
         let back = usda(&text).unwrap();
         let bits = |p: &Strands| p.points.iter().flatten().chain(p.widths.iter()).map(|v| v.to_bits()).collect::<Vec<_>>();
         prop_assert_eq!(bits(&back), bits(&s));
+        let normal_bits = |p: &Strands| p.normals.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
+        prop_assert_eq!(normal_bits(&back), normal_bits(&s));
+        prop_assert_eq!(back.kind, s.kind);
         prop_assert_eq!(back.counts, s.counts);
     }
 
@@ -696,4 +757,90 @@ def BasisCurves "c"
     let alone = usda(&text.replace(", \"!invert!xformOp:transform\"", "")).unwrap();
     let want = [0.5 - 4.0 + 0.3 + 4.0, 1.5 + 0.5 - 5.0, 1.5 + 9.0 + 6.0];
     assert!(close(alone.points[0], want, 1e-6), "{:?} vs {want:?}", alone.points[0]);
+}
+
+// ---------------------------------------------------------------- USD normals
+
+/// USD ribbons: `normals` make the curves ribbons, kept one per span end. `varying` as given;
+/// `vertex` on linear curves as given, on a Bézier the control points at span ends, on a
+/// B-spline the basis blend (1, 4, 1)/6 at each span end, normalised; `constant` repeated.
+/// Transforms carry them by the inverse transpose.
+#[test]
+fn usda_normals_make_ribbons_per_span_end() {
+    let curve = |extra: &str, normals: &str, interpolation: &str| {
+        format!(
+            "#usda 1.0\ndef BasisCurves \"c\"\n{{\n{extra}    int[] curveVertexCounts = [5]\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0), (4, 0, 0)]\n    normal3f[] normals = [{normals}] (\n        interpolation = \"{interpolation}\"\n    )\n}}\n"
+        )
+    };
+    let five = "(0, 1, 0), (0, 0, 1), (0, 1, 1), (0, -1, 0), (0, 0, -2)";
+    let lin = usda(&curve("    uniform token type = \"linear\"\n", five, "vertex")).unwrap();
+    assert_eq!((lin.kind, lin.normals.len()), (CurveKind::Ribbon, 5));
+    assert_eq!(lin.normals[4], [0.0, 0.0, -1.0]);
+    let bs = usda(&curve("    uniform token basis = \"bspline\"\n", five, "vertex")).unwrap();
+    assert_eq!(bs.normals.len(), 3);
+    // Span 0 starts at (c0 + 4c1 + c2)/6 = (0, 2, 5)/6, normalised.
+    let l = (4.0f64 + 25.0).sqrt();
+    assert!(close(bs.normals[0], [0.0, 2.0 / l, 5.0 / l], 1e-6), "{:?}", bs.normals[0]);
+    let var =
+        usda(&curve("    uniform token basis = \"bspline\"\n", "(1, 0, 0), (0, 1, 0), (0, 0, 1)", "varying")).unwrap();
+    assert_eq!(var.normals, vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+    let con = usda(&curve("    uniform token type = \"linear\"\n", "(0, 0, 1)", "constant")).unwrap();
+    assert_eq!(con.normals, vec![[0.0, 0.0, 1.0]; 5]);
+    let moved = usda(&curve(
+        "    uniform token type = \"linear\"\n    float3 xformOp:scale = (1, 2, 1)\n    uniform token[] xformOpOrder = [\"xformOp:scale\"]\n",
+        "(0, 1, 1)",
+        "constant",
+    ))
+    .unwrap();
+    let l = (0.25f64 + 1.0).sqrt();
+    assert!(close(moved.normals[0], [0.0, 0.5 / l, 1.0 / l], 1e-6), "{:?}", moved.normals[0]);
+    // No normals: round tubes.
+    let tube = usda("#usda 1.0\ndef BasisCurves \"c\"\n{\n    uniform token type = \"linear\"\n    int[] curveVertexCounts = [2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n}\n").unwrap();
+    assert_eq!((tube.kind, tube.normals.len()), (CurveKind::Cylinder, 0));
+}
+
+/// Wrong counts, zero, NaN and infinite normals, a wrong type and mixing curves with and
+/// without normals are refused, naming the file, the line and the column.
+#[test]
+fn usda_bad_normals_name_the_file_line_and_column() {
+    let text = |normals: &str| {
+        format!(
+            "#usda 1.0\ndef BasisCurves \"c\"\n{{\n    uniform token type = \"linear\"\n    int[] curveVertexCounts = [3]\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (2, 0, 0)]\n    {normals}\n}}\n"
+        )
+    };
+    let cases = [
+        (
+            "normal3f[] normals = [(0, 1, 0), (0, 1, 0)]",
+            "hair.usda:7:26: 2 normals, but `vertex` interpolation needs 3",
+        ),
+        ("normal3f[] normals = [(0, 1, 0), (0, 0, 0), (0, 1, 0)]", "hair.usda:7:26: normal 1 is (0, 0, 0)"),
+        (
+            "normal3f[] normals = [(0, 1, 0), (0, nan, 0), (0, 1, 0)]",
+            "hair.usda:7:42: normal 1: coordinate nan is not finite",
+        ),
+        (
+            "normal3f[] normals = [(0, 1, 0), (0, 1, inf), (0, 1, 0)]",
+            "hair.usda:7:45: normal 1: coordinate inf is not finite",
+        ),
+        ("float3[] normals = [(0, 1, 0), (0, 1, 0), (0, 1, 0)]", "hair.usda:7:5: `normals` must be `normal3f[]`"),
+        (
+            "normal3f[] normals = [(0, 1, 0)] (\n        interpolation = \"faceVarying\"\n    )",
+            "hair.usda:8:25: normals interpolation must be",
+        ),
+    ];
+    for (normals, want) in cases {
+        let e = usda(&text(normals)).unwrap_err();
+        assert!(e.starts_with(want), "{normals}: {e}");
+    }
+    let mixed = format!(
+        "{}def BasisCurves \"d\"\n{{\n    uniform token type = \"linear\"\n    int[] curveVertexCounts = [2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n}}\n",
+        text("normal3f[] normals = [(0, 1, 0)] (interpolation = \"constant\")")
+    );
+    let e = usda(&mixed).unwrap_err();
+    assert!(e.starts_with("hair.usda:9:") && e.contains("one curve type per file"), "{e}");
+    // A Strands with the wrong number of normals is refused before it is written.
+    let mut s = usda(&text("normal3f[] normals = [(0, 1, 0), (0, 1, 0), (0, 1, 0)]")).unwrap();
+    s.normals.pop();
+    assert!(usda_curves::to_text(&s).unwrap_err().to_string().contains("2 ribbon normals for 3 span ends"));
+    assert!(s.to_hair().is_err());
 }

@@ -31,8 +31,17 @@
 //!    a pointed blade (`tip_ratio = 0`). Texture coordinates: `u` across (0 → 1), `v = s/L`.
 //!
 //! Each ξ is a fresh uniform number of the blade's stream.
+//!
+//! # As ribbon curves
+//! [`GrassParams::strands`] gives the same blades as linear ribbon curves (the centreline
+//! points `P(s)` of the stations, the width `w(s)` and the normal `T × ŵ` at each), what
+//! `fiberlab hair generate --style grass` writes to a `.usda` file. The renderer rebuilds the
+//! ribbon from them (`fiberlab_geometry::ribbons`: width along `n × t`, with `t` the bisector
+//! of the chords): the same corners at every station but the root and the tip, where the
+//! one-sided chord turns the width by at most half a segment's bend about the normal.
 
 use fiberlab_geometry::TriangleMesh;
+use fiberlab_io::{Basis, CurveKind, Strands};
 use fiberlab_math::DVec3;
 use fiberlab_math::split_mix::SplitMix64;
 use serde::Deserialize;
@@ -203,6 +212,13 @@ impl GrassParams {
         self.triangle_count().saturating_mul(BYTES_PER_TRIANGLE)
     }
 
+    /// Bytes [`GrassParams::strands`] and their `.usda` text take: per point, 28 in the
+    /// strands and about 100 of text (three coordinates, a width and a normal).
+    #[must_use]
+    pub fn estimated_strand_bytes(&self) -> u64 {
+        (self.blades as u64).saturating_mul(self.segments as u64 + 1).saturating_mul(128)
+    }
+
     /// Grows the patch.
     pub fn generate(&self) -> Result<GrassGeometry, GrassError> {
         self.validate()?;
@@ -222,6 +238,36 @@ impl GrassParams {
             self.push_strip(&corners, &mut g);
         }
         Ok(g)
+    }
+
+    /// The blades as linear ribbon curves (module docs, "As ribbon curves"): one strand of
+    /// `segments + 1` points per blade, its diameter the blade's width, a unit normal per point.
+    pub fn strands(&self) -> Result<Strands, GrassError> {
+        self.validate()?;
+        let n = self.blades * (self.segments + 1);
+        let mut s = Strands {
+            points: Vec::with_capacity(n),
+            widths: Vec::with_capacity(n),
+            counts: Vec::with_capacity(self.blades),
+            basis: Basis::Linear,
+            kind: CurveKind::Ribbon,
+            normals: Vec::with_capacity(n),
+        };
+        let mut tuft_rng = SplitMix64::stream(self.seed, u64::MAX);
+        let tufts: Vec<DVec3> = (0..self.clumps).map(|_| self.uniform_in_patch(&mut tuft_rng)).collect();
+        let mut corners = Vec::with_capacity(self.segments + 1);
+        let f32s = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
+        for i in 0..self.blades {
+            let mut rng = SplitMix64::stream(self.seed, i as u64);
+            self.blade(&mut rng, tufts.get(i % self.clumps.max(1)).copied(), &mut corners);
+            for &(l, r, normal, _) in &corners {
+                s.points.push(f32s(0.5 * (l + r)));
+                s.widths.push(l.distance(r) as f32);
+                s.normals.push(f32s(normal));
+            }
+            s.counts.push((self.segments + 1) as u32);
+        }
+        Ok(s)
     }
 
     /// A point uniform in the patch at `y = 0`.
@@ -356,6 +402,39 @@ mod tests {
                         assert!(n[0].dot(across.normalize()).abs() < 1e-9, "normal not across the width");
                     }
                 }
+            }
+        }
+    }
+
+    /// The ribbon-curve form of a patch, rebuilt into ribbons as the renderer does, gives the
+    /// patch's own corners: exactly inside each blade, and at the root and tip within the turn
+    /// of the one-sided chord (half a segment's bend, at most `bend_deg / (2·segments)`).
+    #[test]
+    fn ribbon_curves_rebuild_the_patch() {
+        use fiberlab_geometry::ribbons::{Facing, Ribbons};
+        let p = GrassParams { blades: 60, clumps: 6, ..GrassParams::default() };
+        let (mesh, s) = (p.generate().unwrap(), p.strands().unwrap());
+        s.validate().unwrap();
+        assert_eq!((s.strand_count(), s.points.len(), s.normals.len()), (60, 60 * 9, 60 * 9));
+        let mut rebuilt = Ribbons::default();
+        let v = |a: &[f32; 3]| DVec3::new(a[0].into(), a[1].into(), a[2].into());
+        for r in s.strand_ranges() {
+            let centre: Vec<DVec3> = s.points[r.clone()].iter().map(v).collect();
+            let widths: Vec<f64> = s.widths[r.clone()].iter().map(|&w| w.into()).collect();
+            let normals: Vec<DVec3> = s.normals[r].iter().map(v).collect();
+            rebuilt.push(&centre, &widths, Facing::Normals(&normals));
+        }
+        assert_eq!(rebuilt.triangles.len(), mesh.triangles.len());
+        let end_turn = 0.5 * (p.bend_deg / p.segments as f64).to_radians();
+        let per_blade = mesh.triangles.len() / p.blades;
+        for (i, (a, b)) in rebuilt.triangles.iter().zip(&mesh.triangles).enumerate() {
+            // Segment j's first triangle is [l_j, r_j, r_j+1], its second [l_j, r_j+1, l_j+1].
+            let (segment, first) = ((i % per_blade) / 2, (i % per_blade).is_multiple_of(2));
+            for k in 0..3 {
+                let station = if k == 0 || (k == 1 && first) { segment } else { segment + 1 };
+                let end = station == 0 || station == p.segments;
+                let tol = if end { 0.5 * p.width * end_turn * 1.01 + 1e-6 } else { 1e-6 };
+                assert!(a[k].distance(b[k]) <= tol, "triangle {i} corner {k}: {} vs {}", a[k], b[k]);
             }
         }
     }

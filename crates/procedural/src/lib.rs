@@ -7,13 +7,16 @@
 //! * [`draped_cloth`]: a cloth mesh draped over a sphere, with texture coordinates;
 //! * [`figured_maple`]: a procedural figured-maple map of wood fiber direction and figure;
 //! * [`cabochon`]: a polished cabochon dome for chatoyant minerals;
-//! * [`grass`]: a patch of grass blades as curved, twisted, tapered ribbons in tufts.
+//! * [`grass`]: a patch of grass blades as curved, twisted, tapered ribbons in tufts (also as
+//!   ribbon curves, for a curve file);
+//! * [`cotton_boll`]: an open cotton boll, locks of wandering lint fibres.
 //!
 //! It stops at making geometry and parameter maps: it reads and writes no files (the formats
 //! are `fiberlab-io`'s) and renders nothing.
 #![forbid(unsafe_code)]
 
 pub mod cabochon;
+pub mod cotton_boll;
 pub mod draped_cloth;
 pub mod figured_maple;
 pub mod generator;

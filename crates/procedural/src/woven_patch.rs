@@ -203,6 +203,7 @@ impl Fibers {
             counts: self.counts.iter().map(|&n| n as u32).collect(),
             basis: fiberlab_io::Basis::Linear,
             kind: fiberlab_io::CurveKind::Cylinder,
+            normals: Vec::new(),
         }
     }
 

@@ -42,7 +42,9 @@ pub(crate) fn hair_read<'py>(
     }
     let hair = match Format::of(&path).map_err(|e| strands_error(&e))? {
         Format::Hair => HairFile::read(&path).map_err(|e| hair_error(&e))?,
+        // The strands returned are round (points and diameters): ribbon normals are not part of them.
         _ => strand_files::read(&path)
+            .map(|s| fiberlab_io::Strands { normals: Vec::new(), ..s })
             .and_then(|s| s.to_polylines(segments_per_curve))
             .and_then(|s| s.to_hair())
             .map_err(|e| strands_error(&e))?,

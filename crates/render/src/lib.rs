@@ -27,6 +27,7 @@ pub mod measured_table;
 pub mod model_loader;
 pub mod region;
 pub mod render_request;
+pub mod ribbon_curves;
 pub mod sampler;
 pub mod scene;
 pub mod scene_family;

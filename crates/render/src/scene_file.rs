@@ -12,10 +12,13 @@
 //!                     # or lambert = [r, g, b] | mirror = [r, g, b]            (surfaces)
 //!                     # uv_scale = [su, sv]: pattern repeats of a model with a position u, v
 //! [[hair]]            # material; file = "x.hair" | "x.pbrt" | "x.pbrt.gz" | "x.usda"
-//!                     # or generator = { … HairParams … }; segments_per_curve (cubic
+//!                     # or generator = { … HairParams … }
+//!                     # or cotton = { … CottonBollParams … }; segments_per_curve (cubic
 //!                     # curves, default 8) (strand diameters: crate::strand_diameters);
 //!                     # basis = "linear" | "bspline" | "catmull-rom" | "bezier": how the
 //!                     # points of a .hair file or the generator make curves (default linear)
+//!                     # a surface material on a ribbon or flat curve file (pbrt ribbon/flat,
+//!                     # USD with normals) renders it as ribbons (crate::ribbon_curves)
 //! [[sphere]]          # center, radius, material, optional emission = [r, g, b] (a light)
 //! [[mesh]]            # file = "x.obj", material, scale, translate; or floor = y;
 //!                     # or cabochon = { radius, height, rings, sectors }, translate
@@ -40,6 +43,7 @@ use fiberlab_geometry::shapes::TriangleMesh;
 use fiberlab_io::Basis;
 use fiberlab_io::{HairFile, LinearImage};
 use fiberlab_math::{DVec3, Rgb};
+use fiberlab_procedural::cotton_boll::CottonBollParams;
 use fiberlab_procedural::generator::HairParams;
 use fiberlab_procedural::grass::GrassParams;
 use fiberlab_scatter::{Model, ModelError};
@@ -201,6 +205,8 @@ struct HairDesc {
     material: Spanned<String>,
     file: Option<Spanned<String>>,
     generator: Option<Spanned<HairParams>>,
+    /// A generated cotton boll ([`fiberlab_procedural::cotton_boll`]).
+    cotton: Option<Spanned<CottonBollParams>>,
     /// Polyline segments each span of a cubic curve file becomes (default
     /// [`DEFAULT_SEGMENTS_PER_CURVE`]); linear files and `.hair` are not subdivided.
     segments_per_curve: Option<Spanned<usize>>,
@@ -543,6 +549,16 @@ impl SceneFile {
             };
             let estimate = match (&self.hair_override, &hd.file, &hd.generator) {
                 (Some(p), _, _) => from_file(p, h.span())?,
+                (None, None, None) if hd.cotton.is_some() && basis == Basis::Linear => {
+                    let c = hd.cotton.as_ref().expect("checked").get_ref();
+                    HairEstimate {
+                        source: "cotton boll".into(),
+                        strands: c.fibers as u64,
+                        segments: c.segment_count(),
+                        hair_bytes: Some(c.estimated_bytes()),
+                        bvh_bytes: CurveSet::estimated_bytes(c.segment_count()),
+                    }
+                }
                 (None, Some(f), None) => from_file(&self.resolve(f.get_ref()), f.span())?,
                 (None, None, Some(g)) => {
                     let g = g.get_ref();
@@ -791,12 +807,18 @@ impl SceneFile {
         }
     }
 
-    /// `[[hair]]`: strands read from a file or generated, as tubes in a BVH.
+    /// `[[hair]]`: strands read from a file or generated, as tubes in a BVH; with a surface
+    /// material, ribbon and flat curves from a file as a ribbon mesh.
     fn hair(&self, scene: &mut SceneBuilder, names: &MaterialNames) -> Result<(), SceneError> {
         for h in &self.desc.hair {
             let hd = h.get_ref();
-            let material = self.fiber_material(names, &hd.material)?;
             let per_curve = self.segments_per_curve(hd)?;
+            if let MaterialRef::Surface(surface) = self.material(names, &hd.material)? {
+                let mesh = self.ribbons(h, per_curve)?;
+                scene.mesh(mesh, surface);
+                continue;
+            }
+            let material = self.fiber_material(names, &hd.material)?;
             let basis = (self.basis(hd)?, hd.basis.as_ref().map_or(h.span(), Spanned::span));
             // The hair, where its errors are reported, and what it is called in them; cubic
             // curves come with their control points, the hair then holds their polylines.
@@ -804,18 +826,23 @@ impl SceneFile {
                 let source = format!("--hair {}", p.display());
                 (self.hair_file(p, h.span(), per_curve, basis, &source)?, h.span(), source)
             } else {
-                match (&hd.file, &hd.generator) {
-                    (Some(f), None) => {
+                match (&hd.file, &hd.generator, &hd.cotton) {
+                    (Some(f), None, None) => {
                         let path = self.resolve(f.get_ref());
                         let source = format!("hair file {}", path.display());
                         (self.hair_file(&path, f.span(), per_curve, basis, &source)?, f.span(), source)
                     }
-                    (None, Some(g)) => {
+                    (None, Some(g), None) => {
                         let hair = g.get_ref().generate().map_err(|e| self.error(g.span(), e.to_string()))?;
                         let source = "hair generator".to_string();
                         (self.with_basis(hair, per_curve, basis, &source)?, g.span(), source)
                     }
-                    _ => return Err(self.error(h.span(), "hair: give exactly one of file, generator".into())),
+                    (None, None, Some(c)) => {
+                        let hair = c.get_ref().generate().map_err(|e| self.error(c.span(), e.to_string()))?;
+                        let source = "cotton boll".to_string();
+                        (self.with_basis(hair, per_curve, basis, &source)?, c.span(), source)
+                    }
+                    _ => return Err(self.error(h.span(), "hair: give exactly one of file, generator, cotton".into())),
                 }
             };
             let (hair, cubic) = loaded;
@@ -838,6 +865,35 @@ impl SceneFile {
             scene.fibers(curves, material);
         }
         Ok(())
+    }
+
+    /// The ribbon mesh of a `[[hair]]` entry with a surface material: ribbon or flat curves
+    /// from its file (or `--hair`), [`crate::ribbon_curves`].
+    fn ribbons(&self, h: &Spanned<HairDesc>, per_curve: usize) -> Result<TriangleMesh, SceneError> {
+        let hd = h.get_ref();
+        let (path, span) = match (&self.hair_override, &hd.file, &hd.generator) {
+            (Some(p), _, _) => (p.clone(), h.span()),
+            (None, Some(f), None) => (self.resolve(f.get_ref()), f.span()),
+            (None, None, Some(_)) | (None, None, None) if hd.generator.is_some() || hd.cotton.is_some() => {
+                return Err(self.error(
+                    hd.material.span(),
+                    format!(
+                        "material `{}` is a surface; the hair generator and the cotton boll grow round strands, which need a fiber \
+                         model (a surface model goes on ribbon or flat curves from a file)",
+                        hd.material.get_ref()
+                    ),
+                ));
+            }
+            _ => return Err(self.error(h.span(), "hair: give exactly one of file, generator".into())),
+        };
+        if hd.basis.is_some() {
+            return Err(self.error(h.span(), "hair: basis applies to .hair files and the generator".into()));
+        }
+        let strands = fiberlab_io::strand_files::read(&path).map_err(|e| self.error(span.clone(), e.to_string()))?;
+        let eye = dvec(self.desc.camera.get_ref().eye);
+        crate::ribbon_curves::ribbon_mesh(&strands, per_curve, eye).map_err(|e| {
+            self.error(span, format!("material `{}` (a surface): {}: {e}", hd.material.get_ref(), path.display()))
+        })
     }
 
     /// `segments_per_curve` of a `[[hair]]` entry, checked.
@@ -905,7 +961,9 @@ impl SceneFile {
             let hair = HairFile::read(path).map_err(|e| self.error(span.clone(), e.to_string()))?;
             return self.with_basis(hair, per_curve, basis, source);
         }
-        let strands = fiberlab_io::strand_files::read(path).map_err(fail)?;
+        let mut strands = fiberlab_io::strand_files::read(path).map_err(fail)?;
+        // Round tubes: ribbon normals do not apply.
+        strands.normals.clear();
         if basis.0 != Basis::Linear && basis.0 != strands.basis {
             return Err(self.error(
                 basis.1,
@@ -1184,6 +1242,70 @@ mod tests {
         std::fs::write(&path, &text).unwrap();
         let f = SceneFile::parse(&text, &path).unwrap();
         (dir, f, strands)
+    }
+
+    /// `[[hair]] cotton = { … }` grows the boll's fibres as tubes (one fiber set of
+    /// fibers × segments), counted by the memory estimate; with a generator too, or with a
+    /// surface material, it is refused at the entry.
+    #[test]
+    fn a_cotton_boll_is_a_hair_entry() {
+        let text = |extra: &str, material: &str| {
+            format!(
+                "{CAMERA}[materials.lint]\nmodel = \"hollow-fiber\"\n[materials.leaf]\nmodel = \"leaf\"\n[[hair]]\nmaterial = \"{material}\"\ncotton = {{ fibers = 30, segments = 10 }}\n{extra}"
+            )
+        };
+        let f = SceneFile::parse(&text("", "lint"), Path::new("s.toml")).unwrap();
+        let e = f.memory_estimate().unwrap();
+        assert_eq!((e.hair[0].strands, e.hair[0].segments), (30, 300));
+        let (scene, _) = f.build().unwrap();
+        assert_eq!(scene.fibers().len(), 1);
+        let e = err(&text("generator = { strands = 2 }\n", "lint")).to_string();
+        assert!(e.contains("give exactly one of file, generator, cotton"), "{e}");
+        let e = err(&text("", "leaf")).to_string();
+        assert!(e.contains("the cotton boll grow round strands"), "{e}");
+        let e = err(&text("", "lint").replace("segments = 10", "segments = 0")).to_string();
+        assert!(e.contains("cotton: `segments` = 0"), "{e}");
+    }
+
+    /// A `[[hair]]` entry with a surface material renders ribbon curves from its file as a
+    /// ribbon mesh (two triangles per polyline segment: 2 curves of 2 Bézier spans × 4
+    /// segments), with a fiber material as tubes; round curves with a surface material, and
+    /// the generator with one, are refused at the entry, naming the scene's line and the file.
+    #[test]
+    fn hair_files_of_ribbons_take_a_surface_model() {
+        let dir = tempfile::tempdir().unwrap();
+        let curves = |normals: &str| {
+            format!(
+                "#usda 1.0\ndef BasisCurves \"c\"\n{{\n    int[] curveVertexCounts = [7, 7]\n    point3f[] points = [(0, 0, 0), (0, 0.1, 0), (0, 0.2, 0), (0, 0.3, 0), (0, 0.4, 0), (0, 0.5, 0), (0, 0.6, 0), (0.2, 0, 0), (0.2, 0.1, 0), (0.2, 0.2, 0), (0.2, 0.3, 0), (0.2, 0.4, 0), (0.2, 0.5, 0), (0.3, 0.6, 0)]\n    float[] widths = [0.05] (interpolation = \"constant\")\n{normals}}}\n"
+            )
+        };
+        std::fs::write(
+            dir.path().join("r.usda"),
+            curves("    normal3f[] normals = [(0, 0, 1)] (interpolation = \"constant\")\n"),
+        )
+        .unwrap();
+        std::fs::write(dir.path().join("t.usda"), curves("")).unwrap();
+        let scene = |file: &str, material: &str| {
+            let text = format!(
+                "{CAMERA}[materials.leaf]\nmodel = \"leaf\"\n[materials.hair]\nmodel = \"chiang\"\n[[hair]]\nmaterial = \"{material}\"\n{file}\nsegments_per_curve = 4\n"
+            );
+            let path = dir.path().join("s.toml");
+            SceneFile::parse(&text, &path).and_then(|f| f.build())
+        };
+        let (ribbons, _) = scene("file = \"r.usda\"", "leaf").unwrap();
+        assert_eq!((ribbons.meshes().len(), ribbons.fibers().len()), (1, 0));
+        assert_eq!(ribbons.meshes()[0].mesh().len(), 2 * 2 * 2 * 4);
+        // Facing +z (the normal), the first ribbon spans x in ±0.025 at y = 0.3.
+        let hit = |x: f64| {
+            ribbons.meshes()[0].mesh().intersect(&fiberlab_geometry::Ray::new(DVec3::new(x, 0.3, 1.0), DVec3::NEG_Z))
+        };
+        assert!(hit(0.02).is_some() && hit(-0.02).is_some() && hit(0.03).is_none());
+        let (tubes, _) = scene("file = \"r.usda\"", "hair").unwrap();
+        assert_eq!((tubes.meshes().len(), tubes.fibers().len()), (0, 1));
+        let e = scene("file = \"t.usda\"", "leaf").unwrap_err().to_string();
+        assert!(e.contains("s.toml:13:8: material `leaf` (a surface): ") && e.contains("round"), "{e}");
+        let e = scene("generator = { strands = 2 }", "leaf").unwrap_err().to_string();
+        assert!(e.contains("s.toml:12:12: material `leaf` is a surface; the hair generator"), "{e}");
     }
 
     /// `basis = "bspline"` on `.hair` points: the tubes' axis runs through the uniform cubic
@@ -1484,10 +1606,20 @@ mod tests {
                 path = made.path().join(path.file_name().unwrap());
                 std::fs::write(&path, &text).unwrap();
             }
+            // Likewise the grass ribbons of `fiberlab hair generate --style grass` (100 blades).
+            if text.contains("file = \"grass_ribbons.usda\"") && !dir.join("grass_ribbons.usda").exists() {
+                let blades = GrassParams { blades: 100, ..GrassParams::default() }.strands().unwrap();
+                fiberlab_io::strand_files::write(&made.path().join("grass_ribbons.usda"), &blades, 1).unwrap();
+                path = made.path().join(path.file_name().unwrap());
+                std::fs::write(&path, &text).unwrap();
+            }
             let mut f = SceneFile::read(&path).unwrap_or_else(|e| panic!("{e}"));
             for h in &mut f.desc.hair {
                 if let Some(g) = h.get_mut().generator.as_mut() {
                     g.get_mut().strands = 100;
+                }
+                if let Some(c) = h.get_mut().cotton.as_mut() {
+                    c.get_mut().fibers = 100;
                 }
             }
             f.build().unwrap_or_else(|e| panic!("{e}"));

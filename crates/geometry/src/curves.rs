@@ -808,7 +808,17 @@ mod tests {
                 straight(p, dir * 0.5, 4, 0.0002)
             })
             .collect();
+        // Very short and very long diagonal segments mixed: shorter than their radius (one
+        // piece) and a thousand radii per piece (eight pieces a segment, the most).
+        let lengths: Vec<_> = (0..200)
+            .map(|i| {
+                let p = (g.vec() - 0.5) * 4.0;
+                let d = (g.vec() - 0.5).normalize_or(DVec3::X) * [1e-5, 1e-3, 0.3, 40.0][i % 4];
+                straight(p, d, 2, 0.004)
+            })
+            .collect();
         for (what, strands) in [
+            ("lengths", lengths),
             ("parallel", parallel),
             ("crossing", crossing),
             ("degenerate", degenerate),

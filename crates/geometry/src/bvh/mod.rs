@@ -467,6 +467,17 @@ struct Builder {
 /// Centroid bins per axis of the binned SAH build.
 const BINS: usize = 16;
 
+/// The bin of a record whose centroid is `x` bins from the first bin's start: `x` truncated,
+/// 0 for NaN and below, at most the last bin. The same as `(x as usize).min(BINS − 1)` for every
+/// `x`, in fewer instructions (a conversion to `i32` saturates with a few selects, one to `usize`
+/// with many more): the binned build converts each record's centroid three times per level to
+/// bin it and once to partition it (5.3 % of the load's instructions on the thin 10,000-strand
+/// head; its CPU time did not change measurably).
+#[inline(always)]
+fn bin_of(x: f32) -> usize {
+    (x as i32).clamp(0, BINS as i32 - 1) as usize
+}
+
 /// A split of a node's records found by binning: records whose centroid falls in a bin before
 /// `bin` along `axis` go left; the two sides' boxes (their centroid boxes are made while the
 /// records are partitioned: [`Split::partition`]).
@@ -486,7 +497,7 @@ impl Split {
     /// is before the split's.
     #[inline(always)]
     fn goes_left(&self, p: &BuildPrim) -> bool {
-        (((p.centroid()[self.axis] - self.lo) * self.scale) as usize).min(BINS - 1) < self.bin
+        bin_of((p.centroid()[self.axis] - self.lo) * self.scale) < self.bin
     }
 
     /// Moves the records that go left to the front, each swapped with the first record of the
@@ -562,7 +573,7 @@ fn bins<const SETS: usize>(prims: &[BuildPrim], lo: Vec3A, scale: Vec3A) -> ([[F
         // As `Split::goes_left` computes it, lane by lane.
         let k = ((c - lo) * scale).min(last);
         for axis in 0..3 {
-            let k = k[axis] as usize;
+            let k = bin_of(k[axis]);
             boxes[set][axis][k].grow(min, max);
             counts[set][axis][k] += 1;
         }
@@ -1688,6 +1699,37 @@ mod tests {
             for (a, b) in b1.iter().flatten().zip(b2.iter().flatten()) {
                 assert!(a.min == b.min && a.max == b.max, "{n} records: {a:?} against {b:?}");
             }
+        }
+    }
+
+    /// `bin_of` is `(x as usize).min(BINS − 1)` for every kind of `f32`.
+    #[test]
+    fn bin_of_truncates_and_clamps_like_the_conversion_to_usize() {
+        let mut xs = vec![
+            f32::NAN,
+            -f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            0.0,
+            -0.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            1e-45,
+            -1e-45,
+            f32::MAX,
+            f32::MIN,
+            2.0e9,
+            3.0e9,
+            -3.0e9,
+            1e19,
+            2e19,
+        ];
+        for k in -40..=40 {
+            let x = k as f32 * 0.5;
+            xs.extend([x, x.next_up(), x.next_down()]);
+        }
+        for x in xs {
+            assert_eq!(bin_of(x), (x as usize).min(BINS - 1), "{x:e}");
         }
     }
 

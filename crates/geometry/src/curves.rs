@@ -56,13 +56,14 @@ const PIECE_IN_RADII: f64 = 16.0;
 const ONE_TREE_MAX: usize = 1 << 18;
 /// At most this many BVH pieces per segment.
 const MAX_PIECES: usize = 8;
-/// At most this many BVH pieces per segment in sets of more than [`ONE_TREE_MAX`] segments. In a
-/// dense head the pieces buy no render time: the 5M-segment thin head (`hair generate --style
-/// straight --strands 333334 --segments 15`) rendered its whole 512×512 image at 4 spp in the
-/// same CPU time with one piece as with eight (about 7 s besides the load, pixel-identical), while
-/// its load took 5.7 s of CPU instead of 23.1 s and peaked at 494 MiB instead of 956 MiB (the
-/// book's "Performance", "One piece a segment in dense heads"). On sparse sets the pieces pay:
-/// the 10,000-strand peer heads took 48–62 % more render instructions with one piece.
+/// At most this many BVH pieces per segment in sets of more than [`ONE_TREE_MAX`] segments. On
+/// the 5M-segment thin head (`hair generate --style straight --strands 333334 --segments 15`) one
+/// piece made the load 5.8–6.3 s of CPU instead of 23–26 s and its peak 494 MiB instead of
+/// 956 MiB, and the render at 4 spp 1.3–1.5× slower (wall 6.1–7.1 s against 4.6–4.9 s): the whole
+/// render is cheaper up to some 30–60 spp (1.5M segments: ~20 spp), so at the usual 1–16 spp of
+/// such heads (the book's "Performance", "One piece a segment in dense heads"). On the sparse
+/// 10,000-strand heads one piece cost 48–62 % more render instructions, and they stay below this
+/// size.
 const DENSE_PIECES: usize = 1;
 
 /// One tube segment (f32 storage, 64 bytes: one cache line). `repr(C)`: the first eight

@@ -56,6 +56,15 @@ const PIECE_IN_RADII: f64 = 16.0;
 const ONE_TREE_MAX: usize = 1 << 18;
 /// At most this many BVH pieces per segment.
 const MAX_PIECES: usize = 8;
+/// At most this many BVH pieces per segment in sets of more than [`ONE_TREE_MAX`] segments. On
+/// the 5M-segment thin head (`hair generate --style straight --strands 333334 --segments 15`) one
+/// piece made the load 5.8–6.3 s of CPU instead of 23–26 s and its peak 494 MiB instead of
+/// 956 MiB, and the render at 4 spp 1.3–1.5× slower (wall 6.1–7.1 s against 4.6–4.9 s): the whole
+/// render is cheaper up to some 30–60 spp (1.5M segments: ~20 spp), so at the usual 1–16 spp of
+/// such heads (the book's "Performance", "One piece a segment in dense heads"). On the sparse
+/// 10,000-strand heads one piece cost 48–62 % more render instructions, and they stay below this
+/// size.
+const DENSE_PIECES: usize = 1;
 
 /// One tube segment (f32 storage, 64 bytes: one cache line). `repr(C)`: the first eight
 /// `f32` (`p0`, `axis`, `length`, `radius`) are what the leaf pre-test reads, contiguous.
@@ -87,10 +96,10 @@ impl Segment {
     }
 
     /// How many pieces of its axis the segment is in the BVH ([`PIECE_IN_RADII`], at most
-    /// [`MAX_PIECES`]).
-    fn piece_count(&self) -> usize {
+    /// `max_pieces`).
+    fn piece_count(&self, max_pieces: usize) -> usize {
         let k = (f64::from(self.length) / (PIECE_IN_RADII * f64::from(self.radius))).ceil();
-        k.clamp(1.0, MAX_PIECES as f64) as usize
+        k.clamp(1.0, max_pieces as f64) as usize
     }
 
     /// The fields of the leaf pre-test, in order.
@@ -304,12 +313,18 @@ impl CurveSet {
     fn from_segments(segments: Vec<Segment>, strands: usize) -> Self {
         // Up to ONE_TREE_MAX segments are one tree: the peer scene's 150k segments in clusters of
         // CLUSTER_MAX cost 7.1 % more render instructions (ARCHITECTURE.md, issue 42).
-        let cluster_max = if segments.len() <= ONE_TREE_MAX { usize::MAX } else { crate::bvh::CLUSTER_MAX };
-        Self::from_segments_in(segments, strands, cluster_max)
+        // Larger sets are dense heads, whose segments are one piece each (DENSE_PIECES).
+        let (cluster_max, max_pieces) = if segments.len() <= ONE_TREE_MAX {
+            (usize::MAX, MAX_PIECES)
+        } else {
+            (crate::bvh::CLUSTER_MAX, DENSE_PIECES)
+        };
+        Self::from_segments_in(segments, strands, cluster_max, max_pieces)
     }
 
-    /// [`Self::from_segments`] with BVH clusters of at most `cluster_max` segments.
-    fn from_segments_in(segments: Vec<Segment>, strands: usize, cluster_max: usize) -> Self {
+    /// [`Self::from_segments`] with BVH clusters of at most `cluster_max` segments, each segment
+    /// in at most `max_pieces` pieces.
+    fn from_segments_in(segments: Vec<Segment>, strands: usize, cluster_max: usize, max_pieces: usize) -> Self {
         // Segment `i` as one build record over its whole axis, widened by its reach: a miter
         // ellipse reaches r/cos from the vertex, so the tube lies within that radius of the
         // axis segment (a capsule).
@@ -329,7 +344,7 @@ impl CurveSet {
         // In the tree, each segment as pieces of its axis of at most PIECE_IN_RADII radii.
         let pieces = |i: u32, out: &mut Vec<BuildPrim>| {
             let (p0, p1, reach) = axis(i);
-            let k = segments[i as usize].piece_count();
+            let k = segments[i as usize].piece_count(max_pieces);
             let step = (p1 - p0) / k as f64;
             let mut a = p0;
             for j in 1..=k {
@@ -339,7 +354,7 @@ impl CurveSet {
                 a = b;
             }
         };
-        let total = segments.iter().map(Segment::piece_count).sum();
+        let total = segments.iter().map(|s| s.piece_count(max_pieces)).sum();
         let bvh = Bvh::build_grouped_in(items, &pieces, cluster_max, Boxes::Oriented);
         Self { segments, pieces: total, bvh, strands }
     }
@@ -808,7 +823,17 @@ mod tests {
                 straight(p, dir * 0.5, 4, 0.0002)
             })
             .collect();
+        // Very short and very long diagonal segments mixed: shorter than their radius (one
+        // piece) and a thousand radii per piece (eight pieces a segment, the most).
+        let lengths: Vec<_> = (0..200)
+            .map(|i| {
+                let p = (g.vec() - 0.5) * 4.0;
+                let d = (g.vec() - 0.5).normalize_or(DVec3::X) * [1e-5, 1e-3, 0.3, 40.0][i % 4];
+                straight(p, d, 2, 0.004)
+            })
+            .collect();
         for (what, strands) in [
+            ("lengths", lengths),
             ("parallel", parallel),
             ("crossing", crossing),
             ("degenerate", degenerate),
@@ -836,10 +861,10 @@ mod tests {
     }
 
     /// The tube set of `strands` with its tree built in clusters of at most `cluster_max`
-    /// segments.
-    fn clustered(strands: &[(Vec<DVec3>, Vec<f64>)], cluster_max: usize) -> CurveSet {
+    /// segments, each segment in at most `max_pieces` pieces.
+    fn clustered(strands: &[(Vec<DVec3>, Vec<f64>)], cluster_max: usize, max_pieces: usize) -> CurveSet {
         let (segments, count) = CurveSet::segments_of(strands.iter().map(|(p, r)| (p.as_slice(), r.as_slice())), 0);
-        CurveSet::from_segments_in(segments, count, cluster_max)
+        CurveSet::from_segments_in(segments, count, cluster_max, max_pieces)
     }
 
     /// Closest hit and any hit of `set` against brute force for `rays` rays from a box of
@@ -933,10 +958,20 @@ mod tests {
             (DVec3::ZERO, 0.8),
         ));
         for (name, strands, aim) in &sets {
-            for cluster_max in [2, 5, 64, usize::MAX] {
-                let mut set = clustered(strands, cluster_max);
-                let hits = check_clustered_against_brute_force(&mut set, cluster_max as u64 % 1000, 2000, 2.0, *aim);
-                assert!(hits > 100, "{name}: too few hits ({hits}) to be a test");
+            // Dense heads' one piece a segment (DENSE_PIECES) and sparse sets' pieces.
+            for (cluster_max, max_pieces) in [
+                (2, MAX_PIECES),
+                (5, MAX_PIECES),
+                (64, MAX_PIECES),
+                (usize::MAX, MAX_PIECES),
+                (5, 1),
+                (64, 1),
+                (usize::MAX, 1),
+            ] {
+                let mut set = clustered(strands, cluster_max, max_pieces);
+                let seed = cluster_max as u64 % 1000 + max_pieces as u64;
+                let hits = check_clustered_against_brute_force(&mut set, seed, 2000, 2.0, *aim);
+                assert!(hits > 100, "{name}, {max_pieces} pieces: too few hits ({hits}) to be a test");
             }
         }
     }

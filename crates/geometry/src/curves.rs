@@ -56,7 +56,12 @@ const PIECE_IN_RADII: f64 = 16.0;
 const ONE_TREE_MAX: usize = 1 << 18;
 /// At most this many BVH pieces per segment.
 const MAX_PIECES: usize = 8;
-/// At most this many BVH pieces per segment in sets of more than [`ONE_TREE_MAX`] segments. On
+/// Sets of more than this many segments put each in the tree whole ([`DENSE_PIECES`]): the
+/// pieces' tree would approach 1 GiB there (the 5M-segment thin head: 956 MiB), while below it a
+/// render is 13–50 % faster with them (a 10,000-strand B-spline head of some 300k segments, a
+/// 1.5M-segment head), which any render of more than a few tens of spp wants.
+const DENSE_MIN: usize = 1 << 22;
+/// At most this many BVH pieces per segment in sets of more than [`DENSE_MIN`] segments. On
 /// the 5M-segment thin head (`hair generate --style straight --strands 333334 --segments 15`) one
 /// piece made the load 5.8–6.3 s of CPU instead of 23–26 s and its peak 494 MiB instead of
 /// 956 MiB, and the render at 4 spp 1.3–1.5× slower (wall 6.1–7.1 s against 4.6–4.9 s): the whole
@@ -313,9 +318,12 @@ impl CurveSet {
     fn from_segments(segments: Vec<Segment>, strands: usize) -> Self {
         // Up to ONE_TREE_MAX segments are one tree: the peer scene's 150k segments in clusters of
         // CLUSTER_MAX cost 7.1 % more render instructions (ARCHITECTURE.md, issue 42).
-        // Larger sets are dense heads, whose segments are one piece each (DENSE_PIECES).
+        // Larger sets are built in clusters; beyond DENSE_MIN their segments are one piece each
+        // (DENSE_PIECES).
         let (cluster_max, max_pieces) = if segments.len() <= ONE_TREE_MAX {
             (usize::MAX, MAX_PIECES)
+        } else if segments.len() <= DENSE_MIN {
+            (crate::bvh::CLUSTER_MAX, MAX_PIECES)
         } else {
             (crate::bvh::CLUSTER_MAX, DENSE_PIECES)
         };

@@ -182,11 +182,16 @@ const NORMAL_POLE_VIEWERS: [usize; 2] = [4, 5];
 /// medulla-scattered lobes draw φ from tables and then θ_i given φ, so near the axis their
 /// density, finite since the pole taper, still depends on φ (discontinuous at the axis), which
 /// that grid does not resolve: with β_m = 4°, β_n = 5° its ∫pdf there is 1.004 at θ_o = 1.555
-/// (h = 0.8), and the default's χ² at θ_o = −1.555 gives p = 7e−4. `hollow-fiber` (added on
-/// main after the taper was written): its sampler draws θ_i without the pole taper, so its
-/// density per steradian grows toward the axis; with κ = 0.9, β_m = β_n = 0.1 its ∫pdf on that
-/// grid is 1.035 at θ_o = 1.555 (h = 0.8) and 0.991 at θ_o = −1.555 (h = −0.2), χ² p = 2e−6.
-/// Open work (issue 37).
+/// (h = 0.8), and the default's χ² at θ_o = −1.555 gives p = 7e−4. `hollow-fiber`: with κ = 0.9,
+/// β_m = β_n = 0.1 its ∫pdf on that grid is 1.035 at θ_o = 1.555 (h = 0.8) and 0.991 at
+/// θ_o = −1.555 (h = −0.2), χ² p = 2e−6. Not its sampler's θ_i: d'Eon's `M_p` is a density per
+/// steradian, finite on the axis (`hollow_fiber.rs` in scatter's tests,
+/// `grazing_viewers_have_a_pdf_finite_at_the_axis_and_bounded_weights`), and drawing θ_i through
+/// the pole taper left the grid off (0.989, 0.998) and raised the largest weight from 1 to 139.
+/// The cause is the lobes themselves: 0.9° from the axis with β_m = 0.1 most of the mass lies
+/// within 5° of it, where the grid's nodes do not resolve the azimuthal lobe `N_q` (β_n = 0.1),
+/// which `eval` has too. `chiang` with β_m = β_n = 0.1 (not among its cases) gives 1.029 and
+/// 0.995 there; β_n = 0.3 gives 1.006–1.007 for either model, β_m = 0.3 1.003.
 const NORMAL_POLE_REPORTED: [&str; 2] = ["yan-fur", "hollow-fiber"];
 /// Models whose camera-side furnace at the grazing viewers ([`NORMAL_POLE_VIEWERS`]) is
 /// reported, not enforced, against the default quadrature. `measured`: a table is a staircase

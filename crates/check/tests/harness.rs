@@ -116,24 +116,10 @@ fn chi2_of_the_hair_tests_rejects_small_pdf_errors_of_narrow_lobes() {
 #[test]
 fn tabulated_measured_model_passes_the_harness() {
     use fiberlab_scatter::measured::{Measured, MeasuredTable};
-    use std::f64::consts::{FRAC_PI_2, PI, TAU};
     let kk = KajiyaKay::new(KajiyaKayParams { k_d: Rgb::splat(0.03), k_s: Rgb::splat(0.2), p: 8.0 }).unwrap();
     let (nt, np) = (90, 72);
     let theta_in: Vec<f64> = (-7..=7).map(|k| k as f64 * 0.2).collect();
-    let f = theta_in
-        .iter()
-        .map(|&ti| {
-            (0..nt * np)
-                .map(|b| {
-                    let tr = -FRAC_PI_2 + ((b / np) as f64 + 0.5) * PI / nt as f64;
-                    let p = -PI + ((b % np) as f64 + 0.5) * TAU / np as f64;
-                    kk.eval(direction(ti, 0.0), direction(tr, p), 0.0)
-                })
-                .collect()
-        })
-        .collect();
-    let m: fiberlab_scatter::Model =
-        Measured::new(MeasuredTable { theta_in, bins_theta: nt, bins_phi: np, f }).unwrap().into();
+    let m: fiberlab_scatter::Model = Measured::new(MeasuredTable::of_function(&kk, theta_in, nt, np)).unwrap().into();
     let rows = fiberlab_check::check_model("measured (tabulated KK)", &m, &Effort::default());
     let failed: Vec<_> = rows.iter().filter(|r| !r.pass).collect();
     for r in &failed {

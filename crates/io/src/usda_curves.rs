@@ -1171,29 +1171,34 @@ impl<'a> Parser<'a> {
                 })
                 .collect()
         };
+        // Values per curve-varying primvar: one per span end plus one ("varying").
+        let spans_plus_one = |c: u32| basis.spans(c as usize + if phantom { 2 } else { 0 }).unwrap_or(0) + 1;
+        // A primvar's value count against what its interpolation needs.
+        let check_count = |what: &str, len: usize, at, interp_at, interp: &str| {
+            let expected = match interp {
+                "constant" => 1,
+                "uniform" => counts.len(),
+                "vertex" => points.len(),
+                "varying" => counts.iter().map(|&c| spans_plus_one(c)).sum(),
+                other => {
+                    return Err((
+                        interp_at,
+                        format!("{what} interpolation must be constant, uniform, vertex or varying, found \"{other}\""),
+                    ));
+                }
+            };
+            if len == expected {
+                Ok(())
+            } else {
+                Err((at, format!("{len} {what}, but `{interp}` interpolation needs {expected}")))
+            }
+        };
         let widths: Vec<f32> = match props.widths {
             None => vec![1.0; points.len()],
             Some((at, w, interpolation)) => {
                 let (interp_at, interp) =
                     interpolation.unwrap_or((at, if w.len() == 1 { "constant".into() } else { "vertex".into() }));
-                let spans_plus_one = |c: u32| basis.spans(c as usize + if phantom { 2 } else { 0 }).unwrap_or(0) + 1;
-                let expected = match interp.as_str() {
-                    "constant" => 1,
-                    "uniform" => counts.len(),
-                    "vertex" => points.len(),
-                    "varying" => counts.iter().map(|&c| spans_plus_one(c)).sum(),
-                    other => {
-                        return Err((
-                            interp_at,
-                            format!(
-                                "widths interpolation must be constant, uniform, vertex or varying, found \"{other}\""
-                            ),
-                        ));
-                    }
-                };
-                if w.len() != expected {
-                    return Err((at, format!("{} widths, but `{interp}` interpolation needs {expected}", w.len())));
-                }
+                check_count("widths", w.len(), at, interp_at, &interp)?;
                 match interp.as_str() {
                     "constant" => vec![w[0]; points.len()],
                     "uniform" => {
@@ -1229,25 +1234,8 @@ impl<'a> Parser<'a> {
         let normals = match props.normals {
             None => Vec::new(),
             Some((at, n, interpolation)) => {
-                let spans_plus_one = |c: u32| basis.spans(c as usize + if phantom { 2 } else { 0 }).unwrap_or(0) + 1;
                 let (interp_at, interp) = interpolation.unwrap_or((at, "vertex".into()));
-                let expected = match interp.as_str() {
-                    "constant" => 1,
-                    "uniform" => counts.len(),
-                    "vertex" => points.len(),
-                    "varying" => counts.iter().map(|&c| spans_plus_one(c)).sum(),
-                    other => {
-                        return Err((
-                            interp_at,
-                            format!(
-                                "normals interpolation must be constant, uniform, vertex or varying, found \"{other}\""
-                            ),
-                        ));
-                    }
-                };
-                if n.len() != expected {
-                    return Err((at, format!("{} normals, but `{interp}` interpolation needs {expected}", n.len())));
-                }
+                check_count("normals", n.len(), at, interp_at, &interp)?;
                 let mut out = Vec::new();
                 let mut start = 0;
                 for (i, (&c, r)) in counts.iter().zip(&ranges).enumerate() {

@@ -361,6 +361,26 @@ impl Conditional {
 }
 
 impl MeasuredTable {
+    /// A far-field function tabulated as a goniophotometer would report it, but exactly: each
+    /// bin holds `f_s` at its centre, for light at each of `theta_in` (radians, φ_i = 0, h = 0).
+    /// What tests and comparisons use to give a known function the table's form.
+    #[must_use]
+    pub fn of_function(f: &impl ScatteringFunction, theta_in: Vec<f64>, bins_theta: usize, bins_phi: usize) -> Self {
+        let centre = |b: usize| {
+            let theta_out = -FRAC_PI_2 + ((b / bins_phi) as f64 + 0.5) * PI / bins_theta as f64;
+            let phi_rel = -PI + ((b % bins_phi) as f64 + 0.5) * TAU / bins_phi as f64;
+            direction_from_sin_cos(theta_out.sin(), theta_out.cos(), phi_rel)
+        };
+        let f = theta_in
+            .iter()
+            .map(|&ti| {
+                let wi = direction_from_sin_cos(ti.sin(), ti.cos(), 0.0);
+                (0..bins_theta * bins_phi).map(|b| f.eval(wi, centre(b), 0.0)).collect()
+            })
+            .collect();
+        Self { theta_in, bins_theta, bins_phi, f }
+    }
+
     /// Slices around `theta` (an incidence) and the weight of the upper one.
     fn slices(&self, theta_o: f64) -> (usize, usize, f64) {
         let t = &self.theta_in;
@@ -669,19 +689,7 @@ mod tests {
         let kk = KajiyaKay::new(KajiyaKayParams { k_d: Rgb::splat(0.03), k_s: Rgb::splat(0.2), p: 8.0 }).unwrap();
         let (nt, np) = (90, 72);
         let theta_in: Vec<f64> = (-7..=7).map(|k| f64::from(k) * 0.2).collect();
-        let f = theta_in
-            .iter()
-            .map(|&ti| {
-                (0..nt * np)
-                    .map(|b| {
-                        let tr = -FRAC_PI_2 + ((b / np) as f64 + 0.5) * PI / nt as f64;
-                        let p = -PI + ((b % np) as f64 + 0.5) * TAU / np as f64;
-                        kk.eval(direction(ti, 0.0), direction(tr, p), 0.0)
-                    })
-                    .collect()
-            })
-            .collect();
-        let m = Measured::new(MeasuredTable { theta_in, bins_theta: nt, bins_phi: np, f }).unwrap();
+        let m = Measured::new(MeasuredTable::of_function(&kk, theta_in, nt, np)).unwrap();
         for theta_o in [1.555, -1.555] {
             let wo = direction(theta_o, 0.3);
             // Piecewise constant in φ over the table's bins: one point per bin is exact.

@@ -108,6 +108,15 @@ fn deon_lobe_luminance(m: Deon, p: u32, rows: DeonAt) -> f32 {
     return luminance(deon_residual(m, rows));
 }
 
+/// Σ_p of the lobes' luminances at the camera's rows: what lobe selection draws from.
+fn deon_total_luminance(m: Deon, rows: DeonAt) -> f32 {
+    var total = 0.0;
+    for (var p = 0u; p <= m.p_max; p++) {
+        total += deon_lobe_luminance(m, p, rows);
+    }
+    return total;
+}
+
 /// cosθ_n for the pair: the camera's, or cos((θ_o − θ_i)/2).
 fn deon_cos_theta_n(m: Deon, sin_i: f32, cos_i: f32, sin_o: f32, cos_o: f32) -> f32 {
     if m.difference {
@@ -133,10 +142,7 @@ fn deon_integrand_and_pdf(m: Deon, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
     let sin_o = local_sin_theta(wo);
     let cos_o = local_cos_theta(wo);
     let rows_o = deon_rows(cos_o);
-    var total = 0.0;
-    for (var p = 0u; p <= m.p_max; p++) {
-        total += deon_lobe_luminance(m, p, rows_o);
-    }
+    let total = deon_total_luminance(m, rows_o);
     if !(total > 0.0) {
         return vec4<f32>(0.0);
     }
@@ -207,10 +213,7 @@ fn deon_sample(m: Deon, wo: vec3<f32>, u: vec4<f32>) -> FiberSample {
     let sin_o = local_sin_theta(wo);
     let cos_o = local_cos_theta(wo);
     let rows_o = deon_rows(cos_o);
-    var total = 0.0;
-    for (var p = 0u; p <= m.p_max; p++) {
-        total += deon_lobe_luminance(m, p, rows_o);
-    }
+    let total = deon_total_luminance(m, rows_o);
     if !(total > 0.0) {
         return out;
     }

@@ -213,13 +213,7 @@ fn main() {
     while let Some(a) = args.next() {
         let mut value = || args.next().unwrap_or_else(|| panic!("{a} needs a value"));
         match a.as_str() {
-            "--size" => {
-                size = match value().as_str() {
-                    "test" => FamilySize::TEST,
-                    "bench" => FamilySize::BENCH,
-                    other => panic!("--size test|bench, not {other}"),
-                }
-            }
+            "--size" => size = value().parse().unwrap_or_else(|e| panic!("--size: {e}")),
             "--spp" => spp = value().parse().expect("--spp N"),
             "--path-spp" => path_spp = value().parse().expect("--path-spp N"),
             "--only" => only = value(),

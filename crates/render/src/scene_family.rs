@@ -110,6 +110,18 @@ impl FamilySize {
     pub const TEST: Self = Self { px: 48, dense_strands: 3_000, segments: 8 };
 }
 
+/// `test` or `bench`, as the examples' `--size` takes it.
+impl std::str::FromStr for FamilySize {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "test" => Ok(Self::TEST),
+            "bench" => Ok(Self::BENCH),
+            other => Err(format!("a family size is test or bench, not {other}")),
+        }
+    }
+}
+
 /// Root diameter of the strands at [`FamilySize::BENCH`]'s strand count.
 const BENCH_DIAMETER: f64 = 0.002;
 

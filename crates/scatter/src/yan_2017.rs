@@ -682,11 +682,18 @@ impl YanFur {
         }
     }
 
-    /// `M_p(θ_i; θ_o)`: density in θ_i.
-    #[inline]
-    fn longitudinal(&self, p: usize, theta_i: f64, sin_o: f64, cos_o: f64) -> f64 {
-        let (centre, b, mass) = self.longitudinal_lobe(p, sin_o, cos_o);
-        gaussian(b, theta_i - centre) / mass
+    /// What every evaluation for one viewer `wo` shares, whatever h and ω_i: the viewer's
+    /// inclination, its exit inclination θ_e for the medulla tables and the three lobes'
+    /// longitudinal Gaussians (computed once per viewer, not once per width node).
+    fn viewer(&self, wo: DVec3) -> Viewer {
+        let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
+        Viewer {
+            sin_o,
+            cos_o,
+            phi_o: phi(wo),
+            theta_e: -sin_o.atan2(cos_o),
+            lobes: std::array::from_fn(|p| self.longitudinal_lobe(p, sin_o, cos_o)),
+        }
     }
 
     /// Centre θ_c, width β_p and truncated mass of lobe p's longitudinal Gaussian.
@@ -709,11 +716,10 @@ impl YanFur {
     /// `(Σ A_p M_p N_p, Σ w_p M_p N_p)`: value and sampling density per dθ_i dφ; the density's
     /// θ part is taken at the tapered `W(θ_i)` times `W′(θ_i)` (the sampler draws θ_i through
     /// the pole taper, [`crate::hair::pole_taper`]).
-    fn integrand_and_pdf_at(&self, wi: DVec3, wo: DVec3, hit: &FurHit, w: &[f64; 5]) -> (Rgb, f64) {
-        let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
+    fn integrand_and_pdf_at(&self, wi: DVec3, viewer: &Viewer, hit: &FurHit, w: &[f64; 5]) -> (Rgb, f64) {
         let theta_i = sin_theta(wi).atan2(cos_theta(wi));
         let (theta_star, slope, blend) = (taper(theta_i), taper_derivative(theta_i), pole_blend(theta_i));
-        let dphi = phi(wi) - phi(wo);
+        let dphi = phi(wi) - viewer.phi_o;
         let (mut g, mut pdf) = (Rgb::ZERO, 0.0);
         for (p, w_p) in w.iter().enumerate() {
             if !self.enabled[p] {
@@ -725,7 +731,7 @@ impl YanFur {
                     continue;
                 }
                 let phi_q = wrap_pi(dphi - hit.scattered_shift(p - 3));
-                let theta_e = -sin_o.atan2(cos_o);
+                let theta_e = viewer.theta_e;
                 let n = tables.azimuthal(hit.theta_t, hit.h_medulla, phi_q);
                 let m = tables.longitudinal(theta_e, phi_q, theta_i);
                 g += hit.a_s[p - 3] * n * m;
@@ -737,22 +743,22 @@ impl YanFur {
                 }
                 continue;
             }
-            let m = self.longitudinal(p, theta_i, sin_o, cos_o);
+            let m = viewer.longitudinal(p, theta_i);
             let n = wrapped_gaussian(self.beta_n[p], dphi - exit_azimuth(p, hit.gamma_o, hit.gamma_t));
             g += hit.a[p] * (m * n);
             if *w_p > 0.0 && slope > 0.0 {
                 let n_sampled = (1.0 - blend) * n + blend / TAU;
-                pdf += w_p * self.longitudinal(p, theta_star, sin_o, cos_o) * slope * n_sampled;
+                pdf += w_p * viewer.longitudinal(p, theta_star) * slope * n_sampled;
             }
         }
         (g, pdf)
     }
 
     /// Near field: `(f_s, pdf per steradian)` at offset h.
-    fn near_eval_and_pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> (Rgb, f64) {
-        let hit = self.hit(sin_theta(wo), cos_theta(wo), h);
+    fn near_eval_and_pdf(&self, wi: DVec3, viewer: &Viewer, h: f64) -> (Rgb, f64) {
+        let hit = self.hit(viewer.sin_o, viewer.cos_o, h);
         let Some(w) = self.lobe_weights(&hit) else { return (Rgb::ZERO, 0.0) };
-        let (g, pdf) = self.integrand_and_pdf_at(wi, wo, &hit, &w);
+        let (g, pdf) = self.integrand_and_pdf_at(wi, viewer, &hit, &w);
         let c = cos_theta(wi).max(MIN_COS);
         (g / (c * c), pdf / c)
     }
@@ -764,7 +770,8 @@ impl YanFur {
     /// `n = clamp(⌈8π/β_n⌉, 32, 4096)` nodes per piece (4 per standard deviation of the R lobe's
     /// azimuthal Gaussian in the integration variable).
     fn far_eval(&self, wi: DVec3, wo: DVec3) -> Rgb {
-        self.far_integral(wo, |h| self.near_eval_and_pdf(wi, wo, h).0)
+        let viewer = self.viewer(wo);
+        self.far_integral(wo, |h| self.near_eval_and_pdf(wi, &viewer, h).0)
     }
 
     /// `½∫_{−1}^{1} f(h) dh` over the smooth pieces of the fiber seen from `wo`.
@@ -799,12 +806,13 @@ impl YanFur {
 
     /// Far field: the pdf is the h-average of the near-field pdf (sampling draws h uniformly).
     fn far_pdf(&self, wi: DVec3, wo: DVec3) -> f64 {
-        self.far_integral(wo, |h| Rgb::splat(self.near_eval_and_pdf(wi, wo, h).1))[0]
+        let viewer = self.viewer(wo);
+        self.far_integral(wo, |h| Rgb::splat(self.near_eval_and_pdf(wi, &viewer, h).1))[0]
     }
 
     fn sample_near(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<(DVec3, Rgb, f64, u8)> {
-        let (sin_o, cos_o) = (sin_theta(wo), cos_theta(wo));
-        let hit = self.hit(sin_o, cos_o, h);
+        let viewer = self.viewer(wo);
+        let hit = self.hit(viewer.sin_o, viewer.cos_o, h);
         let w = self.lobe_weights(&hit)?;
         let mut p = 0;
         let mut acc = w[0];
@@ -820,11 +828,10 @@ impl YanFur {
             // exit inclination given (θ_e, φ_q).
             let tables = self.medulla.as_ref()?;
             let (phi_q, _) = tables.sample_azimuth(hit.theta_t, hit.h_medulla, u[3])?;
-            let theta_e = -sin_o.atan2(cos_o);
-            let (theta_i, _) = tables.sample_inclination(theta_e, phi_q, u[1])?;
+            let (theta_i, _) = tables.sample_inclination(viewer.theta_e, phi_q, u[1])?;
             (untaper(theta_i.clamp(-FRAC_PI_2, FRAC_PI_2)), phi_q + hit.scattered_shift(p - 3))
         } else {
-            let (centre, b, _) = self.longitudinal_lobe(p, sin_o, cos_o);
+            let (centre, b, _) = viewer.lobes[p];
             let z = sample_truncated_normal(u[1], (-FRAC_PI_2 - centre) / b, (FRAC_PI_2 - centre) / b);
             let theta_i = untaper((centre + b * z).clamp(-FRAC_PI_2, FRAC_PI_2));
             // Near the axis, φ uniform with probability `pole_blend(θ_i)` (u[3] split in two).
@@ -838,9 +845,29 @@ impl YanFur {
             }
         };
         let (s, c) = theta_i.sin_cos();
-        let wi = direction_from_sin_cos(s, c.max(0.0), phi(wo) + dphi);
-        let (g, pdf) = self.integrand_and_pdf_at(wi, wo, &hit, &w);
+        let wi = direction_from_sin_cos(s, c.max(0.0), viewer.phi_o + dphi);
+        let (g, pdf) = self.integrand_and_pdf_at(wi, &viewer, &hit, &w);
         (pdf > 0.0 && pdf.is_finite()).then(|| (wi, g / pdf, pdf / cos_theta(wi).max(MIN_COS), p as u8))
+    }
+}
+
+/// [`YanFur::viewer`]: what depends on ω_o alone.
+struct Viewer {
+    sin_o: f64,
+    cos_o: f64,
+    phi_o: f64,
+    /// The exit inclination the medulla tables are indexed by, `−θ_o`.
+    theta_e: f64,
+    /// Centre θ_c, width β_p and truncated mass of the R, TT and TRT longitudinal Gaussians.
+    lobes: [(f64, f64, f64); 3],
+}
+
+impl Viewer {
+    /// `M_p(θ_i; θ_o)`: density in θ_i.
+    #[inline]
+    fn longitudinal(&self, p: usize, theta_i: f64) -> f64 {
+        let (centre, b, mass) = self.lobes[p];
+        gaussian(b, theta_i - centre) / mass
     }
 }
 
@@ -856,21 +883,21 @@ impl ScatteringFunction for YanFur {
 
     fn eval(&self, wi: DVec3, wo: DVec3, h: f64) -> Rgb {
         match self.params.field {
-            Field::Near => self.near_eval_and_pdf(wi, wo, h).0,
+            Field::Near => self.near_eval_and_pdf(wi, &self.viewer(wo), h).0,
             Field::Far => self.eval_far(wi, wo),
         }
     }
 
     fn pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> f64 {
         match self.params.field {
-            Field::Near => self.near_eval_and_pdf(wi, wo, h).1,
+            Field::Near => self.near_eval_and_pdf(wi, &self.viewer(wo), h).1,
             Field::Far => self.far_pdf(wi, wo),
         }
     }
 
     fn eval_and_pdf(&self, wi: DVec3, wo: DVec3, h: f64) -> (Rgb, f64) {
         match self.params.field {
-            Field::Near => self.near_eval_and_pdf(wi, wo, h),
+            Field::Near => self.near_eval_and_pdf(wi, &self.viewer(wo), h),
             Field::Far => (self.far_eval(wi, wo), self.far_pdf(wi, wo)),
         }
     }

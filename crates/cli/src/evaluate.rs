@@ -132,10 +132,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         }
         Progress::Rendering(entry) => println!("{:<14} {}", entry.name, entry.given),
         Progress::Model(r) => {
-            let (m, floor) = (&r.metrics, &r.floor);
+            let (m, floor, c) = (&r.metrics, &r.floor, r.hair_colour);
             println!(
                 "{:<14} rmse {:.5} (noise {:.5}, excess {:.5})  relmse {:.5} (noise {:.5})  ssim {:.4}  flip {:.4}  \
-                 image noise {:.5}",
+                 image noise {:.5}  hair R/G/B over reference {:.3}/{:.3}/{:.3}",
                 r.entry.name,
                 m.rmse,
                 floor.rmse,
@@ -144,7 +144,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 floor.relmse,
                 m.ssim,
                 m.flip,
-                r.render.noise()
+                r.render.noise(),
+                c[0],
+                c[1],
+                c[2]
             );
             if written.is_ok() {
                 written = write(&r.render.linear_image(), &args.out, &r.entry.name);
@@ -167,6 +170,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             format!("excess {:.4}", r.excess_rmse()),
             format!("relmse {:.3} ±{:.3}", r.metrics.relmse, r.floor.relmse),
             format!("ssim {:.3} flip {:.3}", r.metrics.ssim, r.metrics.flip),
+            format!("hair R/G/B {:.2}/{:.2}/{:.2}", r.hair_colour[0], r.hair_colour[1], r.hair_colour[2]),
         ],
     }));
     let scale = 224u32.div_ceil(tiles[0].image.width as u32).max(1);

@@ -150,6 +150,9 @@ pub struct ModelResult {
     pub metrics: Metrics,
     /// Their noise floors.
     pub floor: NoiseFloor,
+    /// Per channel, the render's mean over the pixels the hair covers over the reference's
+    /// ([`hair_colour`]): brightness and colour of the hair alone.
+    pub hair_colour: Rgb,
 }
 
 impl ModelResult {
@@ -175,6 +178,7 @@ impl ModelResult {
             flip: self.metrics.flip,
             image_noise: self.render.noise(),
             reference_noise,
+            hair_colour: [self.hair_colour[0], self.hair_colour[1], self.hair_colour[2]],
         }
     }
 }
@@ -204,6 +208,8 @@ pub struct MetricsRow {
     pub image_noise: f64,
     /// The reference's noise.
     pub reference_noise: f64,
+    /// Per channel, the hair pixels' mean over the reference's ([`ModelResult::hair_colour`]).
+    pub hair_colour: [f64; 3],
 }
 
 /// What the evaluation reports as it goes.
@@ -367,17 +373,47 @@ impl EnergyBound {
     }
 }
 
-/// Kajiya–Kay fitted to `target`: first `(k_d, k_s, p)` to its luminance, then, with that p,
-/// `(k_d, k_s)` to each channel; every fit is weighted least squares on the fitting grid,
-/// constrained to the energy bound ([`EnergyBound`]: at every checked θ_o, Kajiya–Kay's furnace
-/// at most the target's and at most 1), so the result obeys it in every channel.
+/// The colour Kajiya–Kay is given: per channel over its luminance, the light the target
+/// scatters toward the viewer's side of the fiber (`|φ_i − φ_o| < π/2`, where the reflection
+/// Kajiya–Kay's lobe stands for goes), `∫ f_s cosθ_i dω_i` over that half, summed over
+/// θ_o ∈ {0°, ±30°, ±60°}; midpoint rule, 96 θ_i × 48 φ_i nodes.
+///
+/// Kajiya–Kay's lobe does not depend on the azimuth, so it shows whatever colour it has from
+/// every side. Dark hair reflects white (R) toward the viewer's side and transmits red (TT)
+/// to the other: a colour fitted to both, channel by channel, is the red of the transmission
+/// seen in reflection — the copper Kajiya–Kay of the gallery's black hair before this colour
+/// (k_s 0.065, 0.038, 0.031 for eumelanin 3).
+#[must_use]
+pub fn reflected_colour(target: &Model) -> Rgb {
+    const THETA: usize = 96;
+    const PHI: usize = 48;
+    let (dt, dp) = (PI / THETA as f64, PI / PHI as f64);
+    let mut sum = Rgb::ZERO;
+    for theta_o in [0.0, 30.0, -30.0, 60.0, -60.0f64] {
+        let wo = direction(theta_o.to_radians(), 0.0);
+        for i in 0..THETA {
+            let ti = -FRAC_PI_2 + (i as f64 + 0.5) * dt;
+            for j in 0..PHI {
+                let phi = -FRAC_PI_2 + (j as f64 + 0.5) * dp;
+                sum += target.eval_far(direction(ti, phi), wo) * (ti.cos().powi(2) * dt * dp);
+            }
+        }
+    }
+    let lum = sum.luminance();
+    if lum > 0.0 { sum / lum } else { Rgb::ONE }
+}
+
+/// Kajiya–Kay fitted to `target`: `(k_d, k_s, p)` to its luminance by weighted least squares
+/// on the fitting grid, then coloured by [`reflected_colour`] (`k_d` and `k_s` times that
+/// colour, whose luminance is 1) and, if a channel then leaves the energy bound, scaled down
+/// as a whole until every channel is inside it. The bound ([`EnergyBound`]): at every checked
+/// θ_o, Kajiya–Kay's furnace at most the target's and at most 1.
 pub fn fitted_kajiya_kay(target: &Model) -> Result<KajiyaKayParams, CompareError> {
     let grid = fiberlab_fit::model_grid();
-    let values: Vec<Rgb> = grid.iter().map(|&(wi, wo, _)| target.eval_far(wi, wo)).collect();
     let bound = EnergyBound::of(target);
     let info = KajiyaKay::INFO;
     let base = ParamSet::parse::<&str, &str>(info.name, info.params, &[])?;
-    let lum: Vec<f64> = values.iter().map(|v| v.luminance()).collect();
+    let lum: Vec<f64> = grid.iter().map(|&(wi, wo, _)| target.eval_far(wi, wo).luminance()).collect();
     let value =
         |r: &fiberlab_fit::FitResult, key: &str| r.params.iter().find(|(k, _)| k == key).map_or(0.0, |(_, v)| *v);
     // A start inside the bound: the default shape, scaled down until it is admitted.
@@ -389,23 +425,24 @@ pub fn fitted_kajiya_kay(target: &Model) -> Result<KajiyaKayParams, CompareError
     let free = [("k_d".to_string(), 0.02 * scale), ("k_s".to_string(), 0.1 * scale), ("p".to_string(), 10.0)];
     let admits_grey = |m: &Model| bound.admits(m, None);
     let grey = fiberlab_fit::fit_constrained(&base, &free, &observations(&grid, &lum), 400, Some(&admits_grey))?;
-    let p = value(&grey, "p");
-    let with_p = ParamSet::parse(info.name, info.params, &[("p", format!("{p}"))])?;
-    let mut k_d = [0.0; 3];
-    let mut k_s = [0.0; 3];
-    for c in 0..3 {
-        let admits = |m: &Model| bound.admits(m, Some(c));
-        // A start inside this channel's bound (W is linear in k_d, k_s).
-        let mut start = [value(&grey, "k_d"), value(&grey, "k_s")];
-        while !admits(&build_kajiya_kay(start[0], start[1], p)?) && start[1] + start[0] > 1e-9 {
-            start = start.map(|k| 0.5 * k);
+    let (k_d, k_s, p) = (value(&grey, "k_d"), value(&grey, "k_s"), value(&grey, "p"));
+    let colour = reflected_colour(target);
+    let coloured = |s: f64| KajiyaKayParams { k_d: colour * (k_d * s), k_s: colour * (k_s * s), p };
+    let admitted = |s: f64| -> Result<bool, CompareError> {
+        let m: Model = KajiyaKay::new(coloured(s)).map_err(ModelError::from)?.into();
+        Ok((0..3).all(|c| bound.admits(&m, Some(c))))
+    };
+    // W is linear in the scale: bisect for the largest admitted one (1 if the colour fits).
+    let mut s = 1.0;
+    if !admitted(1.0)? {
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if admitted(mid)? { lo = mid } else { hi = mid }
         }
-        let start = [("k_d".to_string(), start[0]), ("k_s".to_string(), start[1])];
-        let channel: Vec<f64> = values.iter().map(|v| v[c]).collect();
-        let r = fiberlab_fit::fit_constrained(&with_p, &start, &observations(&grid, &channel), 300, Some(&admits))?;
-        (k_d[c], k_s[c]) = (value(&r, "k_d"), value(&r, "k_s"));
+        s = lo;
     }
-    Ok(KajiyaKayParams { k_d: Rgb::new(k_d[0], k_d[1], k_d[2]), k_s: Rgb::new(k_s[0], k_s[1], k_s[2]), p })
+    Ok(coloured(s))
 }
 
 /// A grey Kajiya–Kay fiber as a model.
@@ -494,6 +531,8 @@ pub fn evaluate(
     };
     report(Progress::Reference(&reference));
     let spp = request.spp.unwrap_or(settings.spp);
+    // Where the hair is: the same camera and geometry for every model.
+    let coverage = fiberlab_render::fiber_coverage::fiber_coverage(scene, HAIR_COVERAGE_RAYS);
     let mut results = Vec::new();
     for entry in entries {
         report(Progress::Rendering(&entry));
@@ -501,11 +540,32 @@ pub fn evaluate(
         let render = render_in_halves(scene, settings, spp, settings.seed);
         let (metrics, _) = compare(&reference.mean, &render.mean, None, false)?;
         let floor = noise_floor(&render, &reference);
-        let result = ModelResult { entry, render, metrics, floor };
+        let hair_colour = hair_colour(&render.mean, &reference.mean, &coverage);
+        let result = ModelResult { entry, render, metrics, floor, hair_colour };
         report(Progress::Model(&result));
         results.push(result);
     }
     Ok((reference, results))
+}
+
+/// Camera rays per pixel side for the hair coverage ([`hair_colour`]'s weights).
+const HAIR_COVERAGE_RAYS: u32 = 4;
+
+/// Per channel, `Σ c·model / Σ c·reference` over the pixels, weighted by the hair's coverage
+/// `c` (`fiber_coverage`): how bright and what colour the hair comes out against the
+/// reference (1, 1, 1: the same). 0 where the reference has nothing under the hair.
+#[must_use]
+pub fn hair_colour(model: &Image, reference: &Image, coverage: &LinearImage) -> Rgb {
+    let mut sums = [[0.0f64; 3]; 2];
+    for ((m, r), c) in model.pixels.iter().zip(&reference.pixels).zip(coverage.pixels()) {
+        let w = f64::from(c[0]);
+        for k in 0..3 {
+            sums[0][k] += w * m[k];
+            sums[1][k] += w * r[k];
+        }
+    }
+    let ratio = |k: usize| if sums[1][k] > 0.0 { sums[0][k] / sums[1][k] } else { 0.0 };
+    Rgb::new(ratio(0), ratio(1), ratio(2))
 }
 
 #[cfg(test)]
@@ -625,6 +685,63 @@ mod tests {
             s += g(-FRAC_PI_2 + k as f64 * d) * if k % 2 == 1 { 4.0 } else { 2.0 };
         }
         PI * PI * k_d + TAU * k_s * s * d / 3.0
+    }
+
+    /// Kajiya–Kay fitted to black hair (eumelanin 3) has the colour of the light the hair
+    /// scatters toward the viewer's side, here by composite Simpson in θ_i and φ_i (an
+    /// independent rule) at θ_o = 0: grey, not the copper of its transmission (the channel-by-
+    /// channel fit gave k_s 0.065, 0.038, 0.031, R/B = 2.1). And it stays in the bound.
+    #[test]
+    fn fitted_kajiya_kay_has_the_colour_of_the_hair_s_reflection() {
+        let target = build("chiang", &[("eumelanin", "3")]);
+        let kk = fitted_kajiya_kay(&target).unwrap();
+        let n = 120;
+        let simpson = |k: usize| if k == 0 || k == n { 1.0 } else if k % 2 == 1 { 4.0 } else { 2.0 };
+        let (dt, dp) = (PI / n as f64, PI / n as f64);
+        let wo = direction(0.0, 0.0);
+        let mut half = Rgb::ZERO;
+        for i in 0..=n {
+            let ti = -FRAC_PI_2 + i as f64 * dt;
+            for j in 0..=n {
+                let phi = -FRAC_PI_2 + j as f64 * dp;
+                let w = simpson(i) * simpson(j) * ti.cos().powi(2);
+                half += target.eval_far(direction(ti, phi), wo) * w;
+            }
+        }
+        let want = half / half.luminance();
+        let got = kk.k_s / kk.k_s.luminance();
+        for c in 0..3 {
+            assert!((got[c] - want[c]).abs() < 0.01 * want[c], "channel {c}: k_s colour {got:?}, reflected {want:?}");
+        }
+        assert!(got[0] / got[2] < 1.1, "not grey: {kk:?}");
+        let mut brightest: f64 = 0.0;
+        for t in bound_inclinations() {
+            let hair = fiberlab_scatter::radiometry::furnace(
+                &target,
+                direction(t, 0.5),
+                &fiberlab_scatter::radiometry::Quadrature { theta: 128, phi: 128, h: 8 },
+            );
+            for c in 0..3 {
+                let w = kajiya_kay_furnace(kk.k_d[c], kk.k_s[c], kk.p, t);
+                assert!(w <= hair[c] + 5e-3, "channel {c}, θ_o {t}: W = {w} > the hair's {}", hair[c]);
+                brightest = brightest.max(w / hair[c]);
+            }
+        }
+        assert!(brightest > 0.5, "trivially dark: W at most {brightest} of the hair's ({kk:?})");
+    }
+
+    /// The hair colour is a coverage-weighted ratio of channel sums: pixels the hair does not
+    /// cover do not count, and a render equal to the reference gives 1, 1, 1.
+    #[test]
+    fn hair_colour_weighs_only_the_hair() {
+        let image = |px: Vec<[f64; 3]>| Image { width: 2, height: 1, pixels: px };
+        let reference = image(vec![[0.2, 0.2, 0.2], [5.0, 5.0, 5.0]]);
+        let model = image(vec![[0.4, 0.2, 0.1], [1.0, 9.0, 0.0]]);
+        let coverage = LinearImage::from_pixels(2, 1, vec![[1.0; 3], [0.0; 3]]).unwrap();
+        let c = hair_colour(&model, &reference, &coverage);
+        assert!((c[0] - 2.0).abs() < 1e-12 && (c[1] - 1.0).abs() < 1e-12 && (c[2] - 0.5).abs() < 1e-12, "{c:?}");
+        let same = hair_colour(&reference, &reference, &coverage);
+        assert_eq!([same[0], same[1], same[2]], [1.0; 3]);
     }
 
     /// Kajiya–Kay fitted to a bright blond Chiang fiber (the case that exploded before the

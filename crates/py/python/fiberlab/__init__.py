@@ -471,7 +471,8 @@ def evaluate(scene=None, *, text: Optional[str] = None, models=("kajiya-kay", "m
 
     Returns ``{"metrics": [...], "images": {...}}``: ``metrics`` the rows of ``metrics.json``
     (``model``, ``given``, ``rmse``, ``rmse_noise``, ``rmse_excess``, ``relmse``,
-    ``relmse_noise``, ``ssim``, ``flip``, ``image_noise``, ``reference_noise``), ``images``
+    ``relmse_noise``, ``ssim``, ``flip``, ``image_noise``, ``reference_noise``,
+    ``hair_colour``: per channel, the hair pixels' mean over the reference's), ``images``
     ``"reference"`` and each model → ``(H, W, 3)`` float32 linear RGB."""
     path = None
     if isinstance(scene, Mapping):

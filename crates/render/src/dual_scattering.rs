@@ -1151,7 +1151,8 @@ mod tests {
         let wi = fiberlab_math::frame::direction(theta, 0.0);
         // Backscatter only: global term off (d_f = 0), shadowed (n = 1), d_b = 1; with each
         // series of Ā_b against its own table column.
-        let series: [(BackSeries, fn(&DualTableRow) -> Rgb); 2] =
+        type Column = fn(&DualTableRow) -> Rgb;
+        let series: [(BackSeries, Column); 2] =
             [(BackSeries::Paper, |r| r.backscatter), (BackSeries::AtFiber, |r| r.backscatter_at_fiber)];
         let mut tables = None;
         for (back_series, column) in series {

@@ -39,7 +39,9 @@
 //! * `Unobstructed` (`on`): only when no fiber lies in between, weighted by the sample's
 //!   weight `f_s cosθ/p`; light off the skin under a thick layer mostly never arrives;
 //! * `Through` (default): the fibers in between are counted as for a light sample, and the
-//!   surface is shaded like a light behind them, `F(ω, ω_o; n, ∏ā_f, σ̄_f²)·cosθ/p`.
+//!   surface is shaded like a light behind them, `F(ω, ω_o; n, ∏ā_f, σ̄_f²)·cosθ/p`, with its
+//!   own d_f ([`DualScatteringSettings::bounce_forward_density`], 1: the surface is an extended
+//!   source).
 //!
 //! Emission seen directly along that ray (sphere lights) is skipped.
 //!
@@ -165,6 +167,11 @@ pub struct DualScatteringSettings {
     pub count: FiberCount,
     /// Forward density factor d_f.
     pub forward_density: f64,
+    /// d_f of a `Through` bounce's light, from a surface behind the fibers. The paper's d_f < 1
+    /// stands for forward-scattered light that leaves the straight line to a small light; from
+    /// an extended surface (skin, floor) the light scattered out of one line is made up by that
+    /// scattered into it from its neighbours, so the default is 1 (`bounce_d_f`).
+    pub bounce_forward_density: f64,
     /// Backward density factor d_b.
     pub backward_density: f64,
     /// `k_back`: 1 is the paper's form, ¼ makes `∫ f_back cosθ_o dω_o ≈ Ā_b`.
@@ -242,6 +249,7 @@ impl Default for DualScatteringSettings {
         Self {
             count: FiberCount::Exact,
             forward_density: 0.5,
+            bounce_forward_density: 1.0,
             backward_density: 1.0,
             back_scale: 0.25,
             back_pi: true,
@@ -289,6 +297,7 @@ impl DualScatteringSettings {
             };
             match key {
                 "d_f" => s.forward_density = number()?,
+                "bounce_d_f" => s.bounce_forward_density = number()?,
                 "d_b" => s.backward_density = number()?,
                 "k_back" => s.back_scale = number()?,
                 "grid" => {
@@ -332,7 +341,7 @@ impl DualScatteringSettings {
                 }
                 _ => {
                     return Err(format!(
-                        "dual {key}: unknown (known: d_f, d_b, k_back, pi, spread, a_f, back_series, global, grid, grid_near, \
+                        "dual {key}: unknown (known: d_f, bounce_d_f, d_b, k_back, pi, spread, a_f, back_series, global, grid, grid_near, \
                          surface_bounce, bounce_sampling, back_depth, cutoff, bounce_cutoff, bounce_p)"
                     ));
                 }
@@ -585,6 +594,25 @@ impl DualScattering {
         spread2: Rgb,
         back_depth: Rgb,
     ) -> Rgb {
+        let d_f = self.settings.forward_density;
+        self.scattering_with(scene, material, wi, wo, h, n, product, spread2, back_depth, d_f)
+    }
+
+    /// [`DualScattering::scattering_with_depth`] with the forward density factor `d_f`.
+    #[allow(clippy::too_many_arguments)]
+    fn scattering_with(
+        &self,
+        scene: &Scene,
+        material: FiberMaterialId,
+        wi: DVec3,
+        wo: DVec3,
+        h: f64,
+        n: f64,
+        product: Rgb,
+        spread2: Rgb,
+        back_depth: Rgb,
+        d_f: f64,
+    ) -> Rgb {
         let s = &self.settings;
         let t = self.tables_of(material);
         let theta_i = wi.x.clamp(-1.0, 1.0).asin();
@@ -635,7 +663,7 @@ impl DualScattering {
                 f_g += amplitude * gaussian(Rgb::splat(theta_h) - shift, variance) * (c_g * inv_cos2);
             }
             let c_pi = if s.back_pi { PI } else { 1.0 };
-            let t_f = product * s.forward_density;
+            let t_f = product * d_f;
             total += t_f * (f_g + f_back(spread2) * (c_pi * s.backward_density)) * (1.0 - direct);
         }
         total
@@ -803,8 +831,9 @@ impl DualScattering {
                 }
                 let frame = fiber.frame(ray_d);
                 let (wi_l, wo_l) = (frame.to_local(wi), frame.to_local(-ray_d));
+                let d_f = self.settings.bounce_forward_density;
                 let f =
-                    self.scattering_with_depth(scene, material, wi_l, wo_l, fiber.h, n, product, spread2, back_depth);
+                    self.scattering_with(scene, material, wi_l, wo_l, fiber.h, n, product, spread2, back_depth, d_f);
                 let cos_i = (1.0 - wi_l.x * wi_l.x).max(0.0).sqrt();
                 let factor = f * (cos_i / pdf);
                 (!factor.is_black() && factor.is_finite()).then_some((hit, factor))
@@ -984,6 +1013,9 @@ mod tests {
         let scene = build(&lines_at(&[-0.3, -0.5, -0.7, -1.5], hit.p.y));
         let settings = DualScatteringSettings { count_cutoff: 0.0, bounce_cutoff: 0.0, ..Default::default() };
         let dual = DualScattering::new(&scene, settings, &small_tables()).unwrap();
+        // The bounce's own d_f: the expected value from F with that d_f.
+        let with_bounce_d_f = DualScatteringSettings { forward_density: settings.bounce_forward_density, ..settings };
+        let expected = DualScattering::new(&scene, with_bounce_d_f, &small_tables()).unwrap();
         let mut rays = 0;
         let wi = -DVec3::Z;
         let (surface, factor) = dual
@@ -996,7 +1028,7 @@ mod tests {
         let frame = hit.frame(ray_d);
         let (wi_l, wo_l) = (frame.to_local(wi), frame.to_local(-ray_d));
         let product = Rgb::new(af[0].powi(3), af[1].powi(3), af[2].powi(3));
-        let f = dual.scattering(&scene, material, wi_l, wo_l, hit.h, 3.0, product, var * 3.0);
+        let f = expected.scattering(&scene, material, wi_l, wo_l, hit.h, 3.0, product, var * 3.0);
         let want = f * ((1.0 - wi_l.x * wi_l.x).sqrt() / 0.7);
         assert!(!want.is_black());
         for c in 0..3 {
@@ -1224,8 +1256,9 @@ mod tests {
 
     #[test]
     fn options_set_each_setting_and_bad_ones_name_the_key_and_the_choices() {
-        const OPTIONS: [&str; 16] = [
+        const OPTIONS: [&str; 17] = [
             "d_f=0.25",
+            "bounce_d_f=0.5",
             "d_b=2",
             "k_back=1",
             "grid=32",
@@ -1246,6 +1279,7 @@ mod tests {
         let expected = DualScatteringSettings {
             count: FiberCount::Grid,
             forward_density: 0.25,
+            bounce_forward_density: 0.5,
             backward_density: 2.0,
             back_scale: 1.0,
             grid_resolution: 32,

@@ -57,7 +57,7 @@ pub struct Args {
     /// BVH) or from a density `grid` (default: the scene's `[render] fiber_count`).
     #[arg(long, value_name = "exact|grid", value_parser = ["exact", "grid"])]
     fiber_count: Option<String>,
-    /// With dual scattering, a constant or choice (defaults shown): `d_f=0.5`, `d_b=1`, `k_back=0.25`,
+    /// With dual scattering, a constant or choice (defaults shown): `d_f=0.5`, `bounce_d_f=1` (d_f of the light off a surface that the through bounce finds), `d_b=1`, `k_back=0.25`,
     /// `pi=on|off` (on), `spread=weighted|literal`, `global=energy|forward-mean`, `grid=64`
     /// (cells along the longest side), `grid_near=1` (grid count: the first this many cells of a ray
     /// walked exactly, the grid beyond; 0 = grid only), `cutoff=1e-4` (the exact count stops below this ∏ā_f),

@@ -74,11 +74,23 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let out = if crate::interrupt::stopped() { args.out.partial() } else { args.out.clone() };
     eprintln!("dual-scattering tables: {} nodes, built in {:.2} s", tables.rows().len(), start.elapsed().as_secs_f64());
     let mut csv = String::from("theta_deg");
-    let mut columns: Vec<String> =
-        ["af", "ab", "abar_b", "alpha_f", "beta2_f", "alpha_b", "beta2_b", "delta_b", "sigma_b", "sigma_b_literal"]
-            .iter()
-            .map(|s| (*s).to_owned())
-            .collect();
+    let mut columns: Vec<String> = [
+        "af",
+        "ab",
+        "abar_b",
+        "alpha_f",
+        "beta2_f",
+        "alpha_b",
+        "beta2_b",
+        "delta_b",
+        "sigma_b",
+        "sigma_b_literal",
+        "af_beam",
+        "abar_b_at_fiber",
+    ]
+    .iter()
+    .map(|s| (*s).to_owned())
+    .collect();
     for lobe in tables.lobe_names() {
         let lobe = lobe.to_lowercase().replace('+', "plus").replace('≥', "ge");
         for q in ["af", "ab", "alpha", "beta2", "ng"] {
@@ -102,6 +114,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             row.backscatter_shift,
             row.backscatter_spread,
             row.backscatter_spread_literal,
+            row.forward_beam,
+            row.backscatter_at_fiber,
         ];
         for l in &row.lobes {
             values.extend([l.forward, l.backward, l.shift, l.variance, l.global_azimuthal]);

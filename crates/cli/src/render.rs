@@ -57,12 +57,12 @@ pub struct Args {
     /// BVH) or from a density `grid` (default: the scene's `[render] fiber_count`).
     #[arg(long, value_name = "exact|grid", value_parser = ["exact", "grid"])]
     fiber_count: Option<String>,
-    /// With dual scattering, a constant or choice (defaults shown): `d_f=0.5`, `d_b=1`, `k_back=0.25`,
+    /// With dual scattering, a constant or choice (defaults shown): `d_f=0.5`, `bounce_d_f=1` (d_f of the light off a surface that the through bounce finds), `d_b=1`, `k_back=0.25`,
     /// `pi=on|off` (on), `spread=weighted|literal`, `global=energy|forward-mean`, `grid=64`
     /// (cells along the longest side), `grid_near=1` (grid count: the first this many cells of a ray
     /// walked exactly, the grid beyond; 0 = grid only), `cutoff=1e-4` (the exact count stops below this ∏ā_f),
     /// `bounce_cutoff=0.01` (the same for the count toward a surface), `bounce_p=1` (Russian roulette:
-    /// the bounce toward a surface is traced with this probability, weight 1/p), `bounce_sampling=mixture|model` (how the bounce toward a surface draws its direction: the mixture of the fiber's sampler and the dual lobes, or the fiber's sampler alone), `back_depth=infinite|counted` (the hair behind a fiber that its backscatter assumes: a half-space, or the fibers the camera ray meets beyond it), `surface_bounce=through|on|off` (through: light off surfaces
+    /// the bounce toward a surface is traced with this probability, weight 1/p), `bounce_sampling=mixture|model` (how the bounce toward a surface draws its direction: the mixture of the fiber's sampler and the dual lobes, or the fiber's sampler alone), `back_depth=counted|infinite` (the hair behind a fiber that its backscatter assumes: the fibers the camera ray meets beyond it, or a half-space), `a_f=beam|averaged` (the factors of ∏a_f on a counted line: light from the line's own azimuth, or the paper's average over a half-circle), `back_series=at-fiber|paper` (the backscatter series: the returning light ends at the fiber, or the paper's), `surface_bounce=through|on|off` (through: light off surfaces
     /// reaches the hair through the fibers in between; on: only with no fiber in between; off:
     /// left out). Repeatable.
     #[arg(long = "dual", value_name = "KEY=VALUE")]

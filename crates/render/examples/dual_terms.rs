@@ -15,6 +15,15 @@
 //!   surface bounce;
 //! * `other`: everything whose first vertex is not a fiber (skin, sky seen directly).
 //!
+//! The path's classes follow the fiber's own halves (an event is backward when the light
+//! leaves on the side it came from), which is not how dual scattering splits the light: a
+//! chain of forward events can turn round and bring light back up out of the hair. So the
+//! fiber-only paths (`forward` + `back`) are also split by where vertex 2 lies, on the family's
+//! head (a sphere at the origin): `from above` (vertex 2 farther from the centre than vertex 1:
+//! the light reached vertex 1 from the side of the hair's surface, what the global term stands
+//! for) and `from below` (vertex 2 deeper: light returning from the hair behind the fiber, what
+//! the local backscatter stands for).
+//!
 //! The dual side renders the same scene with terms switched off: `d_f = d_b = 0`, no bounce
 //! (the direct term `w·f_s`), `d_b = 0` (adds the global term), no bounce (adds the
 //! backscatter), and the default (adds the surface bounce); each term is the difference of
@@ -42,17 +51,21 @@ use std::sync::atomic::AtomicBool;
 
 /// The path tracer's categories (module docs).
 const TERMS: [&str; 5] = ["direct", "forward", "back", "surface", "other"];
+/// The fiber-only paths (`forward` + `back`) split by vertex 2's depth (module docs).
+const FROM: [&str; 2] = ["fibers, from above", "fibers, from below"];
 const MAX_DEPTH: usize = 64;
 
 /// One path's contributions, filed by category.
-fn trace(scene: &Scene, px: f64, py: f64, rng: &mut SplitMix64) -> [Rgb; 5] {
-    let mut out = [Rgb::ZERO; 5];
+fn trace(scene: &Scene, px: f64, py: f64, rng: &mut SplitMix64) -> [Rgb; 7] {
+    let mut out = [Rgb::ZERO; 7];
     let mut ray = scene.camera().ray(px, py);
     let mut beta = Rgb::ONE;
     let picker = scene.light_picker();
     // Category of the path so far: None before the first vertex.
     let mut first_is_fiber = None;
     let (mut backward, mut surface) = (false, false);
+    // Distance of vertex 1 from the head's centre, and whether vertex 2 is deeper.
+    let (mut radius_1, mut below) = (0.0, false);
     for depth in 0..MAX_DEPTH {
         let Some(hit) = scene.intersect(&ray) else {
             if depth == 0 {
@@ -79,6 +92,11 @@ fn trace(scene: &Scene, px: f64, py: f64, rng: &mut SplitMix64) -> [Rgb; 5] {
             Hit::Fiber { hit, .. } => hit.p,
             Hit::Surface { p, .. } => *p,
         };
+        match depth {
+            0 => radius_1 = p.length(),
+            1 => below = p.length() < radius_1,
+            _ => {}
+        }
         let eps = 1e-9 * (1.0 + p.abs().max_element());
         // f·cos and a sampled continuation for this vertex.
         let f_cos = |wi: DVec3| -> Rgb {
@@ -115,7 +133,11 @@ fn trace(scene: &Scene, px: f64, py: f64, rng: &mut SplitMix64) -> [Rgb; 5] {
                     {
                         c = 2;
                     }
-                    out[c] += beta * f * ls.radiance / (select * ls.pdf);
+                    let light = beta * f * ls.radiance / (select * ls.pdf);
+                    out[c] += light;
+                    if c == 1 || c == 2 {
+                        out[5 + usize::from(below)] += light;
+                    }
                 }
             }
         }
@@ -168,13 +190,13 @@ fn backward_event(hit: &fiberlab_geometry::curves::CurveHit, ray_d: DVec3, wi: D
 fn term_images(scene: &Scene, spp: u32) -> Vec<LinearImage> {
     let camera = scene.camera();
     let (w, h) = (camera.width as usize, camera.height as usize);
-    let rows: Vec<Vec<[Rgb; 5]>> = (0..h)
+    let rows: Vec<Vec<[Rgb; 7]>> = (0..h)
         .into_par_iter()
         .map(|y| {
             (0..w)
                 .map(|x| {
                     let mut rng = SplitMix64::new(0x5eed ^ ((y * w + x) as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-                    let mut sum = [Rgb::ZERO; 5];
+                    let mut sum = [Rgb::ZERO; 7];
                     for _ in 0..spp {
                         let (jx, jy) = (rng.next_f64(), rng.next_f64());
                         let c = trace(scene, x as f64 + jx, y as f64 + jy, &mut rng);
@@ -187,7 +209,7 @@ fn term_images(scene: &Scene, spp: u32) -> Vec<LinearImage> {
                 .collect()
         })
         .collect();
-    (0..5)
+    (0..7)
         .map(|k| {
             let px: Vec<[f32; 3]> =
                 rows.iter().flatten().map(|c| [c[k][0] as f32, c[k][1] as f32, c[k][2] as f32]).collect();
@@ -227,7 +249,7 @@ fn main() {
     let (scene, _) = file.build().expect("family scene");
     let mask = fiber_coverage(&scene, 4);
     let path = term_images(&scene, path_spp);
-    let total = path.iter().skip(1).fold(path[0].clone(), |a, b| add(&a, b, 1.0));
+    let total = path[1..5].iter().fold(path[0].clone(), |a, b| add(&a, b, 1.0));
     // The independent tracer against the renderer's path tracer, as a check of both.
     let render_with = |integrator: Integrator| {
         let settings = RenderSettings { spp, seed: 0, integrator, ..RenderSettings::default() };
@@ -259,6 +281,15 @@ fn main() {
     for (k, name) in TERMS.iter().enumerate() {
         let (a, b) = (ratio(&path[k]), ratio(&dual_terms[k]));
         println!("| {name} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |", a[0], a[1], a[2], b[0], b[1], b[2]);
+    }
+    // The global term against the light from above, the backscatter against the light from below.
+    for (k, name) in FROM.iter().enumerate() {
+        let (a, b) = (ratio(&path[5 + k]), ratio(&dual_terms[1 + k]));
+        let term = ["global", "backscatter"][k];
+        println!(
+            "| {name} (dual: {term}) | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
+            a[0], a[1], a[2], b[0], b[1], b[2]
+        );
     }
     let d = ratio(&d_all);
     println!("| all | 1 | 1 | 1 | {:.3} | {:.3} | {:.3} |", d[0], d[1], d[2]);

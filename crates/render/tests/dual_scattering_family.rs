@@ -10,11 +10,10 @@
 //!
 //! **What this does not show**: issue 37 asks for every channel's mean within 3 % of the path
 //! tracer's. The dual-scattering approximation is not there: on these members it is between
-//! 0.80 and 1.26 times the path tracer (measured at 32 spp against 128 spp), so [`CHANNEL_TOL`]
-//! guards against regressions, not the target. The second test shows what the counted
-//! backscatter depth (`back_depth=counted`) does on the sparse blond head over a dark head,
-//! where the paper's half-space of hair behind every fiber (the default) makes dual scattering
-//! 1.26 / 1.15 / 1.04 times the path tracer in R / G / B.
+//! 0.90 and 1.05 times the path tracer (measured at 32 spp against 128 spp; it was 0.80–1.26
+//! with the paper's forward attenuation, backscatter series and half-space), so
+//! [`CHANNEL_TOL`] guards against regressions, not the target. The second test shows that the
+//! defaults beat the paper's form on blond hair over a dark head, dense and sparse.
 
 use fiberlab_io::LinearImage;
 use fiberlab_io::block_error::{block_error, channel_ratios, firefly_ratio};
@@ -27,12 +26,12 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 /// Largest |channel mean ratio − 1|: the reference's noise at 128 spp and the dual image's at
-/// 32 spp are below 1 % here; the rest (up to 0.26 on these members) is the approximation's
+/// 32 spp are below 1 % here; the rest (up to 0.097 on these members) is the approximation's
 /// bias (module docs: the issue's target of 0.03 is not met).
-const CHANNEL_TOL: f64 = 0.3;
-/// Largest RMS relative error of the hair's 16 × 16 blocks (the bias included: 0.33 on the
-/// sparse blond head over a dark head, whose one block is 24 % too bright in R).
-const BLOCK_TOL: f64 = 0.4;
+const CHANNEL_TOL: f64 = 0.15;
+/// Largest RMS relative error of the hair's 16 × 16 blocks (the bias included: 0.12 on the
+/// dense blond head over skin; 0.33 with the paper's form on the sparse blond head).
+const BLOCK_TOL: f64 = 0.25;
 /// Largest firefly ratio (p99.99/median of |dual − reference|): the path tracer's own at 32 spp
 /// is 15–40 on these scenes (front light) and up to a few hundred (back light: sun caustics
 /// through TT, in the reference too).
@@ -106,37 +105,44 @@ fn dual_scattering_follows_the_path_tracer_on_the_scene_family() {
     assert!(failures.is_empty(), "outside the bounds: {failures:?}\n{report}");
 }
 
-/// On sparse blond hair over a dark head the paper's half-space backscatter (the default) is
-/// too bright; counting the fibers behind each one (`back_depth=counted`) brings it nearer the
-/// path tracer, but overshoots: counted is 0.89 / 0.89 / 0.91 in R / G / B (40², 32 spp against
-/// 128 spp; the test prints both). The bound is 0.15, and R must be nearer 1 than with the
-/// half-space.
+/// The defaults (the beam's forward attenuation on the counted line, the backscatter series
+/// that ends at the fiber, the counted depth of the hair behind it) against the paper's
+/// (`a_f=averaged`, `back_series=paper`, `back_depth=infinite`) on blond hair over a dark
+/// head, dense and sparse, front sun: the paper's is 0.82 / 0.83 / 0.85 (dense) and
+/// 1.16 / 1.08 / 0.99 (sparse) times the path tracer in R / G / B, the defaults 0.93 / 1.00 /
+/// 1.05 and 0.95 / 0.97 / 1.00 (40², 32 spp against 128; the test prints them). Each member's
+/// worst channel must be nearer 1 with the defaults, and within 0.1.
 #[test]
-fn counted_backscatter_depth_corrects_sparse_hair_over_a_dark_head() {
+fn defaults_beat_the_papers_form_on_blond_hair_dense_and_sparse() {
     let size = FamilySize { px: 40, ..FamilySize::TEST };
-    let m = FamilyScene {
-        density: Density::Sparse,
-        skin: Skin::Dark,
-        light: LightSide::Front,
-        sky: Sky::White,
-        hair: HairColour::Blond,
-    };
-    let file =
-        fiberlab_render::scene_file::SceneFile::parse(&m.scene_text(&size, 32), Path::new("family.toml")).unwrap();
-    let (scene, _) = file.build().unwrap();
-    let mask = fiber_coverage(&scene, 3);
-    let reference = image(&scene, Integrator::Path, 128, 1);
-    let ratios = |option: &str| {
-        let settings = DualScatteringSettings::from_options("exact", &[option]).unwrap();
-        let dual = integrator_named(&scene, "dual-scattering", settings).unwrap();
-        channel_ratios(&image(&scene, dual, 32, 0), &reference, Some(&mask)).unwrap()
-    };
-    let (half_space, counted) = (ratios("back_depth=infinite"), ratios("back_depth=counted"));
-    println!("R/G/B half-space {half_space:.3?}, counted {counted:.3?}");
-    assert!(half_space[0] > 1.15, "half-space backscatter R/G/B {half_space:?}");
-    assert!(counted.iter().all(|r| (r - 1.0).abs() < 0.15), "counted backscatter depth R/G/B {counted:?}");
-    assert!(
-        (counted[0] - 1.0).abs() < (half_space[0] - 1.0).abs(),
-        "counted R {counted:?} against half-space R {half_space:?}"
-    );
+    let paper = ["a_f=averaged", "back_series=paper", "back_depth=infinite"];
+    let mut report = String::new();
+    let mut worst = Vec::new();
+    for density in [Density::Dense, Density::Sparse] {
+        let m = FamilyScene {
+            density,
+            skin: Skin::Dark,
+            light: LightSide::Front,
+            sky: Sky::White,
+            hair: HairColour::Blond,
+        };
+        let file =
+            fiberlab_render::scene_file::SceneFile::parse(&m.scene_text(&size, 32), Path::new("family.toml")).unwrap();
+        let (scene, _) = file.build().unwrap();
+        let mask = fiber_coverage(&scene, 3);
+        let reference = image(&scene, Integrator::Path, 128, 1);
+        let ratios = |options: &[&str]| {
+            let settings = DualScatteringSettings::from_options("exact", options).unwrap();
+            let dual = integrator_named(&scene, "dual-scattering", settings).unwrap();
+            channel_ratios(&image(&scene, dual, 32, 0), &reference, Some(&mask)).unwrap()
+        };
+        let (defaults, papers) = (ratios(&[]), ratios(&paper));
+        let error = |r: [f64; 3]| r.iter().map(|x| (x - 1.0).abs()).fold(0.0, f64::max);
+        report += &format!("{}: defaults {defaults:.3?}, paper's {papers:.3?}\n", m.name());
+        worst.push((m.name(), error(defaults), error(papers)));
+    }
+    println!("{report}");
+    for (name, defaults, papers) in worst {
+        assert!(defaults < papers && defaults < 0.1, "{name}: worst channel {defaults} against {papers}\n{report}");
+    }
 }

@@ -133,8 +133,16 @@ pub struct DualTableRow {
     pub forward: Rgb,
     /// Average backward attenuation ā_b.
     pub backward: Rgb,
+    /// Forward attenuation of a beam, `a_f^beam`: the part of the light from one azimuth that
+    /// leaves on the far side of the fiber (outgoing azimuth more than π/2 from the light's),
+    /// averaged over the offsets the beam hits. What each fiber on a straight line toward the
+    /// light passes on along that line, where ā_f averages the light's azimuth over H.
+    pub forward_beam: Rgb,
     /// Backscatter attenuation Ā_b (eqs. 11, 13, 14).
     pub backscatter: Rgb,
+    /// Ā_b without the last forward crossing of each path ([`backscatter_attenuation_at_fiber`]):
+    /// the light returning from the hair behind a fiber ends at that fiber.
+    pub backscatter_at_fiber: Rgb,
     /// Lobe-weighted forward shift ᾱ_f = Σ α_p a_{f,p}/Σ a_{f,p} (radians, θ_h units).
     pub forward_shift: Rgb,
     /// Lobe-weighted forward width β̄_f² = Σ β_p² a_{f,p}/Σ a_{f,p} (variance weighting).
@@ -182,6 +190,20 @@ pub fn backscatter_attenuation(forward: f64, backward: f64) -> f64 {
     let af2 = af * af;
     let gap = 1.0 - af2;
     ab * af2 / gap + ab.powi(3) * af2 / gap.powi(3)
+}
+
+/// [`backscatter_attenuation`] with one forward crossing fewer per path:
+/// `ā_b ā_f/(1 − ā_f²) + ā_b³ ā_f/(1 − ā_f²)³`. The paper's series lets the light returning
+/// from `i` layers deep cross `i` fibers on the way back up; the last of those is the layer of
+/// the shading fiber itself, where the light ends (it is scattered by that fiber, which is
+/// what `f_back` describes), so the returning light crosses `i − 1`: `ā_f^{2i−1}`, the paper's
+/// sum divided by ā_f. Bounded as ā_f → 1 (limits ½ and ⅛ as for the paper's form) and 0 for
+/// ā_f = 0 (nothing goes deeper than the first layer).
+#[must_use]
+pub fn backscatter_attenuation_at_fiber(forward: f64, backward: f64) -> f64 {
+    let (af, ab) = series_attenuations(forward, backward);
+    let gap = 1.0 - af * af;
+    ab * af / gap + ab.powi(3) * af / gap.powi(3)
 }
 
 /// Mean backscatter shift (eq. 16, one channel):
@@ -317,9 +339,11 @@ impl DualTables {
             if row.lobes.len() != lobe_names.len() {
                 return Err(DualTablesInvalid::LobeCount { theta_deg, got: row.lobes.len(), want: lobe_names.len() });
             }
-            let nonnegative: [(&'static str, Rgb); 6] = [
+            let nonnegative: [(&'static str, Rgb); 8] = [
                 ("af", row.forward),
                 ("ab", row.backward),
+                ("af_beam", row.forward_beam),
+                ("abar_b_at_fiber", row.backscatter_at_fiber),
                 ("abar_b", row.backscatter),
                 ("beta2_f", row.forward_variance),
                 ("beta2_b", row.backward_variance),
@@ -397,6 +421,8 @@ impl DualTables {
 /// first and second moments of θ_h over the lobe's whole energy.
 struct LobeSums {
     forward: Rgb,
+    /// Energy on the far side of the light's own azimuth (relative halves).
+    forward_beam: Rgb,
     backward: Rgb,
     moment1: Rgb,
     moment2: Rgb,
@@ -415,6 +441,7 @@ fn ratio(num: Rgb, den: Rgb) -> Rgb {
 fn row_from_sums(theta: f64, sums: &[LobeSums]) -> Option<DualTableRow> {
     let mut lobes = Vec::with_capacity(sums.len());
     let (mut forward, mut backward) = (Rgb::ZERO, Rgb::ZERO);
+    let forward_beam = sums.iter().fold(Rgb::ZERO, |a, s| a + s.forward_beam);
     let (mut fs, mut fv, mut bs, mut bv) = (Rgb::ZERO, Rgb::ZERO, Rgb::ZERO, Rgb::ZERO);
     for s in sums {
         let total = s.forward + s.backward;
@@ -441,7 +468,9 @@ fn row_from_sums(theta: f64, sums: &[LobeSums]) -> Option<DualTableRow> {
         theta,
         forward,
         backward,
+        forward_beam,
         backscatter: per(&|c| backscatter_attenuation(forward[c], backward[c])),
+        backscatter_at_fiber: per(&|c| backscatter_attenuation_at_fiber(forward[c], backward[c])),
         forward_shift,
         forward_variance,
         backward_shift,
@@ -456,7 +485,9 @@ fn row_from_sums(theta: f64, sums: &[LobeSums]) -> Option<DualTableRow> {
     let finite = [
         row.forward,
         row.backward,
+        row.forward_beam,
         row.backscatter,
+        row.backscatter_at_fiber,
         row.forward_shift,
         row.forward_variance,
         row.backward_shift,
@@ -485,7 +516,13 @@ fn half_integrals(
     let dpr = 2.0 * PI / r.outgoing_azimuths as f64;
     let half = r.outgoing_azimuths / 2;
     let mut sums: Vec<LobeSums> = (0..lobe_count)
-        .map(|_| LobeSums { forward: Rgb::ZERO, backward: Rgb::ZERO, moment1: Rgb::ZERO, moment2: Rgb::ZERO })
+        .map(|_| LobeSums {
+            forward: Rgb::ZERO,
+            forward_beam: Rgb::ZERO,
+            backward: Rgb::ZERO,
+            moment1: Rgb::ZERO,
+            moment2: Rgb::ZERO,
+        })
         .collect();
     let mut terms = vec![Rgb::ZERO; f.lobes().len().max(lobe_count)];
     let mut values = vec![Rgb::ZERO; lobe_count];
@@ -513,12 +550,17 @@ fn half_integrals(
                         values[0] += f.eval(wi, wr, h) * wh;
                     }
                 }
+                // The relative halves: φ_r more than π/2 from φ_i is the beam's far side.
+                let beam_far = (phi_r - phi_i).cos() < 0.0;
                 for (s, v) in sums.iter_mut().zip(&values) {
                     let e = *v * weight;
                     if j < half {
                         s.backward += e;
                     } else {
                         s.forward += e;
+                    }
+                    if beam_far {
+                        s.forward_beam += e;
                     }
                     s.moment1 += e * theta_h;
                     s.moment2 += e * (theta_h * theta_h);
@@ -619,6 +661,73 @@ mod tests {
         // Closed form at a regular point: ā_f = 0.5, ā_b = 0.2.
         let want = 0.2 * 0.25 / 0.75 + 0.008 * 0.25 / 0.75_f64.powi(3);
         assert!((backscatter_attenuation(0.5, 0.2) - want).abs() < 1e-15);
+    }
+
+    #[test]
+    fn backscatter_at_fiber_drops_one_crossing() {
+        // The one-backward-event paths by brute force: Σ_{i≥1} ā_b ā_f^{2i−1}; the three-event
+        // term is the paper's divided by ā_f, like the whole.
+        for (af, ab) in [(0.5, 0.2), (0.683, 0.19), (0.1, 0.05), (0.9, 0.08)] {
+            let one: f64 = (1..2000).map(|i| ab * af_pow(af, 2 * i - 1)).sum();
+            let three = ab.powi(3) * af * af / (1.0 - af * af).powi(3) / af;
+            let got = backscatter_attenuation_at_fiber(af, ab);
+            assert!((got - (one + three)).abs() < 1e-12, "({af}, {ab}): {got} vs {}", one + three);
+            assert!((got - backscatter_attenuation(af, ab) / af).abs() < 1e-12);
+        }
+        // Nothing goes deeper than the first layer when ā_f = 0; finite as ā_f → 1 (½ + ⅛).
+        assert_eq!(backscatter_attenuation_at_fiber(0.0, 0.3), 0.0);
+        for af in [0.999, 0.99999] {
+            let v = backscatter_attenuation_at_fiber(af, 1.0 - af);
+            assert!((v - 0.625).abs() < 3e-3, "ā_f = {af}: {v}");
+        }
+        assert!(backscatter_attenuation_at_fiber(2.0, 1.9).is_finite());
+    }
+
+    fn af_pow(a: f64, n: usize) -> f64 {
+        a.powi(i32::try_from(n).unwrap())
+    }
+
+    #[test]
+    fn beam_forward_attenuation_against_an_independent_quadrature() {
+        // A constant f_s sends half its light to the far side of any azimuth.
+        let f = crate::build("diffuse", &[("albedo", "1")]).unwrap();
+        for row in DualTables::new(&f, &small()).unwrap().rows() {
+            assert!((row.forward_beam[0] - 0.5).abs() < 2e-3, "θ = {}: {}", row.theta, row.forward_beam[0]);
+        }
+        // Hair: the far half of the light's own azimuth (φ_i = 0.3 here, another grid), by
+        // midpoints in (θ_o, φ_o) and in h.
+        let f = crate::build("chiang", &[("sigma_a", "0.4,0.8,1.6")]).unwrap();
+        let t = DualTables::new(&f, &small()).unwrap();
+        for row in t.rows().iter().filter(|r| r.theta.abs() < 1.0) {
+            let (nt, np, nh) = (64, 64, 24);
+            let phi_i = 0.3;
+            let wi = direction(row.theta, phi_i);
+            let mut want = Rgb::ZERO;
+            for i in 0..nt {
+                let to = -FRAC_PI_2 + (i as f64 + 0.5) * PI / nt as f64;
+                for j in 0..np {
+                    let po = phi_i + FRAC_PI_2 + (j as f64 + 0.5) * PI / np as f64;
+                    let wo = direction(to, po);
+                    let mut v = Rgb::ZERO;
+                    for k in 0..nh {
+                        v += f.eval(wi, wo, -1.0 + (k as f64 + 0.5) * 2.0 / nh as f64);
+                    }
+                    want += v * (to.cos() * to.cos() * (PI / nt as f64) * (PI / np as f64) / nh as f64);
+                }
+            }
+            let total = row.forward + row.backward;
+            for c in 0..3 {
+                assert!(
+                    (row.forward_beam[c] - want[c]).abs() < 1e-2,
+                    "θ = {}: a_f^beam {} vs {}",
+                    row.theta,
+                    row.forward_beam[c],
+                    want[c]
+                );
+                // Hair's light goes mostly straight on: the beam keeps more than the average.
+                assert!(row.forward_beam[c] > row.forward[c] && row.forward_beam[c] < total[c]);
+            }
+        }
     }
 
     #[test]

@@ -15,6 +15,8 @@ use fiberlab_scatter::hair::roughness::lobe_variances;
 use fiberlab_scatter::hair::tilt::lobe_tilts;
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::marschner_2003::Marschner;
+use fiberlab_scatter::yan_2017::YanFur;
+use fiberlab_scatter::{Field, ScatteringFunction};
 use std::f64::consts::PI;
 
 /// Why a scene cannot be rendered on the GPU.
@@ -22,7 +24,7 @@ use std::f64::consts::PI;
 pub enum Unsupported {
     /// A fiber model without a GPU implementation.
     #[error(
-        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner); render with --device cpu"
+        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner, yan-fur); render with --device cpu"
     )]
     FiberModel(String),
     /// A surface material without a GPU implementation.
@@ -55,6 +57,7 @@ const MATERIAL_CHIANG: u32 = 2;
 const MATERIAL_KAJIYA_KAY: u32 = 3;
 const MATERIAL_MARSCHNER: u32 = 4;
 const MATERIAL_DEON: u32 = 5;
+const MATERIAL_YAN_FUR: u32 = 6;
 /// Primitive kinds of the objects (as the shaders' `KIND_*`).
 const KIND_SEGMENT: u32 = 1;
 const KIND_TRIANGLE: u32 = 3;
@@ -240,6 +243,70 @@ pub fn deon_words(d: &Deon, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) 
     (w, table)
 }
 
+/// The words of a Yan fur material (the order of `load_yan_fur` in the shaders) whose table
+/// starts at word `table_at`, and that table: the starts of the medulla's arrays, the far
+/// field's Gauss–Legendre nodes and weights, then the medulla tables' values and cumulative
+/// masses (`azimuth`, `azimuth_mean`, `profiles`, `profiles_mean`) as scatter's `eval` and
+/// `sample` read them.
+#[must_use]
+pub fn yan_fur_words(y: &YanFur, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    use fiberlab_scatter::hair::tilt::marschner_ratio_tilts;
+    let p = y.params();
+    let nodes = y.far_nodes();
+    let mut table = vec![0u32; 8];
+    table.extend(nodes.iter().flat_map(|&(x, w)| [f(x), f(w)]));
+    let mut flags = 0;
+    for (k, &on) in p.lobes.iter().enumerate() {
+        if on {
+            flags |= 1 << k;
+        }
+    }
+    if y.properties().field == Field::Far {
+        flags |= 32;
+    }
+    let mut w = [0u32; MATERIAL_WORDS];
+    if let Some(tables) = y.medulla_tables() {
+        flags |= 64;
+        let view = tables.view();
+        let slices = [view.azimuth, view.azimuth_mean, view.profiles, view.profiles_mean];
+        for (k, s) in slices.iter().enumerate() {
+            table[2 * k] = table.len() as u32;
+            table.extend(s.values.iter().map(|&x| f(x)));
+            table[2 * k + 1] = table.len() as u32;
+            table.extend(s.cumulative.iter().map(|&x| f(x)));
+        }
+        let r = tables.resolution();
+        w[23] = f(tables.params().sigma_s());
+        w[24] = f(r.max_sin_theta_t);
+        w[25..30].copy_from_slice(&[
+            r.inclinations as u32,
+            r.offsets as u32,
+            r.azimuths as u32,
+            r.exit_inclinations as u32,
+            r.profile_azimuths as u32,
+        ]);
+    }
+    w[0] = MATERIAL_YAN_FUR;
+    w[1] = f(p.eta);
+    w[2..5].copy_from_slice(&rgb(y.sigma_c_a()));
+    w[5] = f(p.kappa);
+    w[6] = f(p.sigma_m_s + p.sigma_m_a);
+    w[7] = f(p.layers);
+    w[8] = flags;
+    w[9] = nodes.len() as u32;
+    w[10] = table_at;
+    let (bm, bn) = (p.beta_m, p.beta_n);
+    let beta = [bm, 0.5 * bm, 1.5 * bm];
+    let beta_n = [bn, bn * 2f64.sqrt(), bn * 3f64.sqrt()];
+    for (k, (sin_tau, cos_tau)) in marschner_ratio_tilts(p.alpha).into_iter().enumerate() {
+        w[11 + k] = f(beta[k]);
+        w[14 + k] = f(beta_n[k]);
+        w[17 + 2 * k] = f(sin_tau);
+        w[18 + 2 * k] = f(cos_tau);
+    }
+    (w, table)
+}
+
 /// A fiber material's words and its table (empty for most), whose first word is at
 /// `table_at`.
 fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS], Vec<u32>), Unsupported> {
@@ -248,6 +315,7 @@ fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS]
         Model::KajiyaKay(k) => Ok(kajiya_kay_words(k, table_at)),
         Model::Marschner(m) => Ok(marschner_words(m, table_at)),
         Model::Deon(d) => Ok(deon_words(d, table_at)),
+        Model::YanFur(y) => Ok(yan_fur_words(y, table_at)),
         other => Err(Unsupported::FiberModel(other.name().to_string())),
     }
 }

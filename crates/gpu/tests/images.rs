@@ -260,6 +260,22 @@ fn deon_images_match_the_cpu() {
     assert_matches_the_cpu(gpu, &b.build(), "deon");
 }
 
+/// Yan fur (its medulla tables copied to the GPU; a thick medulla, so the scattered lobes carry
+/// much of the light) under sun and sky, GPU against CPU at the same seed, as above.
+#[test]
+fn yan_fur_images_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let fur = fiberlab_scatter::build("yan-fur", &[("kappa", "0.7"), ("sigma_m_s", "3"), ("g", "0.4")]).unwrap();
+    let hair_m = b.fiber_material(fur);
+    let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::new(0.6, 0.45, 0.35)));
+    b.fibers(hair(200), hair_m);
+    b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
+    b.light(Light::sun(DVec3::new(1.0, 1.3, 0.5), 0.05, Rgb::new(3.0, 2.8, 2.5)));
+    b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+    assert_matches_the_cpu(gpu, &b.build(), "yan-fur");
+}
+
 /// An importance-sampled environment map (a blue-white sky gradient with a small warm bright
 /// patch, 64 × 32 cells), GPU against CPU at the same seed, as above: the map's cells, row and
 /// column CDFs are copied to the GPU and sampled there as on the CPU.
@@ -339,11 +355,11 @@ fn progressive_state_resumes_across_stops_tiles_chunks_and_devices() {
 fn unsupported_models_are_refused_by_name() {
     let Some(gpu) = common::gpu() else { return };
     let mut b = builder();
-    let m = b.fiber_material(fiberlab_scatter::build::<&str, &str>("yan-fur", &[]).unwrap());
+    let m = b.fiber_material(fiberlab_scatter::build::<&str, &str>("huang-2022", &[]).unwrap());
     b.fibers(hair(10), m).light(Light::Constant { radiance: Rgb::ONE });
     let err =
         fiberlab_gpu::render(gpu, &b.build(), &settings(1), GpuOptions::default(), &|_| {}, &AtomicBool::new(false))
             .unwrap_err()
             .to_string();
-    assert!(err.contains("`yan-fur`") && err.contains("--device cpu"), "{err}");
+    assert!(err.contains("`huang-2022`") && err.contains("--device cpu"), "{err}");
 }

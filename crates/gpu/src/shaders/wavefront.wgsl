@@ -11,11 +11,11 @@ const MATERIAL_LAMBERT: u32 = 0u;
 const MATERIAL_MIRROR: u32 = 1u;
 const MATERIAL_CHIANG: u32 = 2u;
 // MATERIAL_KAJIYA_KAY (3) is in kajiya_kay.wgsl, MATERIAL_MARSCHNER (4) in marschner.wgsl,
-// MATERIAL_DEON (5) in deon.wgsl.
+// MATERIAL_DEON (5) in deon.wgsl, MATERIAL_YAN_FUR (6) in yan_fur.wgsl.
 
 fn is_fiber_material(kind: u32) -> bool {
     return kind == MATERIAL_CHIANG || kind == MATERIAL_KAJIYA_KAY || kind == MATERIAL_MARSCHNER
-        || kind == MATERIAL_DEON;
+        || kind == MATERIAL_DEON || kind == MATERIAL_YAN_FUR;
 }
 
 fn material_kind(m: u32) -> u32 {
@@ -169,6 +169,7 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     var kkm: KajiyaKay;
     var msm: Marschner;
     var dem: Deon;
+    var yfm: YanFur;
     // ω_o in the fiber frame.
     var wo_l: vec3<f32>;
     if kind == KIND_SEGMENT {
@@ -200,6 +201,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             msm = load_marschner(params.material_base + 32u * material);
         } else if fiber_kind == MATERIAL_DEON {
             dem = load_deon(params.material_base + 32u * material);
+        } else if fiber_kind == MATERIAL_YAN_FUR {
+            yfm = load_yan_fur(params.material_base + 32u * material);
         } else {
             kkm = load_kajiya_kay(params.material_base + 32u * material);
         }
@@ -249,6 +252,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
                         e = ms_eval(msm, wi_l, wo_l);
                     } else if mkind == MATERIAL_DEON {
                         e = deon_eval(dem, wi_l, wo_l);
+                    } else if mkind == MATERIAL_YAN_FUR {
+                        e = yan_eval(yfm, wi_l, wo_l, s.hit_h);
                     } else {
                         e = kk_eval(kkm, wi_l, wo_l);
                     }
@@ -296,6 +301,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             fs = ms_sample(msm, wo_l, vec4<f32>(ua, ub));
         } else if mkind == MATERIAL_DEON {
             fs = deon_sample(dem, wo_l, vec4<f32>(ua, ub));
+        } else if mkind == MATERIAL_YAN_FUR {
+            fs = yan_sample(yfm, wo_l, s.hit_h, vec4<f32>(ua, ub));
         } else {
             fs = kk_sample(kkm, wo_l, vec4<f32>(ua, ub));
         }

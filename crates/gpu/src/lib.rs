@@ -10,10 +10,10 @@
 //! * [`model_probe`]: the GPU's scattering model and sampler on given inputs (tests).
 //!
 //! Supported: the `chiang`, `deon`, `kajiya-kay`, `marschner` and `yan-fur` fiber models; `lambert` and
-//! `mirror` surfaces; constant and importance-sampled map environments, sun, distant and
+//! `mirror` surfaces and the `leaf` surface model; constant and importance-sampled map environments, sun, distant and
 //! emitting-sphere lights with the CPU's light picker and MIS; spheres, tube segments (the CPU's
 //! BVH as it is, both node kinds) and triangle meshes; path tracing. Refused with an error
-//! naming it: other fiber models, surface models, dual scattering.
+//! naming it: other fiber models, other surface models, textures, dual scattering.
 
 pub mod device;
 mod kernels;

@@ -14,9 +14,10 @@ use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, TABLE_ROWS};
 use fiberlab_scatter::hair::roughness::lobe_variances;
 use fiberlab_scatter::hair::tilt::lobe_tilts;
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
+use fiberlab_scatter::leaf::Leaf;
 use fiberlab_scatter::marschner_2003::Marschner;
 use fiberlab_scatter::yan_2017::YanFur;
-use fiberlab_scatter::{Field, ScatteringFunction};
+use fiberlab_scatter::{Field, ScatteringFunction, SurfaceModel};
 use std::f64::consts::PI;
 
 /// Why a scene cannot be rendered on the GPU.
@@ -29,7 +30,7 @@ pub enum Unsupported {
     FiberModel(String),
     /// A surface material without a GPU implementation.
     #[error(
-        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror); render with --device cpu"
+        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror, leaf); render with --device cpu"
     )]
     SurfaceModel(String),
     /// The dual-scattering integrator.
@@ -58,6 +59,7 @@ const MATERIAL_KAJIYA_KAY: u32 = 3;
 const MATERIAL_MARSCHNER: u32 = 4;
 const MATERIAL_DEON: u32 = 5;
 const MATERIAL_YAN_FUR: u32 = 6;
+const MATERIAL_LEAF: u32 = 7;
 /// Primitive kinds of the objects (as the shaders' `KIND_*`).
 const KIND_SEGMENT: u32 = 1;
 const KIND_TRIANGLE: u32 = 3;
@@ -346,7 +348,46 @@ pub fn environment_map_words(map: &EnvironmentMap) -> Vec<u32> {
     words
 }
 
-fn surface_material(m: &SurfaceMaterial) -> Result<[u32; MATERIAL_WORDS], Unsupported> {
+/// The words of a leaf material (the order of `load_leaf` in the shaders) whose table starts at
+/// word `table_at`, and that table: the cuticle's albedo table (33 values).
+#[must_use]
+pub fn leaf_words(leaf: &Leaf, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    let (r_b, t_b) = leaf.body();
+    let p = leaf.params();
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_LEAF;
+    w[1..4].copy_from_slice(&rgb(r_b));
+    w[4..7].copy_from_slice(&rgb(t_b));
+    w[7] = f(p.roughness);
+    w[8] = f(p.eta);
+    w[9] = f(leaf.body_normalization());
+    w[10] = table_at;
+    (w, leaf.cuticle_albedo_table().iter().map(|&x| f(x)).collect())
+}
+
+/// The shading records of a mesh's triangles, 12 words each: the tangent along u, then the three
+/// corners' shading normals (zero without them), as
+/// `geometry::shapes::TriangleMesh::intersect_point` reads them.
+fn triangle_shading_words(mesh: &fiberlab_geometry::TriangleMesh) -> Vec<u32> {
+    let normals = mesh.normals();
+    let mut words = Vec::with_capacity(12 * mesh.len());
+    for (i, t) in mesh.tangents().iter().enumerate() {
+        words.extend([f(t.x), f(t.y), f(t.z)]);
+        let n = normals.get(i).copied().unwrap_or([fiberlab_math::DVec3::ZERO; 3]);
+        words.extend(n.iter().flat_map(|c| [f(c.x), f(c.y), f(c.z)]));
+    }
+    words
+}
+
+/// A surface material's words and its table (empty for Lambert and mirror), whose first word
+/// is at `table_at`. A mesh's surface models get its triangles' shading records after their
+/// own table (word 11: where they start, relative to the table; word 12, set by the caller: the
+/// mesh's first triangle).
+fn surface_material(
+    m: &SurfaceMaterial,
+    mesh: Option<&fiberlab_geometry::TriangleMesh>,
+    table_at: u32,
+) -> Result<([u32; MATERIAL_WORDS], Vec<u32>), Unsupported> {
     let mut w = [0u32; MATERIAL_WORDS];
     match m {
         SurfaceMaterial::Lambert(albedo) => {
@@ -357,9 +398,21 @@ fn surface_material(m: &SurfaceMaterial) -> Result<[u32; MATERIAL_WORDS], Unsupp
             w[0] = MATERIAL_MIRROR;
             w[1..4].copy_from_slice(&rgb(*r));
         }
-        SurfaceMaterial::Model(m) => return Err(Unsupported::SurfaceModel(m.model_name().to_string())),
+        SurfaceMaterial::Model(m) => {
+            let (mut w, mut table) = match m.model() {
+                SurfaceModel::Leaf(leaf) if m.textures().is_empty() && m.uv_scale().is_none() => {
+                    leaf_words(leaf, table_at)
+                }
+                _ => return Err(Unsupported::SurfaceModel(m.model_name().to_string())),
+            };
+            if let Some(mesh) = mesh {
+                w[11] = table.len() as u32;
+                table.extend(triangle_shading_words(mesh));
+            }
+            return Ok((w, table));
+        }
     }
-    Ok(w)
+    Ok((w, Vec::new()))
 }
 
 /// Appends a tree: nodes (references shifted), its primitives offset by `prim_offset`; returns
@@ -423,8 +476,16 @@ impl SceneBuffers {
         }
         for mesh in scene.meshes() {
             let material = materials.len() as u32;
-            materials.push(surface_material(scene.surface_material(mesh.material()))?);
             let base = (b.triangles.len() / 12) as u32;
+            let (mut words, table) =
+                surface_material(scene.surface_material(mesh.material()), Some(mesh.mesh()), tables.len() as u32)?;
+            if !table.is_empty() {
+                // Its triangles' shading records are found from their index less the first's.
+                words[12] = base;
+                tabled.push(materials.len());
+                tables.extend(table);
+            }
+            materials.push(words);
             for tri in mesh.mesh().triangles() {
                 for (k, corner) in tri.iter().enumerate() {
                     let w = if k == 0 { material } else { 0 };
@@ -442,7 +503,12 @@ impl SceneBuffers {
         }
         for (i, s) in scene.spheres().iter().enumerate() {
             let material = materials.len() as u32;
-            materials.push(surface_material(scene.surface_material(s.material()))?);
+            let (words, table) = surface_material(scene.surface_material(s.material()), None, tables.len() as u32)?;
+            if !table.is_empty() {
+                tabled.push(materials.len());
+                tables.extend(table);
+            }
+            materials.push(words);
             let c = s.center();
             let light = s.light();
             let emission = light.map_or(Rgb::ZERO, |l| l.radiance);

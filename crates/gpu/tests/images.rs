@@ -15,6 +15,7 @@ use fiberlab_render::camera::Camera;
 use fiberlab_render::integrator::{self, Region, RenderSettings, merge};
 use fiberlab_render::light::{EnvironmentMap, Light};
 use fiberlab_render::scene::{Scene, SceneBuilder, SurfaceMaterial};
+use fiberlab_render::surface_material::ModelMaterial;
 use std::sync::atomic::AtomicBool;
 
 const SIDE: u32 = 24;
@@ -276,6 +277,49 @@ fn yan_fur_images_match_the_cpu() {
     assert_matches_the_cpu(gpu, &b.build(), "yan-fur");
 }
 
+/// A surface model as the scene file makes it.
+fn surface_model(name: &str, params: &[(&str, &str)]) -> SurfaceMaterial {
+    let spec = fiberlab_scatter::find_surface(name).unwrap();
+    let model = fiberlab_scatter::build_surface(name, params).unwrap();
+    SurfaceMaterial::Model(Box::new(ModelMaterial::new(spec.name, spec.params, model, &[]).unwrap()))
+}
+
+/// Leaves (the two-sided `leaf` model: cuticle, body reflection and transmission) on a bent
+/// quad with corner normals and texture coordinates (so interpolated normals and uv tangents)
+/// and on a sphere, with hair and a floor, under a low sun and sky: GPU against CPU at the
+/// same seed, as above.
+#[test]
+fn leaf_images_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let leaf = b.surface_material(surface_model("leaf", &[("roughness", "0.2")]));
+    let dry = b.surface_material(surface_model("leaf", &[("cab", "5"), ("cbrown", "1.5"), ("roughness", "0.6")]));
+    let floor = b.surface_material(SurfaceMaterial::Lambert(Rgb::splat(0.4)));
+    let hair_m = b.fiber_material(chiang(&[("eumelanin", "0.3"), ("beta_m", "0.25")]));
+    let (p, n) = (
+        [
+            DVec3::new(-1.4, -0.9, -0.4),
+            DVec3::new(0.4, -0.9, -0.9),
+            DVec3::new(0.6, 0.7, -0.5),
+            DVec3::new(-1.2, 0.6, 0.1),
+        ],
+        [DVec3::new(-0.3, 0.2, 1.0), DVec3::new(0.2, 0.1, 1.0), DVec3::new(0.3, -0.2, 1.0), DVec3::new(-0.2, 0.1, 1.0)],
+    );
+    let uv = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+    let quad = TriangleMesh::with_attributes(
+        vec![[p[0], p[1], p[2]], [p[0], p[2], p[3]]],
+        vec![[uv[0], uv[1], uv[2]], [uv[0], uv[2], uv[3]]],
+        [[n[0], n[1], n[2]], [n[0], n[2], n[3]]].map(|t| t.map(DVec3::normalize)).to_vec(),
+    );
+    b.mesh(quad, leaf);
+    b.sphere(DVec3::new(0.9, -0.5, 0.3), 0.45, dry, None);
+    b.fibers(hair(100), hair_m);
+    b.mesh(TriangleMesh::floor(-1.0, 10.0), floor);
+    b.light(Light::sun(DVec3::new(-0.6, 0.5, -1.0), 0.05, Rgb::new(3.0, 2.8, 2.5)));
+    b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+    assert_matches_the_cpu(gpu, &b.build(), "leaf");
+}
+
 /// An importance-sampled environment map (a blue-white sky gradient with a small warm bright
 /// patch, 64 × 32 cells), GPU against CPU at the same seed, as above: the map's cells, row and
 /// column CDFs are copied to the GPU and sampled there as on the CPU.
@@ -362,4 +406,12 @@ fn unsupported_models_are_refused_by_name() {
             .unwrap_err()
             .to_string();
     assert!(err.contains("`huang-2022`") && err.contains("--device cpu"), "{err}");
+    let mut b = builder();
+    let wood = b.surface_material(surface_model("wood", &[]));
+    b.mesh(TriangleMesh::floor(-1.0, 10.0), wood).light(Light::Constant { radiance: Rgb::ONE });
+    let err =
+        fiberlab_gpu::render(gpu, &b.build(), &settings(1), GpuOptions::default(), &|_| {}, &AtomicBool::new(false))
+            .unwrap_err()
+            .to_string();
+    assert!(err.contains("surface material `wood`") && err.contains("leaf") && err.contains("--device cpu"), "{err}");
 }

@@ -7,6 +7,7 @@ mod common;
 
 use fiberlab_check::chi2::{Chi2Config, chi2_test};
 use fiberlab_check::rng::TestRng;
+use fiberlab_check::surface::{AsFiberGrid, to_fiber};
 use fiberlab_gpu::model_probe::{self, ChiangCase, ChiangResult};
 use fiberlab_math::frame::{cos_theta, direction};
 use fiberlab_math::{DVec3, Rgb};
@@ -17,9 +18,10 @@ use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, DeonParams};
 use fiberlab_scatter::hair::absorption::Absorption;
 use fiberlab_scatter::hair::fiber::HairFiberParams;
 use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
+use fiberlab_scatter::leaf::{Leaf, LeafParams};
 use fiberlab_scatter::marschner_2003::{Marschner, MarschnerParams};
 use fiberlab_scatter::yan_2017::{CortexAbsorption, YanFur, YanFurParams};
-use fiberlab_scatter::{Properties, Sample, ScatteringFunction};
+use fiberlab_scatter::{Properties, Sample, ScatteringFunction, SurfaceScattering};
 use glam::Vec3;
 use std::f64::consts::{FRAC_PI_2, TAU};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -387,6 +389,117 @@ fn yan_fur_gpu_samples_follow_the_cpu_pdf() {
         let wo = direction(theta_o, FRAC_PI_2);
         let got = model_probe::yan_fur(gpu, fiber, &sample_cases(wo, h, &cfg)).unwrap();
         gpu_samples_follow_the_cpu_pdf(&format!("yan-fur {name} θ_o {theta_o} h {h}"), fiber, wo, h, &got, &cfg);
+    }
+}
+
+fn leaves() -> Vec<(&'static str, Leaf)> {
+    let mut senescent = LeafParams { roughness: 1.0, eta: 1.2, ..LeafParams::default() };
+    senescent.contents.n = 3.0;
+    senescent.contents.cab = 5.0;
+    senescent.contents.cbrown = 2.0;
+    senescent.contents.anth = 40.0;
+    // A glossy cuticle (α 0.03: f32 keeps GGX's D near its peak to 10⁻⁴ down to about there).
+    let glossy = LeafParams { roughness: 0.03, eta: 2.0, ..LeafParams::default() };
+    [("default", LeafParams::default()), ("senescent, rough", senescent), ("glossy", glossy)]
+        .into_iter()
+        .map(|(n, p)| (n, Leaf::new(p).unwrap()))
+        .collect()
+}
+
+/// A random pair of surface directions on the whole sphere (z the normal), grazing ones among
+/// them, with uniforms for the sample.
+fn surface_case(rng: &mut TestRng, k: usize) -> ChiangCase {
+    let dir = |u: f64, v: f64| {
+        let z = 2.0 * u - 1.0;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        DVec3::new(r * (TAU * v).cos(), r * (TAU * v).sin(), z)
+    };
+    let u = rng.u4();
+    let mut wo = dir(u[0], u[1]);
+    if k.is_multiple_of(17) {
+        wo = DVec3::new(1.0, 0.0, 1e-3).normalize();
+    }
+    let uu = rng.u4();
+    ChiangCase {
+        wo: wo.as_vec3().normalize(),
+        h: 0.0,
+        wi: dir(u[2], u[3]).as_vec3().normalize(),
+        u: uu.map(|x| (x as f32).min(1.0 - f32::EPSILON / 2.0)),
+    }
+}
+
+/// The leaf surface model (its cuticle albedo table copied to the GPU; the default leaf, a
+/// senescent one with the roughest cuticle, the lowest index and the spongiest structure, and a
+/// glossy one with the highest index): f_s to 5·10⁻⁴ of the largest channel, the pdf to 5·10⁻⁴
+/// relative, and each sample's pdf (to 3·10⁻³) and weight as the CPU computes them at the
+/// direction returned, over random direction pairs on both sides (reflection and transmission).
+#[test]
+fn leaf_eval_pdf_and_samples_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut rng = TestRng::new(16);
+    for (name, leaf) in leaves() {
+        let cases: Vec<ChiangCase> = (0..4000).map(|k| surface_case(&mut rng, k)).collect();
+        let got = model_probe::leaf(gpu, &leaf, &cases).unwrap();
+        let (mut sampled, mut worst) = (0, 0.0f64);
+        for (c, g) in cases.iter().zip(&got) {
+            let (wo, wi) = (dvec(c.wo), dvec(c.wi));
+            let (f, pdf) = (leaf.eval(wi, wo), leaf.pdf(wi, wo));
+            let scale = f.max_component().max(1e-3);
+            for k in 0..3 {
+                let err = (f64::from(g.f[k]) - f[k]).abs() / scale;
+                worst = worst.max(err);
+                assert!(err < 5e-4, "leaf {name}: f[{k}] {} vs {} at {c:?}", g.f[k], f[k]);
+            }
+            assert!((f64::from(g.pdf) - pdf).abs() <= 5e-4 * pdf.max(1e-3), "leaf {name}: pdf {} vs {pdf}", g.pdf);
+            if g.sample_pdf > 0.0 {
+                let swi = dvec(g.sample_wi);
+                assert!((swi.length() - 1.0).abs() < 1e-5, "leaf {name}: |ω_i| = {}", swi.length());
+                let (f, pdf) = (leaf.eval(swi, wo), leaf.pdf(swi, wo));
+                if pdf > 1e-2 {
+                    assert!(
+                        (f64::from(g.sample_pdf) / pdf - 1.0).abs() < 3e-3,
+                        "leaf {name}: {} vs {pdf}",
+                        g.sample_pdf
+                    );
+                    let weight = f * (swi.z.abs() / pdf);
+                    for k in 0..3 {
+                        let err = (f64::from(g.sample_weight[k]) - weight[k]).abs();
+                        assert!(
+                            err < 3e-3 * weight.max_component().max(1e-2),
+                            "leaf {name}: weight {:?} vs {weight:?}",
+                            g.sample_weight
+                        );
+                    }
+                    sampled += 1;
+                }
+            }
+        }
+        eprintln!(
+            "leaf {name}: {} evaluations, {sampled} samples checked, worst relative f error {worst:.2e}",
+            cases.len()
+        );
+        assert!(sampled > 2000, "leaf {name}: only {sampled} samples checked");
+    }
+}
+
+/// χ² of the GPU's leaf samples against the CPU's pdf (binned on the check harness's grid
+/// about the normal), each leaf at a near-normal or a grazing viewer, from above or below.
+#[test]
+fn leaf_gpu_samples_follow_the_cpu_pdf() {
+    let Some(gpu) = common::gpu() else { return };
+    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 100_000, seed: 17, ..Default::default() };
+    let directions = [DVec3::new(0.3, 0.1, 0.95), DVec3::new(0.9, -0.2, -0.2), DVec3::new(-0.5, 0.6, 0.4)];
+    for ((name, leaf), wo) in leaves().iter().zip(directions) {
+        let wo = wo.normalize();
+        let cases = sample_cases(wo, 0.0, &cfg);
+        let got: Vec<ChiangResult> = model_probe::leaf(gpu, leaf, &cases)
+            .unwrap()
+            .into_iter()
+            .map(|g| ChiangResult { sample_wi: to_fiber(dvec(g.sample_wi)).as_vec3(), ..g })
+            .collect();
+        let grid = AsFiberGrid(leaf);
+        let wo_grid = to_fiber(dvec(wo.as_vec3()));
+        gpu_samples_follow_the_cpu_pdf(&format!("leaf {name}"), &grid, wo_grid, 0.0, &got, &cfg);
     }
 }
 

@@ -10,10 +10,11 @@
 //! * [`model_probe`]: the GPU's scattering model and sampler on given inputs (tests).
 //!
 //! Supported: the `chiang`, `deon`, `kajiya-kay`, `marschner` and `yan-fur` fiber models; `lambert` and
-//! `mirror` surfaces and the `leaf` surface model; constant and importance-sampled map environments, sun, distant and
+//! `mirror` surfaces, the `leaf` and `lambertian` surface models (`lambertian`'s `k_d` textured
+//! too); constant and importance-sampled map environments, sun, distant and
 //! emitting-sphere lights with the CPU's light picker and MIS; spheres, tube segments (the CPU's
 //! BVH as it is, both node kinds) and triangle meshes; path tracing. Refused with an error
-//! naming it: other fiber models, other surface models, textures, dual scattering.
+//! naming it: other fiber models, other surface models, dual scattering.
 
 pub mod device;
 mod kernels;

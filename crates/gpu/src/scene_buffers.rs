@@ -8,12 +8,15 @@ use fiberlab_geometry::bvh::FlatBvh;
 use fiberlab_math::Rgb;
 use fiberlab_render::light::{EnvironmentMap, Light};
 use fiberlab_render::scene::{Scene, SurfaceMaterial};
+use fiberlab_render::surface_material::ModelMaterial;
+use fiberlab_render::texture::Wrap;
 use fiberlab_scatter::Model;
 use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, TABLE_ROWS};
 use fiberlab_scatter::hair::roughness::lobe_variances;
 use fiberlab_scatter::hair::tilt::lobe_tilts;
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
+use fiberlab_scatter::lambert_1760::Lambertian;
 use fiberlab_scatter::leaf::Leaf;
 use fiberlab_scatter::marschner_2003::Marschner;
 use fiberlab_scatter::yan_2017::YanFur;
@@ -30,7 +33,7 @@ pub enum Unsupported {
     FiberModel(String),
     /// A surface material without a GPU implementation.
     #[error(
-        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror, leaf); render with --device cpu"
+        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror, leaf, lambertian); render with --device cpu"
     )]
     SurfaceModel(String),
     /// The dual-scattering integrator.
@@ -60,6 +63,7 @@ const MATERIAL_MARSCHNER: u32 = 4;
 const MATERIAL_DEON: u32 = 5;
 const MATERIAL_YAN_FUR: u32 = 6;
 const MATERIAL_LEAF: u32 = 7;
+const MATERIAL_LAMBERTIAN: u32 = 8;
 /// Primitive kinds of the objects (as the shaders' `KIND_*`).
 const KIND_SEGMENT: u32 = 1;
 const KIND_TRIANGLE: u32 = 3;
@@ -365,16 +369,47 @@ pub fn leaf_words(leaf: &Leaf, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32
     (w, leaf.cuticle_albedo_table().iter().map(|&x| f(x)).collect())
 }
 
-/// The shading records of a mesh's triangles, 12 words each: the tangent along u, then the three
-/// corners' shading normals (zero without them), as
+/// The words of a `lambertian` material (the order of `lambertian.wgsl`) whose table starts at
+/// word `table_at`, and that table: the `k_d` texture's texels of its material `m` (rgb, rows
+/// from the top), if any.
+#[must_use]
+pub fn lambertian_words(l: &Lambertian, m: Option<&ModelMaterial>, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_LAMBERTIAN;
+    w[1..4].copy_from_slice(&rgb(l.k_d()));
+    w[10] = table_at;
+    let mut table = Vec::new();
+    // `k_d` is Lambertian's only texturable parameter (a colour: the texels as they are).
+    if let Some(t) = m.and_then(|m| m.textures().iter().find(|t| t.key() == "k_d")) {
+        let tex = t.texture();
+        for y in 0..tex.height() {
+            for x in 0..tex.width() {
+                table.extend(tex.texel(x, y).map(f));
+            }
+        }
+        w[13] = 1;
+        w[14] = tex.width() as u32;
+        w[15] = tex.height() as u32;
+        w[16] = u32::from(tex.wrap() == Wrap::Clamp);
+        w[17] = f(tex.scale()[0]);
+        w[18] = f(tex.scale()[1]);
+    }
+    (w, table)
+}
+
+/// The shading records of a mesh's triangles, 18 words each: the tangent along u, the three
+/// corners' shading normals (zero without them), then their texture coordinates (zero without
+/// them), as
 /// `geometry::shapes::TriangleMesh::intersect_point` reads them.
 fn triangle_shading_words(mesh: &fiberlab_geometry::TriangleMesh) -> Vec<u32> {
-    let normals = mesh.normals();
-    let mut words = Vec::with_capacity(12 * mesh.len());
+    let (normals, uvs) = (mesh.normals(), mesh.uvs());
+    let mut words = Vec::with_capacity(18 * mesh.len());
     for (i, t) in mesh.tangents().iter().enumerate() {
         words.extend([f(t.x), f(t.y), f(t.z)]);
         let n = normals.get(i).copied().unwrap_or([fiberlab_math::DVec3::ZERO; 3]);
         words.extend(n.iter().flat_map(|c| [f(c.x), f(c.y), f(c.z)]));
+        let uv = uvs.get(i).copied().unwrap_or([[0.0; 2]; 3]);
+        words.extend(uv.iter().flat_map(|c| [f(c[0]), f(c[1])]));
     }
     words
 }
@@ -403,8 +438,11 @@ fn surface_material(
                 SurfaceModel::Leaf(leaf) if m.textures().is_empty() && m.uv_scale().is_none() => {
                     leaf_words(leaf, table_at)
                 }
+                SurfaceModel::Lambertian(l) if m.uv_scale().is_none() => lambertian_words(l, Some(m), table_at),
                 _ => return Err(Unsupported::SurfaceModel(m.model_name().to_string())),
             };
+            // Spheres always have texture coordinates; a mesh may not.
+            w[19] = u32::from(mesh.is_none_or(fiberlab_geometry::TriangleMesh::has_uvs));
             if let Some(mesh) = mesh {
                 w[11] = table.len() as u32;
                 table.extend(triangle_shading_words(mesh));

@@ -18,6 +18,7 @@ use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, DeonParams};
 use fiberlab_scatter::hair::absorption::Absorption;
 use fiberlab_scatter::hair::fiber::HairFiberParams;
 use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
+use fiberlab_scatter::lambert_1760::{Lambertian, LambertianParams};
 use fiberlab_scatter::leaf::{Leaf, LeafParams};
 use fiberlab_scatter::marschner_2003::{Marschner, MarschnerParams};
 use fiberlab_scatter::yan_2017::{CortexAbsorption, YanFur, YanFurParams};
@@ -428,58 +429,76 @@ fn surface_case(rng: &mut TestRng, k: usize) -> ChiangCase {
     }
 }
 
+/// Checks the GPU's results on `cases` (surface frame) against the surface model `cpu`: f_s to
+/// 5·10⁻⁴ of the largest channel, the pdf to 5·10⁻⁴ relative, sampled directions unit vectors
+/// whose pdf (to 3·10⁻³) and weight the CPU confirms, more than 1,500 samples checked.
+fn surface_matches_the_cpu<S: SurfaceScattering>(name: &str, cpu: &S, cases: &[ChiangCase], got: &[ChiangResult]) {
+    let (mut sampled, mut worst) = (0, 0.0f64);
+    for (c, g) in cases.iter().zip(got) {
+        let (wo, wi) = (dvec(c.wo), dvec(c.wi));
+        let (f, pdf) = (cpu.eval(wi, wo), cpu.pdf(wi, wo));
+        let scale = f.max_component().max(1e-3);
+        for k in 0..3 {
+            let err = (f64::from(g.f[k]) - f[k]).abs() / scale;
+            worst = worst.max(err);
+            assert!(err < 5e-4, "{name}: f[{k}] {} vs {} at {c:?}", g.f[k], f[k]);
+        }
+        assert!((f64::from(g.pdf) - pdf).abs() <= 5e-4 * pdf.max(1e-3), "{name}: pdf {} vs {pdf}", g.pdf);
+        if g.sample_pdf > 0.0 {
+            let swi = dvec(g.sample_wi);
+            assert!((swi.length() - 1.0).abs() < 1e-5, "{name}: |ω_i| = {}", swi.length());
+            let (f, pdf) = (cpu.eval(swi, wo), cpu.pdf(swi, wo));
+            if pdf > 1e-2 {
+                assert!((f64::from(g.sample_pdf) / pdf - 1.0).abs() < 3e-3, "{name}: {} vs {pdf}", g.sample_pdf);
+                let weight = f * (swi.z.abs() / pdf);
+                for k in 0..3 {
+                    let err = (f64::from(g.sample_weight[k]) - weight[k]).abs();
+                    assert!(
+                        err < 3e-3 * weight.max_component().max(1e-2),
+                        "{name}: weight {:?} vs {weight:?}",
+                        g.sample_weight
+                    );
+                }
+                sampled += 1;
+            }
+        }
+    }
+    eprintln!("{name}: {} evaluations, {sampled} samples checked, worst relative f error {worst:.2e}", cases.len());
+    assert!(sampled > 1500, "{name}: only {sampled} samples checked");
+}
+
 /// The leaf surface model (its cuticle albedo table copied to the GPU; the default leaf, a
 /// senescent one with the roughest cuticle, the lowest index and the spongiest structure, and a
-/// glossy one with the highest index): f_s to 5·10⁻⁴ of the largest channel, the pdf to 5·10⁻⁴
-/// relative, and each sample's pdf (to 3·10⁻³) and weight as the CPU computes them at the
-/// direction returned, over random direction pairs on both sides (reflection and transmission).
+/// glossy one with the highest index), as `surface_matches_the_cpu` checks, over random
+/// direction pairs on both sides (reflection and transmission); and the `lambertian` model.
 #[test]
-fn leaf_eval_pdf_and_samples_match_the_cpu() {
+fn surface_models_eval_pdf_and_samples_match_the_cpu() {
     let Some(gpu) = common::gpu() else { return };
     let mut rng = TestRng::new(16);
     for (name, leaf) in leaves() {
         let cases: Vec<ChiangCase> = (0..4000).map(|k| surface_case(&mut rng, k)).collect();
         let got = model_probe::leaf(gpu, &leaf, &cases).unwrap();
-        let (mut sampled, mut worst) = (0, 0.0f64);
-        for (c, g) in cases.iter().zip(&got) {
-            let (wo, wi) = (dvec(c.wo), dvec(c.wi));
-            let (f, pdf) = (leaf.eval(wi, wo), leaf.pdf(wi, wo));
-            let scale = f.max_component().max(1e-3);
-            for k in 0..3 {
-                let err = (f64::from(g.f[k]) - f[k]).abs() / scale;
-                worst = worst.max(err);
-                assert!(err < 5e-4, "leaf {name}: f[{k}] {} vs {} at {c:?}", g.f[k], f[k]);
-            }
-            assert!((f64::from(g.pdf) - pdf).abs() <= 5e-4 * pdf.max(1e-3), "leaf {name}: pdf {} vs {pdf}", g.pdf);
-            if g.sample_pdf > 0.0 {
-                let swi = dvec(g.sample_wi);
-                assert!((swi.length() - 1.0).abs() < 1e-5, "leaf {name}: |ω_i| = {}", swi.length());
-                let (f, pdf) = (leaf.eval(swi, wo), leaf.pdf(swi, wo));
-                if pdf > 1e-2 {
-                    assert!(
-                        (f64::from(g.sample_pdf) / pdf - 1.0).abs() < 3e-3,
-                        "leaf {name}: {} vs {pdf}",
-                        g.sample_pdf
-                    );
-                    let weight = f * (swi.z.abs() / pdf);
-                    for k in 0..3 {
-                        let err = (f64::from(g.sample_weight[k]) - weight[k]).abs();
-                        assert!(
-                            err < 3e-3 * weight.max_component().max(1e-2),
-                            "leaf {name}: weight {:?} vs {weight:?}",
-                            g.sample_weight
-                        );
-                    }
-                    sampled += 1;
-                }
-            }
-        }
-        eprintln!(
-            "leaf {name}: {} evaluations, {sampled} samples checked, worst relative f error {worst:.2e}",
-            cases.len()
-        );
-        assert!(sampled > 2000, "leaf {name}: only {sampled} samples checked");
+        surface_matches_the_cpu(&format!("leaf {name}"), &leaf, &cases, &got);
     }
+    let lambertian = Lambertian::new(LambertianParams { k_d: Rgb::new(0.9, 0.5, 0.1) }).unwrap();
+    let cases: Vec<ChiangCase> = (0..4000).map(|k| surface_case(&mut rng, k)).collect();
+    let got = model_probe::lambertian(gpu, &lambertian, &cases).unwrap();
+    surface_matches_the_cpu("lambertian", &lambertian, &cases, &got);
+    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 100_000, seed: 18, ..Default::default() };
+    let wo = DVec3::new(0.5, -0.3, 0.6).normalize();
+    let got: Vec<ChiangResult> = model_probe::lambertian(gpu, &lambertian, &sample_cases(wo, 0.0, &cfg))
+        .unwrap()
+        .into_iter()
+        .map(|g| ChiangResult { sample_wi: to_fiber(dvec(g.sample_wi)).as_vec3(), ..g })
+        .collect();
+    gpu_samples_follow_the_cpu_pdf(
+        "lambertian",
+        &AsFiberGrid(&lambertian),
+        to_fiber(dvec(wo.as_vec3())),
+        0.0,
+        &got,
+        &cfg,
+    );
 }
 
 /// χ² of the GPU's leaf samples against the CPU's pdf (binned on the check harness's grid

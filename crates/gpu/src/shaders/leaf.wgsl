@@ -8,8 +8,9 @@
 //
 // Words at `b` (32 per material): 0 kind, 1–3 R_b, 4–6 T_b, 7 α, 8 η, 9 1/(π(1 − Ē)), 10 the
 // table's first word (E(k/32), k = 0..32, then a mesh's per-triangle shading records,
-// `scene_buffers.rs`), 11 where a mesh's shading records start (relative to the table), 12 the
-// mesh's first triangle.
+// `scene_buffers.rs`, 18 words each: the tangent along u, the corners' normals and texture
+// coordinates), 11 where a mesh's shading records start (relative to the table), 12 the mesh's
+// first triangle.
 
 const MATERIAL_LEAF: u32 = 7u;
 const LEAF_E_INTERVALS: u32 = 32u;

@@ -140,6 +140,24 @@ fn probe_leaf_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
     probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
 }
 
+/// As `probe_chiang_cases` for the untextured `lambertian` material at word 0, in the surface's
+/// local frame.
+@compute @workgroup_size(64)
+fn probe_lambertian_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let k_d = vec3<f32>(word_f(1u), word_f(2u), word_f(3u));
+    let wo = probe_in[3u * i].xyz;
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    probe_out[3u * i] = lambertian_eval(k_d, wi, wo);
+    let s = lambertian_sample(k_d, wo, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
 /// Per case in: (x, y, sample index, pair) as bits, (seed hash low, high, 0, 0); out: the pair.
 @compute @workgroup_size(64)
 fn probe_sampler_cases(@builtin(global_invocation_id) gid: vec3<u32>) {

@@ -1,7 +1,8 @@
-//! The GPU's scattering code and sampler against the CPU's: Chiang's, Kajiya–Kay's, Marschner's, d'Eon's and Yan's fur f_s and
-//! pdf on random directions and offsets (f32 tolerance), their samples' density and weight at
-//! the directions they return, the χ² of the GPU's samples against the CPU's pdf, and the
-//! sampler's values.
+//! The GPU's scattering code and sampler against the CPU's: the f_s and pdf of Chiang's,
+//! Kajiya–Kay's, Marschner's, d'Eon's and Yan's fur fibers and of the leaf and Lambertian
+//! surface models on random directions and offsets (f32 tolerance), their samples' density and
+//! weight at the directions they return, the χ² of the GPU's samples against the CPU's pdf, and
+//! the sampler's values.
 
 mod common;
 

@@ -217,13 +217,17 @@ pub fn reciprocity(f: &impl SurfaceScattering, pairs: usize, rng: &mut TestRng) 
 /// coordinates `(x, y, z)` are surface coordinates `(z, x, y)` (the χ² grid's pole, fiber `x`,
 /// is the surface normal; its azimuth is the surface's). Delta samples are dropped (`None`),
 /// so they fall in the test's rest cell with the samples the model itself drops.
-struct AsFiberGrid<'a, S>(&'a S);
+pub struct AsFiberGrid<'a, S>(pub &'a S);
 
-fn to_surface(w: DVec3) -> DVec3 {
+/// Fiber-grid coordinates to surface coordinates ([`AsFiberGrid`]).
+#[must_use]
+pub fn to_surface(w: DVec3) -> DVec3 {
     DVec3::new(w.y, w.z, w.x)
 }
 
-fn to_fiber(s: DVec3) -> DVec3 {
+/// Surface coordinates to fiber-grid coordinates ([`AsFiberGrid`]).
+#[must_use]
+pub fn to_fiber(s: DVec3) -> DVec3 {
     DVec3::new(s.z, s.x, s.y)
 }
 

@@ -128,6 +128,19 @@ impl TriangleMesh {
         &self.uvs
     }
 
+    /// Per-corner shading normals (empty: none).
+    #[must_use]
+    pub fn normals(&self) -> &[[DVec3; 3]] {
+        &self.normals
+    }
+
+    /// Per-triangle tangents along `u` ([`crate::mesh::triangle_tangent`]), before the
+    /// Gram–Schmidt step against the shading normal at a hit.
+    #[must_use]
+    pub fn tangents(&self) -> &[DVec3] {
+        &self.tangents
+    }
+
     /// The tree over the triangles (its leaves list triangle indices).
     #[must_use]
     pub fn bvh(&self) -> &Bvh {

@@ -9,11 +9,12 @@
 //! * [`render_device`]: rendering on the CPU, the GPU or whichever there is (`--device`).
 //! * [`model_probe`]: the GPU's scattering model and sampler on given inputs (tests).
 //!
-//! Supported: the `chiang`, `deon`, `kajiya-kay` and `marschner` fiber models; `lambert` and
-//! `mirror` surfaces; constant and importance-sampled map environments, sun, distant and
+//! Supported: the `chiang`, `deon`, `kajiya-kay`, `marschner` and `yan-fur` fiber models; `lambert` and
+//! `mirror` surfaces, the `leaf` and `lambertian` surface models (`lambertian`'s `k_d` textured
+//! too); constant and importance-sampled map environments, sun, distant and
 //! emitting-sphere lights with the CPU's light picker and MIS; spheres, tube segments (the CPU's
 //! BVH as it is, both node kinds) and triangle meshes; path tracing. Refused with an error
-//! naming it: other fiber models, surface models, dual scattering.
+//! naming it: other fiber models, other surface models, dual scattering.
 
 pub mod device;
 mod kernels;

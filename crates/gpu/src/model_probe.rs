@@ -2,22 +2,30 @@
 //! CPU's (the tests in `tests/`): each case is evaluated, and sampled, by one GPU thread.
 
 use crate::device::Gpu;
-use crate::scene_buffers::{chiang_words, deon_words, kajiya_kay_words, marschner_words};
+use crate::scene_buffers::{
+    chiang_words, deon_words, kajiya_kay_words, lambertian_words, leaf_words, marschner_words, yan_fur_words,
+};
 use crate::wavefront::GpuRenderError;
 use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::Deon;
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
+use fiberlab_scatter::lambert_1760::Lambertian;
+use fiberlab_scatter::leaf::Leaf;
 use fiberlab_scatter::marschner_2003::Marschner;
+use fiberlab_scatter::yan_2017::YanFur;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-const PROBE: [&str; 7] = [
+const PROBE: [&str; 10] = [
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
     include_str!("shaders/pole_taper.wgsl"),
     include_str!("shaders/kajiya_kay.wgsl"),
     include_str!("shaders/marschner.wgsl"),
     include_str!("shaders/deon.wgsl"),
+    include_str!("shaders/yan_fur.wgsl"),
+    include_str!("shaders/leaf.wgsl"),
+    include_str!("shaders/lambertian.wgsl"),
     include_str!("shaders/probe.wgsl"),
 ];
 
@@ -161,6 +169,36 @@ pub fn deon(gpu: &Gpu, model: &Deon, cases: &[ChiangCase]) -> Result<Vec<ChiangR
     let (words, table) = deon_words(model, 32);
     let material: Vec<u32> = words.iter().chain(&table).copied().collect();
     let out = run_probe(gpu, "probe_deon_cases", &material, &input)?;
+    Ok(results(&out))
+}
+
+/// The GPU's Yan fur model (its medulla tables and far-field nodes copied) on each case.
+pub fn yan_fur(gpu: &Gpu, model: &YanFur, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let (words, table) = yan_fur_words(model, 32);
+    let material: Vec<u32> = words.iter().chain(&table).copied().collect();
+    let out = run_probe(gpu, "probe_yan_fur_cases", &material, &input)?;
+    Ok(results(&out))
+}
+
+/// The GPU's leaf surface model (its cuticle albedo table copied) on each case, in the surface's
+/// local frame (z the normal; `h` is ignored).
+pub fn leaf(gpu: &Gpu, model: &Leaf, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let (words, table) = leaf_words(model, 32);
+    let material: Vec<u32> = words.iter().chain(&table).copied().collect();
+    let out = run_probe(gpu, "probe_leaf_cases", &material, &input)?;
+    Ok(results(&out))
+}
+
+/// The GPU's `lambertian` surface model (untextured) on each case, in the surface's local frame.
+pub fn lambertian(gpu: &Gpu, model: &Lambertian, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let (words, _) = lambertian_words(model, None, 32);
+    let out = run_probe(gpu, "probe_lambertian_cases", &words, &input)?;
     Ok(results(&out))
 }
 

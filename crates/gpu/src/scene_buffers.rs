@@ -8,13 +8,19 @@ use fiberlab_geometry::bvh::FlatBvh;
 use fiberlab_math::Rgb;
 use fiberlab_render::light::{EnvironmentMap, Light};
 use fiberlab_render::scene::{Scene, SurfaceMaterial};
+use fiberlab_render::surface_material::ModelMaterial;
+use fiberlab_render::texture::Wrap;
 use fiberlab_scatter::Model;
 use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, TABLE_ROWS};
 use fiberlab_scatter::hair::roughness::lobe_variances;
 use fiberlab_scatter::hair::tilt::lobe_tilts;
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
+use fiberlab_scatter::lambert_1760::Lambertian;
+use fiberlab_scatter::leaf::Leaf;
 use fiberlab_scatter::marschner_2003::Marschner;
+use fiberlab_scatter::yan_2017::YanFur;
+use fiberlab_scatter::{Field, ScatteringFunction, SurfaceModel};
 use std::f64::consts::PI;
 
 /// Why a scene cannot be rendered on the GPU.
@@ -22,12 +28,12 @@ use std::f64::consts::PI;
 pub enum Unsupported {
     /// A fiber model without a GPU implementation.
     #[error(
-        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner); render with --device cpu"
+        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner, yan-fur); render with --device cpu"
     )]
     FiberModel(String),
     /// A surface material without a GPU implementation.
     #[error(
-        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror); render with --device cpu"
+        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror, leaf, lambertian); render with --device cpu"
     )]
     SurfaceModel(String),
     /// The dual-scattering integrator.
@@ -55,6 +61,9 @@ const MATERIAL_CHIANG: u32 = 2;
 const MATERIAL_KAJIYA_KAY: u32 = 3;
 const MATERIAL_MARSCHNER: u32 = 4;
 const MATERIAL_DEON: u32 = 5;
+const MATERIAL_YAN_FUR: u32 = 6;
+const MATERIAL_LEAF: u32 = 7;
+const MATERIAL_LAMBERTIAN: u32 = 8;
 /// Primitive kinds of the objects (as the shaders' `KIND_*`).
 const KIND_SEGMENT: u32 = 1;
 const KIND_TRIANGLE: u32 = 3;
@@ -240,6 +249,70 @@ pub fn deon_words(d: &Deon, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) 
     (w, table)
 }
 
+/// The words of a Yan fur material (the order of `load_yan_fur` in the shaders) whose table
+/// starts at word `table_at`, and that table: the starts of the medulla's arrays, the far
+/// field's Gauss–Legendre nodes and weights, then the medulla tables' values and cumulative
+/// masses (`azimuth`, `azimuth_mean`, `profiles`, `profiles_mean`) as scatter's `eval` and
+/// `sample` read them.
+#[must_use]
+pub fn yan_fur_words(y: &YanFur, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    use fiberlab_scatter::hair::tilt::marschner_ratio_tilts;
+    let p = y.params();
+    let nodes = y.far_nodes();
+    let mut table = vec![0u32; 8];
+    table.extend(nodes.iter().flat_map(|&(x, w)| [f(x), f(w)]));
+    let mut flags = 0;
+    for (k, &on) in p.lobes.iter().enumerate() {
+        if on {
+            flags |= 1 << k;
+        }
+    }
+    if y.properties().field == Field::Far {
+        flags |= 32;
+    }
+    let mut w = [0u32; MATERIAL_WORDS];
+    if let Some(tables) = y.medulla_tables() {
+        flags |= 64;
+        let view = tables.view();
+        let slices = [view.azimuth, view.azimuth_mean, view.profiles, view.profiles_mean];
+        for (k, s) in slices.iter().enumerate() {
+            table[2 * k] = table.len() as u32;
+            table.extend(s.values.iter().map(|&x| f(x)));
+            table[2 * k + 1] = table.len() as u32;
+            table.extend(s.cumulative.iter().map(|&x| f(x)));
+        }
+        let r = tables.resolution();
+        w[23] = f(tables.params().sigma_s());
+        w[24] = f(r.max_sin_theta_t);
+        w[25..30].copy_from_slice(&[
+            r.inclinations as u32,
+            r.offsets as u32,
+            r.azimuths as u32,
+            r.exit_inclinations as u32,
+            r.profile_azimuths as u32,
+        ]);
+    }
+    w[0] = MATERIAL_YAN_FUR;
+    w[1] = f(p.eta);
+    w[2..5].copy_from_slice(&rgb(y.sigma_c_a()));
+    w[5] = f(p.kappa);
+    w[6] = f(p.sigma_m_s + p.sigma_m_a);
+    w[7] = f(p.layers);
+    w[8] = flags;
+    w[9] = nodes.len() as u32;
+    w[10] = table_at;
+    let (bm, bn) = (p.beta_m, p.beta_n);
+    let beta = [bm, 0.5 * bm, 1.5 * bm];
+    let beta_n = [bn, bn * 2f64.sqrt(), bn * 3f64.sqrt()];
+    for (k, (sin_tau, cos_tau)) in marschner_ratio_tilts(p.alpha).into_iter().enumerate() {
+        w[11 + k] = f(beta[k]);
+        w[14 + k] = f(beta_n[k]);
+        w[17 + 2 * k] = f(sin_tau);
+        w[18 + 2 * k] = f(cos_tau);
+    }
+    (w, table)
+}
+
 /// A fiber material's words and its table (empty for most), whose first word is at
 /// `table_at`.
 fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS], Vec<u32>), Unsupported> {
@@ -248,6 +321,7 @@ fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS]
         Model::KajiyaKay(k) => Ok(kajiya_kay_words(k, table_at)),
         Model::Marschner(m) => Ok(marschner_words(m, table_at)),
         Model::Deon(d) => Ok(deon_words(d, table_at)),
+        Model::YanFur(y) => Ok(yan_fur_words(y, table_at)),
         other => Err(Unsupported::FiberModel(other.name().to_string())),
     }
 }
@@ -278,7 +352,77 @@ pub fn environment_map_words(map: &EnvironmentMap) -> Vec<u32> {
     words
 }
 
-fn surface_material(m: &SurfaceMaterial) -> Result<[u32; MATERIAL_WORDS], Unsupported> {
+/// The words of a leaf material (the order of `load_leaf` in the shaders) whose table starts at
+/// word `table_at`, and that table: the cuticle's albedo table (33 values).
+#[must_use]
+pub fn leaf_words(leaf: &Leaf, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    let (r_b, t_b) = leaf.body();
+    let p = leaf.params();
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_LEAF;
+    w[1..4].copy_from_slice(&rgb(r_b));
+    w[4..7].copy_from_slice(&rgb(t_b));
+    w[7] = f(p.roughness);
+    w[8] = f(p.eta);
+    w[9] = f(leaf.body_normalization());
+    w[10] = table_at;
+    (w, leaf.cuticle_albedo_table().iter().map(|&x| f(x)).collect())
+}
+
+/// The words of a `lambertian` material (the order of `lambertian.wgsl`) whose table starts at
+/// word `table_at`, and that table: the `k_d` texture's texels of its material `m` (rgb, rows
+/// from the top), if any.
+#[must_use]
+pub fn lambertian_words(l: &Lambertian, m: Option<&ModelMaterial>, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_LAMBERTIAN;
+    w[1..4].copy_from_slice(&rgb(l.k_d()));
+    w[10] = table_at;
+    let mut table = Vec::new();
+    // `k_d` is Lambertian's only texturable parameter (a colour: the texels as they are).
+    if let Some(t) = m.and_then(|m| m.textures().iter().find(|t| t.key() == "k_d")) {
+        let tex = t.texture();
+        for y in 0..tex.height() {
+            for x in 0..tex.width() {
+                table.extend(tex.texel(x, y).map(f));
+            }
+        }
+        w[13] = 1;
+        w[14] = tex.width() as u32;
+        w[15] = tex.height() as u32;
+        w[16] = u32::from(tex.wrap() == Wrap::Clamp);
+        w[17] = f(tex.scale()[0]);
+        w[18] = f(tex.scale()[1]);
+    }
+    (w, table)
+}
+
+/// The shading records of a mesh's triangles, 18 words each: the tangent along u, the three
+/// corners' shading normals (zero without them), then their texture coordinates (zero without
+/// them), as
+/// `geometry::shapes::TriangleMesh::intersect_point` reads them.
+fn triangle_shading_words(mesh: &fiberlab_geometry::TriangleMesh) -> Vec<u32> {
+    let (normals, uvs) = (mesh.normals(), mesh.uvs());
+    let mut words = Vec::with_capacity(18 * mesh.len());
+    for (i, t) in mesh.tangents().iter().enumerate() {
+        words.extend([f(t.x), f(t.y), f(t.z)]);
+        let n = normals.get(i).copied().unwrap_or([fiberlab_math::DVec3::ZERO; 3]);
+        words.extend(n.iter().flat_map(|c| [f(c.x), f(c.y), f(c.z)]));
+        let uv = uvs.get(i).copied().unwrap_or([[0.0; 2]; 3]);
+        words.extend(uv.iter().flat_map(|c| [f(c[0]), f(c[1])]));
+    }
+    words
+}
+
+/// A surface material's words and its table (empty for Lambert and mirror), whose first word
+/// is at `table_at`. A mesh's surface models get its triangles' shading records after their
+/// own table (word 11: where they start, relative to the table; word 12, set by the caller: the
+/// mesh's first triangle).
+fn surface_material(
+    m: &SurfaceMaterial,
+    mesh: Option<&fiberlab_geometry::TriangleMesh>,
+    table_at: u32,
+) -> Result<([u32; MATERIAL_WORDS], Vec<u32>), Unsupported> {
     let mut w = [0u32; MATERIAL_WORDS];
     match m {
         SurfaceMaterial::Lambert(albedo) => {
@@ -289,9 +433,24 @@ fn surface_material(m: &SurfaceMaterial) -> Result<[u32; MATERIAL_WORDS], Unsupp
             w[0] = MATERIAL_MIRROR;
             w[1..4].copy_from_slice(&rgb(*r));
         }
-        SurfaceMaterial::Model(m) => return Err(Unsupported::SurfaceModel(m.model_name().to_string())),
+        SurfaceMaterial::Model(m) => {
+            let (mut w, mut table) = match m.model() {
+                SurfaceModel::Leaf(leaf) if m.textures().is_empty() && m.uv_scale().is_none() => {
+                    leaf_words(leaf, table_at)
+                }
+                SurfaceModel::Lambertian(l) if m.uv_scale().is_none() => lambertian_words(l, Some(m), table_at),
+                _ => return Err(Unsupported::SurfaceModel(m.model_name().to_string())),
+            };
+            // Spheres always have texture coordinates; a mesh may not.
+            w[19] = u32::from(mesh.is_none_or(fiberlab_geometry::TriangleMesh::has_uvs));
+            if let Some(mesh) = mesh {
+                w[11] = table.len() as u32;
+                table.extend(triangle_shading_words(mesh));
+            }
+            return Ok((w, table));
+        }
     }
-    Ok(w)
+    Ok((w, Vec::new()))
 }
 
 /// Appends a tree: nodes (references shifted), its primitives offset by `prim_offset`; returns
@@ -355,8 +514,16 @@ impl SceneBuffers {
         }
         for mesh in scene.meshes() {
             let material = materials.len() as u32;
-            materials.push(surface_material(scene.surface_material(mesh.material()))?);
             let base = (b.triangles.len() / 12) as u32;
+            let (mut words, table) =
+                surface_material(scene.surface_material(mesh.material()), Some(mesh.mesh()), tables.len() as u32)?;
+            if !table.is_empty() {
+                // Its triangles' shading records are found from their index less the first's.
+                words[12] = base;
+                tabled.push(materials.len());
+                tables.extend(table);
+            }
+            materials.push(words);
             for tri in mesh.mesh().triangles() {
                 for (k, corner) in tri.iter().enumerate() {
                     let w = if k == 0 { material } else { 0 };
@@ -374,7 +541,12 @@ impl SceneBuffers {
         }
         for (i, s) in scene.spheres().iter().enumerate() {
             let material = materials.len() as u32;
-            materials.push(surface_material(scene.surface_material(s.material()))?);
+            let (words, table) = surface_material(scene.surface_material(s.material()), None, tables.len() as u32)?;
+            if !table.is_empty() {
+                tabled.push(materials.len());
+                tables.extend(table);
+            }
+            materials.push(words);
             let c = s.center();
             let light = s.light();
             let emission = light.map_or(Rgb::ZERO, |l| l.radiance);

@@ -167,6 +167,18 @@ impl Texture {
         self.texels[y * self.width + x]
     }
 
+    /// The wrapping of coordinates outside `[0, 1)`.
+    #[must_use]
+    pub fn wrap(&self) -> Wrap {
+        self.wrap
+    }
+
+    /// The uv multiplier applied before the lookup.
+    #[must_use]
+    pub fn scale(&self) -> [f64; 2] {
+        self.scale
+    }
+
     /// Multiplies texture coordinates by `scale` before the lookup (tiling).
     #[must_use]
     pub fn with_scale(mut self, scale: [f64; 2]) -> Self {

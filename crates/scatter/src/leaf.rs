@@ -208,6 +208,19 @@ impl Leaf {
         self.e[k] * (1.0 - t) + self.e[k + 1] * t
     }
 
+    /// The table of the cuticle's albedo: `E(k/32)` for k = 0..=32, which
+    /// [`Leaf::cuticle_albedo`] interpolates linearly.
+    #[must_use]
+    pub fn cuticle_albedo_table(&self) -> &[f64] {
+        &self.e
+    }
+
+    /// The body's normalization `1/(π(1 − Ē))` (module docs).
+    #[must_use]
+    pub fn body_normalization(&self) -> f64 {
+        self.body_norm
+    }
+
     /// The cuticle's `f_s` for directions on the upper side.
     fn cuticle(&self, wi: DVec3, wo: DVec3) -> f64 {
         let h = (wi + wo).normalize_or_zero();

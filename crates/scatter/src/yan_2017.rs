@@ -610,6 +610,20 @@ impl YanFur {
         self.sigma_c_a
     }
 
+    /// The medulla's random-walk tables of the scattered lobes (`None` when no scattered lobe
+    /// is enabled or nothing scatters).
+    #[must_use]
+    pub fn medulla_tables(&self) -> Option<&MedullaTables> {
+        self.medulla.as_deref()
+    }
+
+    /// The Gauss–Legendre nodes and weights on [−1, 1] of the far-field h-integration, per
+    /// piece (see [`ScatteringFunction::eval_far`]).
+    #[must_use]
+    pub fn far_nodes(&self) -> &[(f64, f64)] {
+        &self.gauss_legendre
+    }
+
     fn hit(&self, sin_o: f64, cos_o: f64, h: f64) -> FurHit {
         let h = h.clamp(-1.0, 1.0);
         let eta = self.params.eta;

@@ -105,6 +105,59 @@ fn probe_deon_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
     probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
 }
 
+/// As `probe_chiang_cases` for the Yan fur material at word 0 (its table after it).
+@compute @workgroup_size(64)
+fn probe_yan_fur_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let m = load_yan_fur(0u);
+    let a = probe_in[3u * i];
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    probe_out[3u * i] = yan_eval(m, wi, a.xyz, a.w);
+    let s = yan_sample(m, a.xyz, a.w, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
+/// As `probe_chiang_cases` for the leaf material at word 0 (its table after it), in the
+/// surface's local frame.
+@compute @workgroup_size(64)
+fn probe_leaf_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let m = load_leaf(0u);
+    let wo = probe_in[3u * i].xyz;
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    probe_out[3u * i] = leaf_eval(m, wi, wo);
+    let s = leaf_sample(m, wo, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
+/// As `probe_chiang_cases` for the untextured `lambertian` material at word 0, in the surface's
+/// local frame.
+@compute @workgroup_size(64)
+fn probe_lambertian_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let k_d = vec3<f32>(word_f(1u), word_f(2u), word_f(3u));
+    let wo = probe_in[3u * i].xyz;
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    probe_out[3u * i] = lambertian_eval(k_d, wi, wo);
+    let s = lambertian_sample(k_d, wo, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
 /// Per case in: (x, y, sample index, pair) as bits, (seed hash low, high, 0, 0); out: the pair.
 @compute @workgroup_size(64)
 fn probe_sampler_cases(@builtin(global_invocation_id) gid: vec3<u32>) {

@@ -11,11 +11,12 @@ const MATERIAL_LAMBERT: u32 = 0u;
 const MATERIAL_MIRROR: u32 = 1u;
 const MATERIAL_CHIANG: u32 = 2u;
 // MATERIAL_KAJIYA_KAY (3) is in kajiya_kay.wgsl, MATERIAL_MARSCHNER (4) in marschner.wgsl,
-// MATERIAL_DEON (5) in deon.wgsl.
+// MATERIAL_DEON (5) in deon.wgsl, MATERIAL_YAN_FUR (6) in yan_fur.wgsl, MATERIAL_LEAF (7) in
+// leaf.wgsl, MATERIAL_LAMBERTIAN (8) in lambertian.wgsl.
 
 fn is_fiber_material(kind: u32) -> bool {
     return kind == MATERIAL_CHIANG || kind == MATERIAL_KAJIYA_KAY || kind == MATERIAL_MARSCHNER
-        || kind == MATERIAL_DEON;
+        || kind == MATERIAL_DEON || kind == MATERIAL_YAN_FUR;
 }
 
 fn material_kind(m: u32) -> u32 {
@@ -130,6 +131,61 @@ fn spawn_epsilon(p: vec3<f32>) -> f32 {
     return 4e-6 * (1.0 + max(max(abs(p.x), abs(p.y)), abs(p.z)));
 }
 
+/// The shading frame of a surface model at a surface hit (material words at `b`; a mesh's
+/// shading records where `leaf.wgsl` says), as the CPU's `SurfacePoint` and
+/// `frame_facing`, with its texture coordinates: the shading normal (a mesh's interpolated corner normals, else the geometric
+/// normal `ng`) flipped to the side of ω_o, the tangent along u made orthogonal to it (a mesh's
+/// per-triangle tangent, a sphere's ∂P/∂φ), and z × x.
+fn surface_frame(b: u32, kind: u32, index: u32, ng: vec3<f32>, o: vec3<f32>, d: vec3<f32>) -> SurfaceShading {
+    var sn = ng;
+    var tangent: vec3<f32>;
+    var uv: vec2<f32>;
+    if kind == KIND_SPHERE {
+        let phi = atan2_f(ng.z, ng.x);
+        let sc = sin_cos_f(phi);
+        tangent = vec3<f32>(-sc.x, 0.0, sc.y);
+        uv = vec2<f32>(select(phi / TAU, phi / TAU + 1.0, phi < 0.0), 1.0 - acos_f(clamp(ng.y, -1.0, 1.0)) / PI);
+    } else {
+        let r = word_u(b + 10u) + word_u(b + 11u) + 18u * (index - word_u(b + 12u));
+        tangent = word_v3(r);
+        // Barycentrics of the hit (Möller–Trumbore, as the CPU's).
+        let p0 = triangles[3u * index].xyz;
+        let e1 = triangles[3u * index + 1u].xyz - p0;
+        let e2 = triangles[3u * index + 2u].xyz - p0;
+        let pv = cross(d, e2);
+        let inv = 1.0 / dot(e1, pv);
+        let tv = o - p0;
+        let b1 = dot(tv, pv) * inv;
+        let b2 = dot(d, cross(tv, e1)) * inv;
+        let n = word_v3(r + 3u) * (1.0 - b1 - b2) + word_v3(r + 6u) * b1 + word_v3(r + 9u) * b2;
+        uv = vec2<f32>(word_f(r + 12u), word_f(r + 13u)) * (1.0 - b1 - b2) + vec2<f32>(word_f(r + 14u), word_f(r + 15u)) * b1
+            + vec2<f32>(word_f(r + 16u), word_f(r + 17u)) * b2;
+        let len = length(n);
+        if len > 0.0 && !not_finite(len) {
+            sn = n / len;
+        }
+    }
+    let along = tangent - sn * dot(sn, tangent);
+    var x: vec3<f32>;
+    // A residual at f32's rounding of a tangent along the normal has no direction.
+    if length(along) > 1e-6 * length(tangent) {
+        x = normalize(along);
+    } else {
+        x = orthonormal_pair(sn)[0];
+    }
+    let z = select(sn, -sn, dot(sn, d) > 0.0);
+    return SurfaceShading(x, cross(z, x), z, uv);
+}
+
+/// A surface model's shading frame (x tangent, y = z × x, z the normal facing ω_o) and the
+/// hit's texture coordinates.
+struct SurfaceShading {
+    x: vec3<f32>,
+    y: vec3<f32>,
+    z: vec3<f32>,
+    uv: vec2<f32>,
+}
+
 @compute @workgroup_size(64)
 fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     let cur = current_half();
@@ -159,7 +215,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     let index = s.hit_prim & 0x3fffffffu;
     let p = s.o + s.d * s.hit_t;
     var material: u32;
-    // Fiber frame (u tangent, w toward ω_o), or the facing normal of a surface.
+    // Fiber frame (u tangent, w toward ω_o), or the facing normal of a surface (and a surface
+    // model's shading frame: u tangent, w its normal facing ω_o).
     var fu: vec3<f32>;
     var fv: vec3<f32>;
     var fw: vec3<f32>;
@@ -169,7 +226,11 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     var kkm: KajiyaKay;
     var msm: Marschner;
     var dem: Deon;
-    // ω_o in the fiber frame.
+    var yfm: YanFur;
+    var lfm: Leaf;
+    // A Lambertian surface model's albedo at the hit.
+    var k_d: vec3<f32>;
+    // ω_o in the fiber (or surface model's) frame.
     var wo_l: vec3<f32>;
     if kind == KIND_SEGMENT {
         let s0 = segments[4u * index];
@@ -200,6 +261,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             msm = load_marschner(params.material_base + 32u * material);
         } else if fiber_kind == MATERIAL_DEON {
             dem = load_deon(params.material_base + 32u * material);
+        } else if fiber_kind == MATERIAL_YAN_FUR {
+            yfm = load_yan_fur(params.material_base + 32u * material);
         } else {
             kkm = load_kajiya_kay(params.material_base + 32u * material);
         }
@@ -221,6 +284,26 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             material = bitcast<u32>(a.w);
         }
         n = select(-ng, ng, dot(ng, s.d) < 0.0);
+        let surface_kind = material_kind(material);
+        if surface_kind == MATERIAL_LEAF || surface_kind == MATERIAL_LAMBERTIAN {
+            let b = params.material_base + 32u * material;
+            let frame = surface_frame(b, kind, index, ng, s.o, s.d);
+            fu = frame.x;
+            fv = frame.y;
+            fw = frame.z;
+            let wo = -s.d;
+            wo_l = vec3<f32>(dot(wo, fu), dot(wo, fv), dot(wo, fw));
+            if surface_kind == MATERIAL_LEAF {
+                lfm = load_leaf(b);
+            } else {
+                k_d = word_v3(b + 1u);
+                // Textured, where the surface has texture coordinates (spheres always do).
+                if word_u(b + 13u) != 0u && (kind == KIND_SPHERE || word_u(b + 19u) != 0u) {
+                    let scale = vec2<f32>(word_f(b + 17u), word_f(b + 18u));
+                    k_d = texture_lookup(word_u(b + 10u), word_u(b + 14u), word_u(b + 15u), word_u(b + 16u), scale, frame.uv);
+                }
+            }
+        }
     }
     let mkind = material_kind(material);
     let delta = mkind == MATERIAL_MIRROR;
@@ -249,10 +332,26 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
                         e = ms_eval(msm, wi_l, wo_l);
                     } else if mkind == MATERIAL_DEON {
                         e = deon_eval(dem, wi_l, wo_l);
+                    } else if mkind == MATERIAL_YAN_FUR {
+                        e = yan_eval(yfm, wi_l, wo_l, s.hit_h);
                     } else {
                         e = kk_eval(kkm, wi_l, wo_l);
                     }
                     f = e.xyz * local_cos_theta(wi_l);
+                    bsdf_pdf = e.w;
+                } else if mkind == MATERIAL_LAMBERTIAN {
+                    // Opaque: light from the geometric normal's side only (as on the CPU).
+                    if dot(n, ls.wi) > 0.0 {
+                        let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
+                        let e = lambertian_eval(k_d, wi_l, wo_l);
+                        f = e.xyz * abs(wi_l.z);
+                        bsdf_pdf = e.w;
+                    }
+                } else if mkind == MATERIAL_LEAF {
+                    // Leaves transmit: light from either side.
+                    let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
+                    let e = leaf_eval(lfm, wi_l, wo_l);
+                    f = e.xyz * abs(wi_l.z);
                     bsdf_pdf = e.w;
                 } else {
                     let c = max(dot(n, ls.wi), 0.0);
@@ -296,6 +395,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             fs = ms_sample(msm, wo_l, vec4<f32>(ua, ub));
         } else if mkind == MATERIAL_DEON {
             fs = deon_sample(dem, wo_l, vec4<f32>(ua, ub));
+        } else if mkind == MATERIAL_YAN_FUR {
+            fs = yan_sample(yfm, wo_l, s.hit_h, vec4<f32>(ua, ub));
         } else {
             fs = kk_sample(kkm, wo_l, vec4<f32>(ua, ub));
         }
@@ -306,6 +407,24 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
         wi = normalize(fu * fs.wi.x + fv * fs.wi.y + fw * fs.wi.z);
         weight = fs.weight;
         pdf = fs.pdf;
+    } else if mkind == MATERIAL_LAMBERTIAN {
+        let ls = lambertian_sample(k_d, wo_l, vec4<f32>(ua, ub));
+        wi = normalize(fu * ls.wi.x + fv * ls.wi.y + fw * ls.wi.z);
+        if ls.pdf <= 0.0 || dot(n, wi) <= 0.0 {
+            paths[pi].l = s.l;
+            return;
+        }
+        weight = ls.weight;
+        pdf = ls.pdf;
+    } else if mkind == MATERIAL_LEAF {
+        let ls = leaf_sample(lfm, wo_l, vec4<f32>(ua, ub));
+        if ls.pdf <= 0.0 {
+            paths[pi].l = s.l;
+            return;
+        }
+        wi = normalize(fu * ls.wi.x + fv * ls.wi.y + fw * ls.wi.z);
+        weight = ls.weight;
+        pdf = ls.pdf;
     } else if mkind == MATERIAL_LAMBERT {
         let t = orthonormal_pair(n)[1];
         let b = cross(n, t);

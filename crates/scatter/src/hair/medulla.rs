@@ -490,6 +490,36 @@ impl LinearSlices {
     }
 }
 
+/// One family of piecewise-linear densities, read-only: `values` holds `nodes` values per slice
+/// (uniform grid; periodic in `φ_q`), `cumulative` per slice the trapezoid masses at the
+/// segment ends (`segments + 1` entries from 0; the last is the slice's mass).
+#[derive(Clone, Copy, Debug)]
+pub struct SlicesView<'a> {
+    /// Node values, slice after slice.
+    pub values: &'a [f64],
+    /// Cumulative masses, slice after slice.
+    pub cumulative: &'a [f64],
+}
+
+/// The tables of a [`MedullaTables`], read-only (for copying them to a GPU).
+/// * `azimuth`: `N/S` on the `φ_q` grid (`azimuths` nodes from −π, periodic), slice
+///   `(c·inclinations + a)·offsets + i` for channel c and node (θ_t, h′) = (a, i);
+/// * `azimuth_mean`: its channel mean, slice `a·offsets + i`;
+/// * `profiles`: the normalised θ_o profiles (`exit_inclinations` nodes from −π/2 to π/2),
+///   slice `(c·inclinations + a)·profile_azimuths + q`;
+/// * `profiles_mean`: their channel mean, slice `a·profile_azimuths + q`.
+#[derive(Clone, Copy, Debug)]
+pub struct MedullaTablesView<'a> {
+    /// `N/S` per channel.
+    pub azimuth: SlicesView<'a>,
+    /// Channel mean of `azimuth`.
+    pub azimuth_mean: SlicesView<'a>,
+    /// θ_o profiles per channel.
+    pub profiles: SlicesView<'a>,
+    /// Channel mean of `profiles`.
+    pub profiles_mean: SlicesView<'a>,
+}
+
 /// Per-node sums of one `(θ_t, h')` node's walks.
 struct NodeTally {
     /// `3 × azimuths` deposited weights.
@@ -697,6 +727,20 @@ impl MedullaTables {
     #[must_use]
     pub fn abandoned_walks(&self) -> u64 {
         self.abandoned
+    }
+    /// The tabulated densities as `azimuthal`, `longitudinal` and the samplers read them
+    /// (layouts in [`MedullaTablesView`]).
+    #[must_use]
+    pub fn view(&self) -> MedullaTablesView<'_> {
+        fn slices(s: &LinearSlices) -> SlicesView<'_> {
+            SlicesView { values: &s.values, cumulative: &s.cumulative }
+        }
+        MedullaTablesView {
+            azimuth: slices(&self.azimuth),
+            azimuth_mean: slices(&self.azimuth_mean),
+            profiles: slices(&self.profiles),
+            profiles_mean: slices(&self.profiles_mean),
+        }
     }
     /// The `θ_t` of inclination node `a`.
     #[must_use]

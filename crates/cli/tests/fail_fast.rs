@@ -89,8 +89,9 @@ fn four_billion_strands_are_refused_by_the_memory_check_and_then_by_the_format()
     std::fs::write(dir.path().join("s.toml"), scene(16, 16, Some(hair))).unwrap();
     let before = files_in(dir.path());
     let err = refused(&run(dir.path(), &["render", "s.toml", "--out", "r", "--quiet"]));
-    // 9.6e10 segments of 1200 bytes of BVH ≈ 105 TiB, the strands' own 4e9 · (25 · 40 + 50) B ≈ 3.82 TiB.
-    assert!(err.contains("BVH of 96000000000 segments needs ~ 105 TiB"), "{err}");
+    // 9.6e10 segments (more than 2^22: one BVH piece each) of 160 bytes of BVH ≈ 14.0 TiB, the
+    // strands' own 4e9 · (25 · 40 + 50) B ≈ 3.82 TiB.
+    assert!(err.contains("BVH of 96000000000 segments needs ~ 14.0 TiB"), "{err}");
     assert!(err.contains("hair 4000000000 strands × 96000000000 segments (generated) ~ 3.82 TiB"), "{err}");
     // With the check overridden, the count itself is refused: 1e11 points do not fit the
     // 32-bit point count, named at the generator in the scene.
@@ -122,8 +123,8 @@ fn a_hair_file_is_estimated_from_its_header_alone() {
     std::fs::write(dir.path().join("t.toml"), scene(16, 16, Some("generator = { strands = 10 }"))).unwrap();
     let before = files_in(dir.path());
     let err = refused(&run(dir.path(), &["render", "s.toml", "--out", "r", "--quiet"]));
-    // 2³² − 1 − 10⁸ = 4194967295 segments.
-    assert!(err.contains("BVH of 4194967295 segments needs ~ 4.58 TiB"), "{err}");
+    // 2³² − 1 − 10⁸ = 4194967295 segments (more than 2^22: 160 bytes each).
+    assert!(err.contains("BVH of 4194967295 segments needs ~ 625 GiB"), "{err}");
     assert!(err.contains("hair 100000000 strands × 4194967295 segments"), "{err}");
     // The same file given with --hair to a scene with small hair.
     let err = refused(&run(dir.path(), &["render", "t.toml", "--hair", "h.hair", "--out", "r"]));

@@ -54,6 +54,10 @@ const PIECE_IN_RADII: f64 = 16.0;
 /// [`crate::bvh::CLUSTER_MAX`] segments (whose size is chosen for the memory and time of large
 /// heads, not for the quality of a small set's tree).
 const ONE_TREE_MAX: usize = 1 << 18;
+/// Strands made into segments by one task of [`CurveSet::tubes_of_f32_strands`].
+const STRANDS_PER_TASK: usize = 1024;
+/// Segments copied at a time before their pieces are made ([`CurveSet::from_tubes`]; 16 KB).
+const GATHER: usize = 256;
 /// At most this many BVH pieces per segment.
 const MAX_PIECES: usize = 8;
 /// Sets of more than this many segments put each in the tree whole ([`DENSE_PIECES`]): the
@@ -196,43 +200,67 @@ impl CurveSet {
         capacity: usize,
     ) -> (Vec<Segment>, usize) {
         let mut segments = Vec::with_capacity(capacity);
+        let mut dirs = Vec::new();
         let mut count = 0u32;
         for (points, radii) in strands {
-            let n = points.len();
-            if n < 2 || radii.len() != n || !points.iter().all(|p| p.is_finite()) {
-                continue;
+            if Self::push_strand(points, radii, count, &mut dirs, &mut segments) {
+                count += 1;
             }
-            let dirs: Vec<DVec3> = points.windows(2).map(|w| (w[1] - w[0]).normalize_or_zero()).collect();
-            // Vertex tangents: bisectors, or the adjacent direction at the ends / sharp bends.
-            let miter = |k: usize, side: usize| -> DVec3 {
-                // Tangent at vertex k as seen from segment `side` (k−1 or k).
-                if k == 0 || k == n - 1 {
-                    return dirs[side];
-                }
-                let b = (dirs[k - 1] + dirs[k]).normalize_or_zero();
-                if b.dot(dirs[side]) < MIN_MITER_COS || b == DVec3::ZERO { dirs[side] } else { b }
-            };
-            let total = (n - 1) as f64;
-            for k in 0..n - 1 {
-                let r = 0.5 * (radii[k] + radii[k + 1]);
-                if dirs[k] == DVec3::ZERO || r.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-                    continue;
-                }
-                let v = |k: usize| (k as f64 / total * f64::from(u16::MAX)).round() as u16;
-                segments.push(Segment {
-                    p0: points[k].as_vec3(),
-                    axis: dirs[k].as_vec3().normalize(),
-                    length: (points[k + 1] - points[k]).length() as f32,
-                    radius: r as f32,
-                    n0: miter(k, k).as_vec3(),
-                    n1: miter(k + 1, k).as_vec3(),
-                    v: [v(k), v(k + 1)],
-                    strand: count,
-                });
-            }
-            count += 1;
         }
         (segments, count as usize)
+    }
+
+    /// Whether a strand of `points` (root first) and their `radii` is kept: at least 2 points,
+    /// a radius each, all finite.
+    fn strand_is_kept(points: &[DVec3], radii: &[f64]) -> bool {
+        points.len() >= 2 && radii.len() == points.len() && points.iter().all(|p| p.is_finite())
+    }
+
+    /// Appends the segments of one strand, numbered `strand`, to `out` (segments of no length
+    /// or radius skipped); `dirs` is room for its directions. Whether the strand is kept
+    /// ([`Self::strand_is_kept`]; a kept strand may have no segments).
+    fn push_strand(
+        points: &[DVec3],
+        radii: &[f64],
+        strand: u32,
+        dirs: &mut Vec<DVec3>,
+        out: &mut Vec<Segment>,
+    ) -> bool {
+        if !Self::strand_is_kept(points, radii) {
+            return false;
+        }
+        let n = points.len();
+        dirs.clear();
+        dirs.extend(points.windows(2).map(|w| (w[1] - w[0]).normalize_or_zero()));
+        let dirs = &dirs[..];
+        // Vertex tangents: bisectors, or the adjacent direction at the ends / sharp bends.
+        let miter = |k: usize, side: usize| -> DVec3 {
+            // Tangent at vertex k as seen from segment `side` (k−1 or k).
+            if k == 0 || k == n - 1 {
+                return dirs[side];
+            }
+            let b = (dirs[k - 1] + dirs[k]).normalize_or_zero();
+            if b.dot(dirs[side]) < MIN_MITER_COS || b == DVec3::ZERO { dirs[side] } else { b }
+        };
+        let total = (n - 1) as f64;
+        for k in 0..n - 1 {
+            let r = 0.5 * (radii[k] + radii[k + 1]);
+            if dirs[k] == DVec3::ZERO || r.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                continue;
+            }
+            let v = |k: usize| (k as f64 / total * f64::from(u16::MAX)).round() as u16;
+            out.push(Segment {
+                p0: points[k].as_vec3(),
+                axis: dirs[k].as_vec3().normalize(),
+                length: (points[k + 1] - points[k]).length() as f32,
+                radius: r as f32,
+                n0: miter(k, k).as_vec3(),
+                n1: miter(k + 1, k).as_vec3(),
+                v: [v(k), v(k + 1)],
+                strand,
+            });
+        }
+        true
     }
 
     /// Tubes from strands stored as single-precision points (as hair files hold them): strand
@@ -242,7 +270,7 @@ impl CurveSet {
     pub fn from_f32_strands(
         points: &[[f32; 3]],
         ranges: &[std::ops::Range<usize>],
-        radius: impl Fn(usize) -> f64,
+        radius: impl Fn(usize) -> f64 + Sync,
     ) -> Self {
         Self::from_tubes(Self::tubes_of_f32_strands(points, ranges, radius))
     }
@@ -255,27 +283,70 @@ impl CurveSet {
 
     /// The tubes of [`Self::from_f32_strands`] without their tree: the caller can free the
     /// strands before [`Self::from_tubes`] builds it (the build is a load's peak of memory).
+    ///
+    /// Strands keep their numbers (kept strands counted in the order of `ranges`), but a set
+    /// large enough to be built in clusters (more than `ONE_TREE_MAX` segments) has its segments
+    /// stored in the spatial order of the strands' roots ([`spatial_order`]): a cluster's
+    /// segments are then a few runs of memory instead of one cache line each from anywhere in
+    /// the set, for the build (which reads each segment to make its pieces) and the render
+    /// (which reads a leaf's segments). The segments are made on all threads, a batch of strands
+    /// at a time.
     #[must_use]
     pub fn tubes_of_f32_strands(
         points: &[[f32; 3]],
         ranges: &[std::ops::Range<usize>],
-        radius: impl Fn(usize) -> f64,
+        radius: impl Fn(usize) -> f64 + Sync,
     ) -> Tubes {
+        use rayon::prelude::*;
         let capacity = points.len().saturating_sub(ranges.len());
-        let mut segments = Vec::with_capacity(capacity);
-        let (mut strand_points, mut strand_radii) = (Vec::new(), Vec::new());
-        let mut count = 0;
-        for r in ranges {
-            strand_points.clear();
-            strand_radii.clear();
-            strand_points.extend(points[r.clone()].iter().map(|p| DVec3::new(p[0].into(), p[1].into(), p[2].into())));
-            strand_radii.extend(r.clone().map(&radius));
-            let (mut strand, n) = Self::segments_of(std::iter::once((&strand_points[..], &strand_radii[..])), 0);
-            for s in &mut strand {
-                s.strand = count;
+        let finite = |r: &std::ops::Range<usize>| points[r.clone()].iter().all(|p| p.iter().all(|c| c.is_finite()));
+        // Each kept strand's number ([`Self::strand_is_kept`]), in the order of `ranges`.
+        let mut numbers = vec![u32::MAX; ranges.len()];
+        let mut count = 0u32;
+        for (number, r) in numbers.iter_mut().zip(ranges) {
+            if r.len() >= 2 && finite(r) {
+                *number = count;
+                count += 1;
             }
-            count += n as u32;
-            segments.append(&mut strand);
+        }
+        let kept = (0..ranges.len() as u32).filter(|&k| numbers[k as usize] != u32::MAX);
+        let order: Vec<u32> = if capacity > ONE_TREE_MAX {
+            spatial_order(&kept.map(|k| (k, points[ranges[k as usize].start])).collect::<Vec<_>>())
+        } else {
+            kept.collect()
+        };
+        // The strands of `order` as segments, appended to `out`.
+        let make = |order: &[u32], out: &mut Vec<Segment>| {
+            let (mut strand_points, mut strand_radii, mut dirs) = (Vec::new(), Vec::new(), Vec::new());
+            for &k in order {
+                let r = ranges[k as usize].clone();
+                strand_points.clear();
+                strand_radii.clear();
+                strand_points
+                    .extend(points[r.clone()].iter().map(|p| DVec3::new(p[0].into(), p[1].into(), p[2].into())));
+                strand_radii.extend(r.map(&radius));
+                Self::push_strand(&strand_points, &strand_radii, numbers[k as usize], &mut dirs, out);
+            }
+        };
+        let mut segments = Vec::with_capacity(capacity);
+        if order.len() < STRANDS_PER_TASK {
+            make(&order, &mut segments);
+        } else {
+            // Batches of a few tasks a thread: only one batch's segments are held twice.
+            let batch = STRANDS_PER_TASK * 4 * rayon::current_num_threads();
+            for strands in order.chunks(batch) {
+                let parts: Vec<Vec<Segment>> = strands
+                    .par_chunks(STRANDS_PER_TASK)
+                    .map(|strands| {
+                        let mut out = Vec::with_capacity(16 * strands.len());
+                        make(strands, &mut out);
+                        out
+                    })
+                    .collect();
+                for part in parts {
+                    segments.extend_from_slice(&part);
+                }
+            }
         }
         Tubes { segments, strands: count as usize }
     }
@@ -333,33 +404,44 @@ impl CurveSet {
     /// [`Self::from_segments`] with BVH clusters of at most `cluster_max` segments, each segment
     /// in at most `max_pieces` pieces.
     fn from_segments_in(segments: Vec<Segment>, strands: usize, cluster_max: usize, max_pieces: usize) -> Self {
+        use rayon::prelude::*;
         // Segment `i` as one build record over its whole axis, widened by its reach: a miter
         // ellipse reaches r/cos from the vertex, so the tube lies within that radius of the
         // axis segment (a capsule).
-        let axis = |i: u32| {
-            let s = &segments[i as usize];
+        let axis = |s: &Segment| {
             let (p0, p1) = (s.p0.as_dvec3(), s.p1().as_dvec3());
             let d = (p1 - p0).normalize();
             let cos = s.n0.as_dvec3().dot(d).min(s.n1.as_dvec3().dot(d)).max(MIN_MITER_COS);
             (p0, p1, f64::from(s.radius) / cos)
         };
         let items: Vec<BuildPrim> = (0..segments.len() as u32)
+            .into_par_iter()
             .map(|i| {
-                let (p0, p1, reach) = axis(i);
+                let (p0, p1, reach) = axis(&segments[i as usize]);
                 BuildPrim::segment(p0, p1, reach, i)
             })
             .collect();
-        // In the tree, each segment as pieces of its axis of at most PIECE_IN_RADII radii.
-        let pieces = |i: u32, out: &mut Vec<BuildPrim>| {
-            let (p0, p1, reach) = axis(i);
-            let k = segments[i as usize].piece_count(max_pieces);
-            let step = (p1 - p0) / k as f64;
-            let mut a = p0;
-            for j in 1..=k {
-                // The last piece ends exactly at the tip.
-                let b = if j == k { p1 } else { p0 + step * j as f64 };
-                out.push(BuildPrim::segment(a, b, reach, i));
-                a = b;
+        // In the tree, each segment as pieces of its axis of at most PIECE_IN_RADII radii. A
+        // cluster's segments lie anywhere in the set: they are copied GATHER at a time first,
+        // in a loop of independent loads whose cache misses overlap, then cut (the cut's
+        // arithmetic on each segment as it arrives left one miss in flight at a time; issue 42).
+        let pieces = |indices: &[u32], out: &mut Vec<BuildPrim>| {
+            let mut near = Vec::with_capacity(GATHER.min(indices.len()));
+            for indices in indices.chunks(GATHER) {
+                near.clear();
+                near.extend(indices.iter().map(|&i| segments[i as usize]));
+                for (&i, s) in indices.iter().zip(&near) {
+                    let (p0, p1, reach) = axis(s);
+                    let k = s.piece_count(max_pieces);
+                    let step = (p1 - p0) / k as f64;
+                    let mut a = p0;
+                    for j in 1..=k {
+                        // The last piece ends exactly at the tip.
+                        let b = if j == k { p1 } else { p0 + step * j as f64 };
+                        out.push(BuildPrim::segment(a, b, reach, i));
+                        a = b;
+                    }
+                }
             }
         };
         let total = segments.iter().map(|s| s.piece_count(max_pieces)).sum();
@@ -390,11 +472,27 @@ impl CurveSet {
     /// 8 per segment) with u32.
     pub const MAX_SEGMENTS: u64 = (u32::MAX as u64 - 1) / MAX_PIECES as u64;
 
+    /// Peak bytes per segment of building a set of more than `DENSE_MIN` segments (one piece
+    /// each), as [`Self::BUILD_BYTES_PER_SEGMENT`] but for these: the whole process's maximum
+    /// RSS over the segments was 106 bytes on the 5M-segment head (504 MiB) and 102 on the
+    /// 15M-segment one (1,466 MiB; `hair generate --style straight --strands 1000000
+    /// --segments 15`, the load of the book's "Performance", issue 42): the segments (64), the
+    /// records of the tree over clusters (32, freed before the clusters are built) and the tree,
+    /// the hair data apart. This constant is 1.5 times that, so that a 15M-segment head
+    /// passes the memory check where 2.4 GB are free (at 1,200 bytes it asked for 18 GB).
+    pub const DENSE_BUILD_BYTES_PER_SEGMENT: u64 = 160;
+
     /// Estimated peak bytes of building a set of `segments` segments
-    /// ([`Self::BUILD_BYTES_PER_SEGMENT`] each), in u64; `None` on overflow.
+    /// ([`Self::BUILD_BYTES_PER_SEGMENT`] each, [`Self::DENSE_BUILD_BYTES_PER_SEGMENT`] above
+    /// `DENSE_MIN` segments), in u64; `None` on overflow.
     #[must_use]
     pub fn estimated_bytes(segments: u64) -> Option<u64> {
-        segments.checked_mul(Self::BUILD_BYTES_PER_SEGMENT)
+        let per_segment = if segments > DENSE_MIN as u64 {
+            Self::DENSE_BUILD_BYTES_PER_SEGMENT
+        } else {
+            Self::BUILD_BYTES_PER_SEGMENT
+        };
+        segments.checked_mul(per_segment)
     }
 
     /// Number of strands.
@@ -675,6 +773,39 @@ impl QuickRay {
 }
 
 /// Weights of the four control points of a cubic span at parameter `t` ∈ [0, 1].
+/// The strands `(number, root point)` in the order of their roots along a Morton (Z-order)
+/// curve over the roots' box, 21 bits an axis; equal codes in the order given. Returns the
+/// numbers.
+fn spatial_order(roots: &[(u32, [f32; 3])]) -> Vec<u32> {
+    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for (_, p) in roots {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    const CELLS: f64 = (1u64 << 21) as f64;
+    // The bits of `x` (21) spread to every third bit.
+    let spread = |x: u64| {
+        let mut x = x & 0x1f_ffff;
+        x = (x | x << 32) & 0x1f_0000_0000_ffff;
+        x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+        (x | x << 2) & 0x1249_2492_4924_9249
+    };
+    let code = |p: &[f32; 3]| {
+        (0..3).fold(0u64, |c, a| {
+            let extent = f64::from(hi[a]) - f64::from(lo[a]);
+            let u = if extent > 0.0 { (f64::from(p[a]) - f64::from(lo[a])) / extent } else { 0.0 };
+            c | spread((u * CELLS).clamp(0.0, CELLS - 1.0) as u64) << a
+        })
+    };
+    let mut keyed: Vec<(u64, u32)> = roots.iter().enumerate().map(|(i, (_, p))| (code(p), i as u32)).collect();
+    keyed.sort_unstable();
+    keyed.iter().map(|&(_, i)| roots[i as usize].0).collect()
+}
+
 fn cubic_weights(basis: CubicBasis, t: f64) -> [f64; 4] {
     let s = 1.0 - t;
     match basis {
@@ -1053,6 +1184,76 @@ mod tests {
         // The duplicate point's zero-length segment and the zero-radius strand are dropped.
         assert_eq!(set.segment_count(), 1);
         assert!(set.intersect(&Ray::new(DVec3::new(0.5, 0.0, 5.0), -DVec3::Z)).is_some());
+    }
+
+    /// The roots' Morton order: the corners of a cube in the order of x + 2y + 4z whatever the
+    /// order given, and roots of equal code in the order given.
+    #[test]
+    fn spatial_order_follows_the_morton_curve() {
+        let corner = |c: u32| [(c & 1) as f32, (c >> 1 & 1) as f32, (c >> 2 & 1) as f32];
+        let mut roots: Vec<(u32, [f32; 3])> = [3u32, 6, 0, 5, 7, 1, 2, 4].iter().map(|&c| (7 - c, corner(c))).collect();
+        roots.push((100, corner(5)));
+        assert_eq!(spatial_order(&roots), [7, 6, 5, 4, 3, 2, 100, 1, 0]);
+    }
+
+    /// A set of more than `ONE_TREE_MAX` segments from `f32` strands: the segments of the
+    /// strands in file order, field for field, each with its strand's number in file order
+    /// (skipped strands not counted), but stored strand by strand in the roots' spatial order.
+    #[test]
+    fn large_sets_keep_their_strand_numbers_in_spatial_order() {
+        let mut strands = random_strands(17, 55_000);
+        strands[10].0[1] = DVec3::NAN;
+        strands[20].0.truncate(1);
+        strands[20].1.truncate(1);
+        let points: Vec<[f32; 3]> =
+            strands.iter().flat_map(|(p, _)| p.iter().map(|q| q.as_vec3().to_array())).collect();
+        let radii: Vec<f64> = strands.iter().flat_map(|(_, r)| r.iter().map(|&x| f64::from(x as f32))).collect();
+        let mut start = 0;
+        let ranges: Vec<_> = strands
+            .iter()
+            .map(|(p, _)| {
+                start += p.len();
+                start - p.len()..start
+            })
+            .collect();
+        let tubes = CurveSet::tubes_of_f32_strands(&points, &ranges, |i| radii[i]);
+        let widened: Vec<Vec<DVec3>> =
+            ranges.iter().map(|r| points[r.clone()].iter().map(|p| Vec3::from(*p).as_dvec3()).collect()).collect();
+        let (expected, count) =
+            CurveSet::segments_of(widened.iter().zip(&ranges).map(|(p, r)| (&p[..], &radii[r.clone()])), 0);
+        assert!(expected.len() > ONE_TREE_MAX, "{} segments", expected.len());
+        assert_eq!((tubes.strands, tubes.segments.len()), (count, expected.len()));
+        let fields = |s: &Segment| {
+            (
+                s.strand,
+                s.v,
+                s.head().map(f32::to_bits),
+                s.n0.to_array().map(f32::to_bits),
+                s.n1.to_array().map(f32::to_bits),
+            )
+        };
+        let mut got: Vec<_> = tubes.segments.iter().map(fields).collect();
+        let stored: Vec<u32> = got.iter().map(|f| f.0).collect();
+        got.sort_unstable();
+        assert!(got == expected.iter().map(fields).collect::<Vec<_>>(), "the same segments");
+        // Strand by strand, not in file order, and consecutive strands' roots near each other.
+        let mut runs = stored.clone();
+        runs.dedup();
+        assert_eq!(runs.len(), count, "each strand's segments are consecutive");
+        assert!(!runs.is_sorted(), "spatial order, not file order");
+        let roots: Vec<Vec3> = {
+            let mut first = vec![Vec3::ZERO; count];
+            for s in expected.iter().rev() {
+                first[s.strand as usize] = s.p0;
+            }
+            first
+        };
+        let mean_step = |order: &[u32]| {
+            order.windows(2).map(|w| roots[w[0] as usize].distance(roots[w[1] as usize])).sum::<f32>()
+                / order.len() as f32
+        };
+        let file_order: Vec<u32> = (0..count as u32).collect();
+        assert!(mean_step(&runs) < 0.2 * mean_step(&file_order), "{} {}", mean_step(&runs), mean_step(&file_order));
     }
 
     #[test]

@@ -730,9 +730,10 @@ impl Builder {
 /// `ONE_TREE_MAX` in `curves.rs`).
 pub const CLUSTER_MAX: usize = 1 << 14;
 
-/// What [`Bvh::build_grouped`] calls for each item: append the records of the pieces of the
-/// item with this index.
-pub(crate) type Pieces<'a> = dyn Fn(u32, &mut Vec<BuildPrim>) + Sync + 'a;
+/// What [`Bvh::build_grouped_in`] calls for each cluster: append the records of the pieces of
+/// the items with these indices, in order (a cluster's items at once, so that the caller can
+/// fetch what it makes them from before it computes: `CurveSet` gathers its segments).
+pub(crate) type Pieces<'a> = dyn Fn(&[u32], &mut Vec<BuildPrim>) + Sync + 'a;
 
 /// How a cluster joins the tree over clusters: as one child slot of a wide node (its root), or,
 /// where the collapse above opens the cluster's root, as its root's two children.
@@ -842,7 +843,8 @@ impl Bvh {
     /// [`CLUSTER_MAX`] items this is [`Bvh::build_records`] over all the pieces.
     #[must_use]
     pub fn build_grouped(items: Vec<BuildPrim>, pieces: impl Fn(u32, &mut Vec<BuildPrim>) + Sync) -> Self {
-        Self::build_grouped_in(items, &pieces, CLUSTER_MAX, Boxes::Aligned)
+        let each = |indices: &[u32], out: &mut Vec<BuildPrim>| indices.iter().for_each(|&i| pieces(i, out));
+        Self::build_grouped_in(items, &each, CLUSTER_MAX, Boxes::Aligned)
     }
 
     /// [`Bvh::build_grouped`] with clusters of at most `cluster_max` items (≥ 2) and the
@@ -857,10 +859,9 @@ impl Bvh {
         assert!(items.len() < u32::MAX as usize, "too many primitives for u32 indices");
         if items.len() <= cluster_max {
             let mut records = Vec::with_capacity(8 * items.len());
-            for it in &items {
-                pieces(it.index(), &mut records);
-            }
+            let indices: Vec<u32> = items.iter().map(BuildPrim::index).collect();
             drop(items);
+            pieces(&indices, &mut records);
             return Self::build_records_with(records, boxes);
         }
         Self::build_clustered(items, pieces, cluster_max, boxes)
@@ -913,9 +914,7 @@ impl Bvh {
                 .map(|(&(first, count), &joint)| {
                     // Room for up to 8 pieces an item: only the memory written is committed.
                     let mut records = Vec::with_capacity(8 * count as usize);
-                    for &it in &order[first as usize..(first + count) as usize] {
-                        pieces(it, &mut records);
-                    }
+                    pieces(&order[first as usize..(first + count) as usize], &mut records);
                     SubTree::build(records, joint, boxes)
                 })
                 .collect();
@@ -1632,11 +1631,13 @@ mod tests {
             (0..3000).map(|_| (DVec3::new(rnd(), rnd(), rnd()) * 10.0 - 5.0, 0.02 + 0.3 * rnd())).collect();
         let boxes: Vec<Aabb> = spheres.iter().map(|&(c, r)| Aabb::sphere(c, r)).collect();
         let items = || boxes.iter().enumerate().map(|(i, b)| BuildPrim::new(b, i as u32)).collect::<Vec<_>>();
-        let halves = |i: u32, out: &mut Vec<BuildPrim>| {
-            let b = boxes[i as usize];
-            let mid = 0.5 * (b.min.x + b.max.x);
-            out.push(BuildPrim::new(&Aabb { max: DVec3::new(mid, b.max.y, b.max.z), ..b }, i));
-            out.push(BuildPrim::new(&Aabb { min: DVec3::new(mid, b.min.y, b.min.z), ..b }, i));
+        let halves = |indices: &[u32], out: &mut Vec<BuildPrim>| {
+            for &i in indices {
+                let b = boxes[i as usize];
+                let mid = 0.5 * (b.min.x + b.max.x);
+                out.push(BuildPrim::new(&Aabb { max: DVec3::new(mid, b.max.y, b.max.z), ..b }, i));
+                out.push(BuildPrim::new(&Aabb { min: DVec3::new(mid, b.min.y, b.min.z), ..b }, i));
+            }
         };
         let pool = |n| rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
         for cluster_max in [2, 3, 17, 500, 5000] {

@@ -71,7 +71,10 @@ total=$(( $(date +%s) - start ))
   echo "rendered at $REF_SPP spp), then Kajiya–Kay fitted to Chiang, Marschner 2003, Chiang 2016 and the"
   echo "measured table at $SPP spp. Every model gets the scene's hair: one σ_a per unit radius, mapped to"
   echo "each model's parametrization and printed below (\`docs/theory/hair.md\`, \"One absorption for every"
-  echo "hair model\"); Kajiya–Kay is fitted under an energy bound."
+  echo "hair model\"); Kajiya–Kay is fitted to its luminance under an energy bound and coloured by what"
+  echo "the hair scatters toward the viewer's side (\`docs/book/src/measuring/evaluate.md\`). \`hair R/G/B\`: per"
+  echo "channel, the model's mean over the pixels the hair covers over the reference's (1/1/1: same"
+  echo "brightness and colour)."
   echo
   echo "Metrics are against the reference (\`fiberlab compare\`), on linear values except SSIM and FLIP."
   echo "Each render is the mean of two halves of its samples with different seeds; its noise is"

@@ -696,7 +696,15 @@ mod tests {
         let target = build("chiang", &[("eumelanin", "3")]);
         let kk = fitted_kajiya_kay(&target).unwrap();
         let n = 120;
-        let simpson = |k: usize| if k == 0 || k == n { 1.0 } else if k % 2 == 1 { 4.0 } else { 2.0 };
+        let simpson = |k: usize| {
+            if k == 0 || k == n {
+                1.0
+            } else if k % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            }
+        };
         let (dt, dp) = (PI / n as f64, PI / n as f64);
         let wo = direction(0.0, 0.0);
         let mut half = Rgb::ZERO;

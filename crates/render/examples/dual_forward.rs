@@ -28,6 +28,9 @@ use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::path::Path;
 
+#[path = "independent_path/mod.rs"]
+mod independent_path;
+
 const MAX_DEPTH: usize = 64;
 /// Buckets of `n` (fibers on the straight line) and of `k` (forward events after vertex 1).
 const N_EDGES: [usize; 9] = [0, 1, 2, 3, 4, 6, 8, 16, 32];
@@ -138,7 +141,7 @@ fn trace(scene: &Scene, dual: &DualScattering, px: f64, py: f64, rng: &mut Split
                     let c = beta * f * ls.radiance / (select * ls.pdf);
                     tally.total += c;
                     let back_here = match &hit {
-                        Hit::Fiber { hit, .. } => depth > 0 && backward_event(hit, ray.d, ls.wi),
+                        Hit::Fiber { hit, .. } => depth > 0 && independent_path::backward_event(hit, ray.d, ls.wi),
                         Hit::Surface { .. } => false,
                     };
                     if depth > 0 && !surface {
@@ -159,36 +162,9 @@ fn trace(scene: &Scene, dual: &DualScattering, px: f64, py: f64, rng: &mut Split
             }
         }
         let u = [rng.next_f64(), rng.next_f64(), rng.next_f64(), rng.next_f64()];
-        let (wi, weight) = match &hit {
-            Hit::Fiber { hit, material } => {
-                let frame = hit.frame(ray.d);
-                let Some(s) = scene.fiber_model(*material).sample(frame.to_local(-ray.d), hit.h, u) else { break };
-                let wi = frame.to_world(s.wi).normalize();
-                if depth > 0 && backward_event(hit, ray.d, wi) {
-                    backward = true;
-                }
-                (wi, s.weight)
-            }
-            Hit::Surface { n, material, .. } => {
-                let facing = if n.dot(ray.d) < 0.0 { *n } else { -*n };
-                let SurfaceMaterial::Lambert(albedo) = scene.surface_material(*material) else { break };
-                let t = facing.any_orthonormal_vector();
-                let b = facing.cross(t);
-                let (r, a) = (u[0].sqrt(), 2.0 * PI * u[1]);
-                let wi = (t * (r * a.cos()) + b * (r * a.sin()) + facing * (1.0 - u[0]).max(0.0).sqrt()).normalize();
-                (wi, *albedo)
-            }
-        };
-        beta *= weight;
-        if beta.is_black() || !beta.is_finite() {
+        let Some((wi, weight)) = independent_path::scatter(scene, &hit, ray.d, depth, u, &mut backward) else { break };
+        if !independent_path::carry_on(&mut beta, weight, depth, rng) {
             break;
-        }
-        if depth >= 3 {
-            let survive = beta.max_component().min(1.0);
-            if rng.next_f64() >= survive {
-                break;
-            }
-            beta = beta / survive;
         }
         ray = fiberlab_geometry::Ray { o: p, d: wi, t_min: eps, t_max: f64::INFINITY };
     }
@@ -217,12 +193,6 @@ fn dual_global(scene: &Scene, dual: &DualScattering, px: f64, py: f64, rng: &mut
         let f = dual.scattering(scene, material, wi, wo, hit.h, n, product, spread2);
         tally.dual_n[bucket(&N_EDGES, n as usize)] += f * weight;
     }
-}
-
-fn backward_event(hit: &fiberlab_geometry::curves::CurveHit, ray_d: DVec3, wi: DVec3) -> bool {
-    let frame = hit.frame(ray_d);
-    let (a, b) = (frame.to_local(wi), frame.to_local(-ray_d));
-    a.y * b.y + a.z * b.z > 0.0
 }
 
 fn main() {

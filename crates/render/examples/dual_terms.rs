@@ -47,6 +47,9 @@ use fiberlab_scatter::ScatteringFunction;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::path::Path;
+
+#[path = "independent_path/mod.rs"]
+mod independent_path;
 use std::sync::atomic::AtomicBool;
 
 /// The path tracer's categories (module docs).
@@ -129,7 +132,7 @@ fn trace(scene: &Scene, px: f64, py: f64, rng: &mut SplitMix64) -> [Rgb; 7] {
                     if let Hit::Fiber { hit, .. } = &hit
                         && depth > 0
                         && c == 1
-                        && backward_event(hit, ray.d, ls.wi)
+                        && independent_path::backward_event(hit, ray.d, ls.wi)
                     {
                         c = 2;
                     }
@@ -143,48 +146,13 @@ fn trace(scene: &Scene, px: f64, py: f64, rng: &mut SplitMix64) -> [Rgb; 7] {
         }
         // Continue the path.
         let u = [rng.next_f64(), rng.next_f64(), rng.next_f64(), rng.next_f64()];
-        let (wi, weight) = match &hit {
-            Hit::Fiber { hit, material } => {
-                let frame = hit.frame(ray.d);
-                let Some(s) = scene.fiber_model(*material).sample(frame.to_local(-ray.d), hit.h, u) else { break };
-                let wi = frame.to_world(s.wi).normalize();
-                if depth > 0 && backward_event(hit, ray.d, wi) {
-                    backward = true;
-                }
-                (wi, s.weight)
-            }
-            Hit::Surface { n, material, .. } => {
-                let facing = if n.dot(ray.d) < 0.0 { *n } else { -*n };
-                let SurfaceMaterial::Lambert(albedo) = scene.surface_material(*material) else { break };
-                let t = facing.any_orthonormal_vector();
-                let b = facing.cross(t);
-                let (r, a) = (u[0].sqrt(), 2.0 * PI * u[1]);
-                let wi = (t * (r * a.cos()) + b * (r * a.sin()) + facing * (1.0 - u[0]).max(0.0).sqrt()).normalize();
-                (wi, *albedo)
-            }
-        };
-        beta *= weight;
-        if beta.is_black() || !beta.is_finite() {
+        let Some((wi, weight)) = independent_path::scatter(scene, &hit, ray.d, depth, u, &mut backward) else { break };
+        if !independent_path::carry_on(&mut beta, weight, depth, rng) {
             break;
-        }
-        if depth >= 3 {
-            let survive = beta.max_component().min(1.0);
-            if rng.next_f64() >= survive {
-                break;
-            }
-            beta = beta / survive;
         }
         ray = fiberlab_geometry::Ray { o: p, d: wi, t_min: eps, t_max: f64::INFINITY };
     }
     out
-}
-
-/// Whether light arriving from `wi` and leaving along `−ray_d` scatters backward at the fiber
-/// (both on the same side of it: the dual-scattering tables' backward half-circle).
-fn backward_event(hit: &fiberlab_geometry::curves::CurveHit, ray_d: DVec3, wi: DVec3) -> bool {
-    let frame = hit.frame(ray_d);
-    let (a, b) = (frame.to_local(wi), frame.to_local(-ray_d));
-    a.y * b.y + a.z * b.z > 0.0
 }
 
 fn term_images(scene: &Scene, spp: u32) -> Vec<LinearImage> {

@@ -20,7 +20,7 @@
 use fiberlab_math::split_mix::SplitMix64;
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_render::dual_scattering::{DualScattering, DualScatteringSettings, RENDER_TABLE_RESOLUTION};
-use fiberlab_render::scene::{Hit, Scene, SurfaceMaterial};
+use fiberlab_render::scene::{Hit, Scene};
 use fiberlab_render::scene_family::{FamilyScene, FamilySize};
 use fiberlab_render::scene_file::SceneFile;
 use fiberlab_scatter::ScatteringFunction;
@@ -91,7 +91,6 @@ fn skip_of(
 fn trace(scene: &Scene, dual: &DualScattering, px: f64, py: f64, rng: &mut SplitMix64, tally: &mut Tally) {
     let mut ray = scene.camera().ray(px, py);
     let mut beta = Rgb::ONE;
-    let picker = scene.light_picker();
     let mut first: Option<(DVec3, fiberlab_geometry::curves::CurveHit, fiberlab_render::scene::FiberMaterialId)> = None;
     let (mut backward, mut surface) = (false, false);
     let mut k = 0usize;
@@ -114,51 +113,25 @@ fn trace(scene: &Scene, dual: &DualScattering, px: f64, py: f64, rng: &mut Split
             Hit::Surface { p, .. } => *p,
         };
         let eps = 1e-9 * (1.0 + p.abs().max_element());
-        let f_cos = |wi: DVec3| -> Rgb {
-            match &hit {
-                Hit::Fiber { hit, material } => {
-                    let frame = hit.frame(ray.d);
-                    let (wi_l, wo_l) = (frame.to_local(wi), frame.to_local(-ray.d));
-                    scene.fiber_model(*material).eval(wi_l, wo_l, hit.h) * (1.0 - wi_l.x * wi_l.x).max(0.0).sqrt()
-                }
-                Hit::Surface { n, material, .. } => {
-                    let facing = if n.dot(ray.d) < 0.0 { *n } else { -*n };
-                    match scene.surface_material(*material) {
-                        SurfaceMaterial::Lambert(albedo) => *albedo * (facing.dot(wi).max(0.0) / PI),
-                        _ => panic!("dual_forward: only Lambertian surfaces"),
-                    }
-                }
+        if let Some((wi, light)) = independent_path::light_sample(scene, &hit, ray.d, p, rng) {
+            let c = beta * light;
+            tally.total += c;
+            let back_here = match &hit {
+                Hit::Fiber { hit, .. } => depth > 0 && independent_path::backward_event(hit, ray.d, wi),
+                Hit::Surface { .. } => false,
+            };
+            if depth > 0 && !surface {
+                let fwd = !backward && !back_here;
+                tally.depth_split[usize::from(!fwd) * 2 + usize::from(below)] += c;
             }
-        };
-        if let Some((emitter, select)) = picker.pick(rng.next_f64())
-            && let Some(ls) = scene.sample_emitter(emitter, p, [rng.next_f64(), rng.next_f64()])
-        {
-            let f = f_cos(ls.wi);
-            if !f.is_black() && !ls.radiance.is_black() {
-                let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
-                let shadow = fiberlab_geometry::Ray { o: p, d: ls.wi, t_min: eps, t_max };
-                if scene.unoccluded(&shadow) {
-                    let c = beta * f * ls.radiance / (select * ls.pdf);
-                    tally.total += c;
-                    let back_here = match &hit {
-                        Hit::Fiber { hit, .. } => depth > 0 && independent_path::backward_event(hit, ray.d, ls.wi),
-                        Hit::Surface { .. } => false,
-                    };
-                    if depth > 0 && !surface {
-                        let fwd = !backward && !back_here;
-                        tally.depth_split[usize::from(!fwd) * 2 + usize::from(below)] += c;
-                    }
-                    if depth > 0 && !surface && !backward && !back_here {
-                        // Forward light: the straight line from vertex 1 toward this light.
-                        let (d1, h1, m1) = first.expect("vertex 1 is a fiber");
-                        let _ = d1;
-                        let e1 = 1e-9 * (1.0 + h1.p.abs().max_element());
-                        let line = fiberlab_geometry::Ray { o: h1.p, d: ls.wi, t_min: e1, t_max: f64::INFINITY };
-                        let (n, _, _) = dual.count(scene, &line, skip_of(scene, &h1, m1), 4.0 * h1.radius);
-                        tally.path_n[bucket(&N_EDGES, n as usize)] += c;
-                        tally.path_k[bucket(&K_EDGES, k)] += c;
-                    }
-                }
+            if depth > 0 && !surface && !backward && !back_here {
+                // Forward light: the straight line from vertex 1 toward this light.
+                let (_, h1, m1) = first.expect("vertex 1 is a fiber");
+                let e1 = 1e-9 * (1.0 + h1.p.abs().max_element());
+                let line = fiberlab_geometry::Ray { o: h1.p, d: wi, t_min: e1, t_max: f64::INFINITY };
+                let (n, _, _) = dual.count(scene, &line, skip_of(scene, &h1, m1), 4.0 * h1.radius);
+                tally.path_n[bucket(&N_EDGES, n as usize)] += c;
+                tally.path_k[bucket(&K_EDGES, k)] += c;
             }
         }
         let u = [rng.next_f64(), rng.next_f64(), rng.next_f64(), rng.next_f64()];

@@ -35,17 +35,15 @@
 //! [--size test|bench] [--spp 64] [--path-spp 256] [--dual KEY=VALUE]…`
 use fiberlab_io::LinearImage;
 use fiberlab_io::block_error::channel_ratios;
+use fiberlab_math::Rgb;
 use fiberlab_math::split_mix::SplitMix64;
-use fiberlab_math::{DVec3, Rgb};
 use fiberlab_render::dual_scattering::{DualScatteringSettings, Integrator, integrator_named};
 use fiberlab_render::fiber_coverage::fiber_coverage;
 use fiberlab_render::integrator::{RenderSettings, render};
-use fiberlab_render::scene::{Hit, Scene, SurfaceMaterial};
+use fiberlab_render::scene::{Hit, Scene};
 use fiberlab_render::scene_family::{FamilyScene, FamilySize};
 use fiberlab_render::scene_file::SceneFile;
-use fiberlab_scatter::ScatteringFunction;
 use rayon::prelude::*;
-use std::f64::consts::PI;
 use std::path::Path;
 
 #[path = "independent_path/mod.rs"]
@@ -63,7 +61,6 @@ fn trace(scene: &Scene, px: f64, py: f64, rng: &mut SplitMix64) -> [Rgb; 7] {
     let mut out = [Rgb::ZERO; 7];
     let mut ray = scene.camera().ray(px, py);
     let mut beta = Rgb::ONE;
-    let picker = scene.light_picker();
     // Category of the path so far: None before the first vertex.
     let mut first_is_fiber = None;
     let (mut backward, mut surface) = (false, false);
@@ -101,47 +98,20 @@ fn trace(scene: &Scene, px: f64, py: f64, rng: &mut SplitMix64) -> [Rgb; 7] {
             _ => {}
         }
         let eps = 1e-9 * (1.0 + p.abs().max_element());
-        // f·cos and a sampled continuation for this vertex.
-        let f_cos = |wi: DVec3| -> Rgb {
-            match &hit {
-                Hit::Fiber { hit, material } => {
-                    let frame = hit.frame(ray.d);
-                    let (wi_l, wo_l) = (frame.to_local(wi), frame.to_local(-ray.d));
-                    scene.fiber_model(*material).eval(wi_l, wo_l, hit.h) * (1.0 - wi_l.x * wi_l.x).max(0.0).sqrt()
-                }
-                Hit::Surface { n, material, .. } => {
-                    let facing = if n.dot(ray.d) < 0.0 { *n } else { -*n };
-                    match scene.surface_material(*material) {
-                        SurfaceMaterial::Lambert(albedo) => *albedo * (facing.dot(wi).max(0.0) / PI),
-                        _ => panic!("dual_terms: only Lambertian surfaces"),
-                    }
-                }
+        if let Some((wi, light)) = independent_path::light_sample(scene, &hit, ray.d, p, rng) {
+            // A backward event at this (later) fiber vertex counts for the light sample too.
+            let mut c = category;
+            if let Hit::Fiber { hit, .. } = &hit
+                && depth > 0
+                && c == 1
+                && independent_path::backward_event(hit, ray.d, wi)
+            {
+                c = 2;
             }
-        };
-        // Next-event estimation (no MIS: escaped rays after the camera ray are not counted).
-        if let Some((emitter, select)) = picker.pick(rng.next_f64())
-            && let Some(ls) = scene.sample_emitter(emitter, p, [rng.next_f64(), rng.next_f64()])
-        {
-            let f = f_cos(ls.wi);
-            if !f.is_black() && !ls.radiance.is_black() {
-                let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
-                let shadow = fiberlab_geometry::Ray { o: p, d: ls.wi, t_min: eps, t_max };
-                if scene.unoccluded(&shadow) {
-                    // A backward event at this (later) fiber vertex counts for the light sample too.
-                    let mut c = category;
-                    if let Hit::Fiber { hit, .. } = &hit
-                        && depth > 0
-                        && c == 1
-                        && independent_path::backward_event(hit, ray.d, ls.wi)
-                    {
-                        c = 2;
-                    }
-                    let light = beta * f * ls.radiance / (select * ls.pdf);
-                    out[c] += light;
-                    if c == 1 || c == 2 {
-                        out[5 + usize::from(below)] += light;
-                    }
-                }
+            let light = beta * light;
+            out[c] += light;
+            if c == 1 || c == 2 {
+                out[5 + usize::from(below)] += light;
             }
         }
         // Continue the path.

@@ -51,6 +51,41 @@ pub fn scatter(
     }
 }
 
+/// `f_s·cosθ_i` at the vertex `hit` (reached along `ray_d`) for light arriving from `wi`:
+/// the fiber model, or a Lambert surface.
+pub fn f_cos(scene: &Scene, hit: &Hit, ray_d: DVec3, wi: DVec3) -> Rgb {
+    match hit {
+        Hit::Fiber { hit, material } => {
+            let frame = hit.frame(ray_d);
+            let (wi_l, wo_l) = (frame.to_local(wi), frame.to_local(-ray_d));
+            scene.fiber_model(*material).eval(wi_l, wo_l, hit.h) * (1.0 - wi_l.x * wi_l.x).max(0.0).sqrt()
+        }
+        Hit::Surface { n, material, .. } => {
+            let facing = if n.dot(ray_d) < 0.0 { *n } else { -*n };
+            match scene.surface_material(*material) {
+                SurfaceMaterial::Lambert(albedo) => *albedo * (facing.dot(wi).max(0.0) / PI),
+                _ => panic!("the examples' path tracer traces only Lambertian surfaces"),
+            }
+        }
+    }
+}
+
+/// Next-event estimation at the vertex `hit` at `p` (no MIS: escaped rays after the camera
+/// ray are not counted): one light picked and sampled, and `(ω_i, f·cosθ·L/(P(light)·pdf))`
+/// when its light arrives unoccluded and is not black. The caller multiplies by the throughput.
+pub fn light_sample(scene: &Scene, hit: &Hit, ray_d: DVec3, p: DVec3, rng: &mut SplitMix64) -> Option<(DVec3, Rgb)> {
+    let (emitter, select) = scene.light_picker().pick(rng.next_f64())?;
+    let ls = scene.sample_emitter(emitter, p, [rng.next_f64(), rng.next_f64()])?;
+    let f = f_cos(scene, hit, ray_d, ls.wi);
+    if f.is_black() || ls.radiance.is_black() {
+        return None;
+    }
+    let eps = 1e-9 * (1.0 + p.abs().max_element());
+    let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-9) - eps } else { f64::INFINITY };
+    let shadow = fiberlab_geometry::Ray { o: p, d: ls.wi, t_min: eps, t_max };
+    scene.unoccluded(&shadow).then(|| (ls.wi, f * ls.radiance / (select * ls.pdf)))
+}
+
 /// Multiplies the throughput by `weight` and, from depth 3, plays Russian roulette on its
 /// largest channel; `false` ends the path.
 pub fn carry_on(beta: &mut Rgb, weight: Rgb, depth: usize, rng: &mut SplitMix64) -> bool {

@@ -110,25 +110,35 @@ impl Marschner {
         }
     }
 
+    /// The monotone pieces of `Φ(p, ·)` on γ ∈ [−π/2, π/2] (split at its stationary point),
+    /// each with Φ and [`Self::phi_primitive`] at its ends: what
+    /// [`Self::h_map_second_primitive`] needs of a plane whatever y is.
+    fn monotone_pieces(&self, plane: &NormalPlane, p: usize) -> ([MonotonePiece; 3], usize) {
+        let piece = |g0: f64, g1: f64| MonotonePiece {
+            gamma: (g0, g1),
+            phi: (plane.phi_and_derivative(p, g0).0, plane.phi_and_derivative(p, g1).0),
+            primitive: (self.phi_primitive(plane, p, g0), self.phi_primitive(plane, p, g1)),
+        };
+        match plane.stationary(p) {
+            Some(g) => ([piece(-FRAC_PI_2, -g), piece(-g, g), piece(g, FRAC_PI_2)], 3),
+            None => {
+                let whole = piece(-FRAC_PI_2, FRAC_PI_2);
+                ([whole, whole, whole], 1)
+            }
+        }
+    }
+
     /// `G(y) = ½∫(y − Φ(p, asin h))⁺ dh` over h ∈ [−1, 1]: the second primitive in φ of the
     /// h-map's density in Φ's own (unreduced) range, exact from the roots of `Φ = y` on each
-    /// monotone piece of Φ and [`Self::phi_primitive`].
-    fn h_map_second_primitive(&self, plane: &NormalPlane, p: usize, y: f64) -> f64 {
-        let mut pieces = [(-FRAC_PI_2, FRAC_PI_2); 3];
-        let n = match plane.stationary(p) {
-            Some(g) => {
-                pieces = [(-FRAC_PI_2, -g), (-g, g), (g, FRAC_PI_2)];
-                3
-            }
-            None => 1,
-        };
+    /// monotone piece of Φ ([`Self::monotone_pieces`]) and [`Self::phi_primitive`].
+    fn h_map_second_primitive(&self, plane: &NormalPlane, p: usize, pieces: &[MonotonePiece], y: f64) -> f64 {
         let roots = plane.roots(p, y);
         let mut sum = 0.0;
-        for &(g0, g1) in &pieces[..n] {
-            let (f0, f1) = (plane.phi_and_derivative(p, g0).0, plane.phi_and_derivative(p, g1).0);
-            // The part [ga, gb] of the piece where Φ ≤ y.
-            let (ga, gb) = if y >= f0.max(f1) {
-                (g0, g1)
+        for piece in pieces {
+            let ((g0, g1), (f0, f1), (p0, p1)) = (piece.gamma, piece.phi, piece.primitive);
+            // The part [ga, gb] of the piece where Φ ≤ y, with the primitive at its ends.
+            let ((ga, pa), (gb, pb)) = if y >= f0.max(f1) {
+                ((g0, p0), (g1, p1))
             } else if y <= f0.min(f1) {
                 continue;
             } else {
@@ -136,9 +146,10 @@ impl Marschner {
                 let distance = |r: f64| (g0 - r).max(r - g1).max(0.0);
                 let r = roots.iter().min_by(|a, b| distance(*a).total_cmp(&distance(*b)));
                 let r = r.map_or(0.5 * (g0 + g1), |r| r.clamp(g0, g1));
-                if f1 > f0 { (g0, r) } else { (r, g1) }
+                let at_root = (r, self.phi_primitive(plane, p, r));
+                if f1 > f0 { ((g0, p0), at_root) } else { (at_root, (g1, p1)) }
             };
-            sum += y * (gb.sin() - ga.sin()) - (self.phi_primitive(plane, p, gb) - self.phi_primitive(plane, p, ga));
+            sum += y * (gb.sin() - ga.sin()) - (pb - pa);
         }
         0.5 * sum
     }
@@ -152,7 +163,8 @@ impl Marschner {
     fn smoothed_trt_density(&self, plane: &NormalPlane, phi: f64) -> f64 {
         let e = TRT_CAUSTIC_SMOOTHING;
         let x = representative(2, phi);
-        let g = |y: f64| self.h_map_second_primitive(plane, 2, y);
+        let (pieces, n) = self.monotone_pieces(plane, 2);
+        let g = |y: f64| self.h_map_second_primitive(plane, 2, &pieces[..n], y);
         let d2 = |y: f64| g(y + e) - 2.0 * g(y) + g(y - e);
         // Φ(2, ·) takes values in [π, 3π]: only the images of x within ε of that range count
         // (G is linear beyond it, where the second difference vanishes).
@@ -323,4 +335,12 @@ impl Marschner {
         debug_assert!(weight.is_finite() && pdf.is_finite());
         Some(Sample { wi, weight, pdf, delta: false, lobe: lobe.p() as u8 })
     }
+}
+
+/// A monotone piece [γ₀, γ₁] of `Φ(p, ·)`: Φ and its h-primitive at the ends.
+#[derive(Clone, Copy)]
+struct MonotonePiece {
+    gamma: (f64, f64),
+    phi: (f64, f64),
+    primitive: (f64, f64),
 }

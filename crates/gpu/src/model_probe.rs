@@ -3,7 +3,8 @@
 
 use crate::device::Gpu;
 use crate::scene_buffers::{
-    chiang_words, deon_words, kajiya_kay_words, lambertian_words, leaf_words, marschner_words, yan_fur_words,
+    chiang_words, deon_words, kajiya_kay_words, lambertian_words, leaf_words, marschner_words, reference_fiber_words,
+    yan_fur_words,
 };
 use crate::wavefront::GpuRenderError;
 use fiberlab_scatter::chiang_2016::Chiang;
@@ -16,7 +17,7 @@ use fiberlab_scatter::yan_2017::YanFur;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-const PROBE: [&str; 10] = [
+const PROBE: [&str; 11] = [
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
     include_str!("shaders/pole_taper.wgsl"),
@@ -24,6 +25,7 @@ const PROBE: [&str; 10] = [
     include_str!("shaders/marschner.wgsl"),
     include_str!("shaders/deon.wgsl"),
     include_str!("shaders/yan_fur.wgsl"),
+    include_str!("shaders/reference_fibers.wgsl"),
     include_str!("shaders/leaf.wgsl"),
     include_str!("shaders/lambertian.wgsl"),
     include_str!("shaders/probe.wgsl"),
@@ -200,6 +202,21 @@ pub fn lambertian(gpu: &Gpu, model: &Lambertian, cases: &[ChiangCase]) -> Result
     let (words, _) = lambertian_words(model, None, 32);
     let out = run_probe(gpu, "probe_lambertian_cases", &words, &input)?;
     Ok(results(&out))
+}
+
+/// The GPU's reference fiber (`diffuse`, `lambertian-cylinder`, `specular` or `goldman`) on each
+/// case; `None` for any other model. The specular fiber's eval is zero and its sample's pdf 1
+/// (a delta lobe).
+pub fn reference_fiber(
+    gpu: &Gpu,
+    model: &fiberlab_scatter::Model,
+    cases: &[ChiangCase],
+) -> Option<Result<Vec<ChiangResult>, GpuRenderError>> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let (words, table) = reference_fiber_words(model, 32)?;
+    let material: Vec<u32> = words.iter().chain(&table).copied().collect();
+    Some(run_probe(gpu, "probe_reference_fiber_cases", &material, &input).map(|out| results(&out)))
 }
 
 fn results(out: &[[f32; 4]]) -> Vec<ChiangResult> {

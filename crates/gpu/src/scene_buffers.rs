@@ -15,6 +15,7 @@ use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, TABLE_ROWS};
 use fiberlab_scatter::hair::roughness::lobe_variances;
 use fiberlab_scatter::hair::tilt::lobe_tilts;
+use fiberlab_scatter::ideal_specular::Azimuth;
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::lambert_1760::Lambertian;
 use fiberlab_scatter::leaf::Leaf;
@@ -28,7 +29,7 @@ use std::f64::consts::PI;
 pub enum Unsupported {
     /// A fiber model without a GPU implementation.
     #[error(
-        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner, yan-fur); render with --device cpu"
+        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner, yan-fur, diffuse, lambertian-cylinder, specular, goldman); render with --device cpu"
     )]
     FiberModel(String),
     /// A surface material without a GPU implementation.
@@ -56,6 +57,10 @@ pub enum Unsupported {
 /// Words per material (`MATERIAL_*` in the shaders).
 const MATERIAL_WORDS: usize = 32;
 const MATERIAL_LAMBERT: u32 = 0;
+const MATERIAL_DIFFUSE_FIBER: u32 = 20;
+const MATERIAL_LAMBERTIAN_CYLINDER: u32 = 21;
+const MATERIAL_SPECULAR_FIBER: u32 = 22;
+const MATERIAL_GOLDMAN: u32 = 23;
 const MATERIAL_MIRROR: u32 = 1;
 const MATERIAL_CHIANG: u32 = 2;
 const MATERIAL_KAJIYA_KAY: u32 = 3;
@@ -163,6 +168,47 @@ pub fn kajiya_kay_words(k: &KajiyaKay, table_at: u32) -> ([u32; MATERIAL_WORDS],
     let mut table: Vec<u32> = cdf.iter().map(|c| f(c / total)).collect();
     table.extend(cdf.windows(2).map(|c| f((c[1] - c[0]) / total / dx)));
     (w, table)
+}
+
+/// The words of a reference fiber (`diffuse`, `lambertian-cylinder`, `specular`, `goldman`; the
+/// order of `load_reference_fiber` in the shaders) whose table — Goldman's Kajiya–Kay lobe —
+/// starts at word `table_at`, and that table; `None` for any other model.
+#[must_use]
+pub fn reference_fiber_words(model: &Model, table_at: u32) -> Option<([u32; MATERIAL_WORDS], Vec<u32>)> {
+    let mut w = [0u32; MATERIAL_WORDS];
+    let mut table = Vec::new();
+    match model {
+        Model::Diffuse(d) => {
+            w[0] = MATERIAL_DIFFUSE_FIBER;
+            w[1..4].copy_from_slice(&rgb(d.albedo()));
+        }
+        Model::LambertianCylinder(c) => {
+            w[0] = MATERIAL_LAMBERTIAN_CYLINDER;
+            w[1..4].copy_from_slice(&rgb(c.albedo()));
+        }
+        Model::Specular(s) => {
+            w[0] = MATERIAL_SPECULAR_FIBER;
+            w[9] = f(s.fresnel_eta().unwrap_or(0.0));
+            w[10] = u32::from(s.azimuth() == Azimuth::Mirror);
+        }
+        Model::Goldman(g) => {
+            let (rho_r, rho_t) = g.directional_weights();
+            let (lr, lt) = (rho_r.luminance(), rho_t.luminance());
+            let (kk, kk_table) = kajiya_kay_words(g.kajiya_kay(), table_at);
+            w[0] = MATERIAL_GOLDMAN;
+            w[1..4].copy_from_slice(&rgb(rho_r));
+            w[4..7].copy_from_slice(&rgb(rho_t));
+            w[7] = f(0.5 * (lr + lt));
+            w[8] = f(0.5 * (lr - lt));
+            // The table's first word where `SceneBuffers::new` makes it absolute; the Kajiya–Kay
+            // words after word 16 (their own table word is not read).
+            w[10] = table_at;
+            w[16..].copy_from_slice(&kk[..MATERIAL_WORDS - 16]);
+            table = kk_table;
+        }
+        _ => return None,
+    }
+    Some((w, table))
 }
 
 /// The words of a Marschner material (the order of `load_marschner` in the shaders) whose lobe
@@ -322,6 +368,9 @@ fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS]
         Model::Marschner(m) => Ok(marschner_words(m, table_at)),
         Model::Deon(d) => Ok(deon_words(d, table_at)),
         Model::YanFur(y) => Ok(yan_fur_words(y, table_at)),
+        Model::Diffuse(_) | Model::LambertianCylinder(_) | Model::Specular(_) | Model::Goldman(_) => {
+            Ok(reference_fiber_words(model, table_at).expect("a reference fiber"))
+        }
         other => Err(Unsupported::FiberModel(other.name().to_string())),
     }
 }

@@ -246,6 +246,30 @@ fn marschner_images_match_the_cpu() {
     assert_matches_the_cpu(gpu, &b.build(), "marschner");
 }
 
+/// Each reference fiber (diffuse, Lambertian cylinder, Goldman, and the specular fiber's delta
+/// lobe with a mirror cross-section and Fresnel) under sun and sky, GPU against CPU at the same
+/// seed, as above.
+#[test]
+fn reference_fiber_images_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let fibers: [(&str, &[(&str, &str)]); 4] = [
+        ("diffuse", &[("albedo", "0.7,0.5,0.3")]),
+        ("lambertian-cylinder", &[("albedo", "0.7,0.5,0.3")]),
+        ("goldman", &[("k_d", "0.05,0.04,0.03"), ("k_s", "0.3"), ("p", "40"), ("rho_transmit", "0.3,0.2,0.1")]),
+        ("specular", &[("azimuth", "mirror"), ("fresnel", "on"), ("eta", "1.55")]),
+    ];
+    for (name, params) in fibers {
+        let mut b = builder();
+        let hair_m = b.fiber_material(fiberlab_scatter::build(name, params).unwrap());
+        let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::new(0.6, 0.45, 0.35)));
+        b.fibers(hair(200), hair_m);
+        b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
+        b.light(Light::sun(DVec3::new(1.0, 1.3, 0.5), 0.05, Rgb::new(3.0, 2.8, 2.5)));
+        b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+        assert_matches_the_cpu(gpu, &b.build(), name);
+    }
+}
+
 /// d'Eon hair (its azimuthal table copied to the GPU) under sun and sky, GPU against CPU at the
 /// same seed, as above.
 #[test]

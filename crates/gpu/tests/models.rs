@@ -1,5 +1,6 @@
 //! The GPU's scattering code and sampler against the CPU's: the f_s and pdf of Chiang's,
-//! Kajiya–Kay's, Marschner's, d'Eon's and Yan's fur fibers and of the leaf and Lambertian
+//! Kajiya–Kay's, Marschner's, d'Eon's and Yan's fur fibers, the reference fibers (diffuse,
+//! Lambertian cylinder, specular, Goldman) and of the leaf and Lambertian
 //! surface models on random directions and offsets (f32 tolerance), their samples' density and
 //! weight at the directions they return, the χ² of the GPU's samples against the CPU's pdf, and
 //! the sampler's values.
@@ -10,20 +11,24 @@ use fiberlab_check::chi2::{Chi2Config, chi2_test};
 use fiberlab_check::rng::TestRng;
 use fiberlab_check::surface::{AsFiberGrid, to_fiber};
 use fiberlab_gpu::model_probe::{self, ChiangCase, ChiangResult};
-use fiberlab_math::frame::{cos_theta, direction};
+use fiberlab_math::frame::{cos_theta, direction, phi, sin_theta};
 use fiberlab_math::{DVec3, Rgb};
 use fiberlab_render::sampler::PixelSampler;
 use fiberlab_scatter::Field;
 use fiberlab_scatter::chiang_2016::{Chiang, ChiangParams};
 use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, DeonParams};
+use fiberlab_scatter::goldman_1997::{Goldman, GoldmanParams};
 use fiberlab_scatter::hair::absorption::Absorption;
 use fiberlab_scatter::hair::fiber::HairFiberParams;
+use fiberlab_scatter::ideal_diffuse::{IdealDiffuse, IdealDiffuseParams};
+use fiberlab_scatter::ideal_specular::{Azimuth, IdealSpecular, IdealSpecularParams};
 use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
 use fiberlab_scatter::lambert_1760::{Lambertian, LambertianParams};
+use fiberlab_scatter::lambertian_cylinder::{LambertianCylinder, LambertianCylinderParams};
 use fiberlab_scatter::leaf::{Leaf, LeafParams};
 use fiberlab_scatter::marschner_2003::{Marschner, MarschnerParams};
 use fiberlab_scatter::yan_2017::{CortexAbsorption, YanFur, YanFurParams};
-use fiberlab_scatter::{Properties, Sample, ScatteringFunction, SurfaceScattering};
+use fiberlab_scatter::{Model, Properties, Sample, ScatteringFunction, SurfaceScattering};
 use glam::Vec3;
 use std::f64::consts::{FRAC_PI_2, TAU};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -82,7 +87,7 @@ fn chiang_eval_pdf_and_samples_match_the_cpu() {
 }
 
 /// Checks the GPU's results on `cases` against `cpu`: f_s to 5·10⁻⁴ of the largest channel, the
-/// pdf to 5·10⁻⁴ relative, sampled directions unit vectors whose pdf (to 3·10⁻³) and weight the
+/// pdf to 5·10⁻⁴ relative (at ω_i, or within 2·10⁻⁶ rad of it in θ: a table's cell edge), sampled directions unit vectors whose pdf (to 3·10⁻³) and weight the
 /// CPU confirms, and more than 2,000 samples checked.
 fn matches_the_cpu<M: ScatteringFunction>(name: &str, cpu: &M, cases: &[ChiangCase], got: &[ChiangResult]) {
     let (mut sampled, mut worst) = (0, 0.0f64);
@@ -95,7 +100,12 @@ fn matches_the_cpu<M: ScatteringFunction>(name: &str, cpu: &M, cases: &[ChiangCa
             worst = worst.max(err);
             assert!(err < 5e-4, "{name}: f[{k}] {} vs {} at {c:?}", g.f[k], f[k]);
         }
-        assert!((f64::from(g.pdf) - pdf).abs() <= 5e-4 * pdf.max(1e-3), "{name}: pdf {} vs {pdf} at {c:?}", g.pdf);
+        // A tabulated lobe's density (Kajiya–Kay's, Goldman's) steps at its cells' edges: where
+        // ω_i lies within f32 rounding (2·10⁻⁶ rad) of an edge either cell's value is right.
+        let pdf_close = |p: f64| (f64::from(g.pdf) - p).abs() <= 5e-4 * p.max(1e-3);
+        let (theta_i, phi_i) = (sin_theta(wi).atan2(cos_theta(wi)), phi(wi));
+        let near_edge = || [-2e-6, 2e-6].iter().any(|d| pdf_close(cpu.pdf(direction(theta_i + d, phi_i), wo, h)));
+        assert!(pdf_close(pdf) || near_edge(), "{name}: pdf {} vs {pdf} at {c:?}", g.pdf);
         if g.sample_pdf > 0.0 {
             let swi = dvec(g.sample_wi);
             assert!((swi.length() - 1.0).abs() < 1e-5, "{name}: |ω_i| = {}", swi.length());
@@ -156,10 +166,16 @@ fn gpu_samples_follow_the_cpu_pdf<M: ScatteringFunction>(
 fn kajiya_kay_fibers() -> Vec<(&'static str, KajiyaKay)> {
     let sharp = KajiyaKayParams { k_d: Rgb::new(0.02, 0.01, 0.005), k_s: Rgb::new(0.3, 0.2, 0.1), p: 2000.0 };
     let specular_only = KajiyaKayParams { k_d: Rgb::ZERO, k_s: Rgb::splat(0.2), p: 8.0 };
-    [("default", KajiyaKayParams::default()), ("sharp", sharp), ("specular only", specular_only)]
-        .into_iter()
-        .map(|(n, p)| (n, KajiyaKay::new(p).unwrap()))
-        .collect()
+    let medium = KajiyaKayParams { k_d: Rgb::new(0.1, 0.05, 0.02), k_s: Rgb::splat(0.2), p: 30.0 };
+    [
+        ("default", KajiyaKayParams::default()),
+        ("sharp", sharp),
+        ("specular only", specular_only),
+        ("medium lobe", medium),
+    ]
+    .into_iter()
+    .map(|(n, p)| (n, KajiyaKay::new(p).unwrap()))
+    .collect()
 }
 
 /// Kajiya–Kay: f_s to 5·10⁻⁴ of the largest channel (its 1/cosθ_i grows without bound at
@@ -187,6 +203,91 @@ fn kajiya_kay_gpu_samples_follow_the_cpu_pdf() {
             let wo = direction(theta_o, FRAC_PI_2);
             let got = model_probe::kajiya_kay(gpu, &fiber, &sample_cases(wo, 0.0, &cfg)).unwrap();
             gpu_samples_follow_the_cpu_pdf(&format!("kajiya-kay {name} θ_o {theta_o}"), &fiber, wo, 0.0, &got, &cfg);
+        }
+    }
+}
+
+/// The smooth reference fibers: diffuse, the Lambertian cylinder, and Goldman's fiber with
+/// forward and backward weights apart, equal, and one of them zero.
+fn reference_fibers() -> Vec<(&'static str, Model)> {
+    let goldman = |rho_reflect: Rgb, rho_transmit: Rgb, p: f64| {
+        let kajiya_kay = KajiyaKayParams { k_d: Rgb::new(0.1, 0.05, 0.02), k_s: Rgb::splat(0.2), p };
+        Model::Goldman(Goldman::new(GoldmanParams { kajiya_kay, rho_reflect, rho_transmit }).unwrap())
+    };
+    vec![
+        ("diffuse", Model::Diffuse(IdealDiffuse::new(IdealDiffuseParams { albedo: Rgb::new(0.8, 0.5, 0.2) }).unwrap())),
+        (
+            "lambertian-cylinder",
+            Model::LambertianCylinder(
+                LambertianCylinder::new(LambertianCylinderParams { albedo: Rgb::new(0.9, 0.6, 0.3) }).unwrap(),
+            ),
+        ),
+        ("goldman forward", goldman(Rgb::new(0.9, 0.8, 0.7), Rgb::new(0.2, 0.3, 0.1), 30.0)),
+        ("goldman equal", goldman(Rgb::splat(0.5), Rgb::splat(0.5), 8.0)),
+        ("goldman backward only", goldman(Rgb::splat(1.0), Rgb::ZERO, 300.0)),
+    ]
+}
+
+/// The smooth reference fibers' f_s, pdf and samples against the CPU's (as
+/// `matches_the_cpu` checks every fiber model).
+#[test]
+fn reference_fibers_eval_pdf_and_samples_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut rng = TestRng::new(21);
+    for (name, fiber) in reference_fibers() {
+        let cases: Vec<ChiangCase> = (0..4000).map(|k| case(&mut rng, k)).collect();
+        let got = model_probe::reference_fiber(gpu, &fiber, &cases).expect("a reference fiber").unwrap();
+        matches_the_cpu(name, &fiber, &cases, &got);
+    }
+}
+
+/// χ² of the GPU's samples of the smooth reference fibers against the CPU's pdf, at a
+/// near-normal and a steep camera direction.
+#[test]
+fn reference_fiber_gpu_samples_follow_the_cpu_pdf() {
+    let Some(gpu) = common::gpu() else { return };
+    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 200_000, seed: 22, ..Default::default() };
+    for (name, fiber) in reference_fibers() {
+        for theta_o in [0.35, -1.1] {
+            let wo = direction(theta_o, FRAC_PI_2);
+            let got = model_probe::reference_fiber(gpu, &fiber, &sample_cases(wo, 0.0, &cfg)).unwrap().unwrap();
+            gpu_samples_follow_the_cpu_pdf(&format!("{name} θ_o {theta_o}"), &fiber, wo, 0.0, &got, &cfg);
+        }
+    }
+}
+
+/// The specular fiber's delta lobe: zero f_s and pdf, and from the same uniforms the CPU's
+/// direction on the cone θ_i = −θ_o and its weight (Fresnel or 1), for both azimuths.
+#[test]
+fn specular_fiber_samples_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut rng = TestRng::new(23);
+    for azimuth in [Azimuth::Uniform, Azimuth::Mirror] {
+        for fresnel_eta in [None, Some(1.55)] {
+            let cpu = IdealSpecular::new(IdealSpecularParams { azimuth, fresnel_eta }).unwrap();
+            let model = Model::Specular(cpu.clone());
+            let cases: Vec<ChiangCase> = (0..2000).map(|k| case(&mut rng, k)).collect();
+            let got = model_probe::reference_fiber(gpu, &model, &cases).unwrap().unwrap();
+            let mut worst = 0.0f64;
+            for (c, g) in cases.iter().zip(&got) {
+                assert!(g.f == [0.0; 3] && g.pdf == 0.0, "{azimuth:?}: a delta lobe evaluates to 0");
+                let u = c.u.map(f64::from);
+                let s = cpu.sample(dvec(c.wo), f64::from(c.h), u).expect("the specular fiber always samples");
+                assert!(s.delta);
+                assert_eq!(g.sample_pdf, 1.0, "the GPU's delta marker");
+                let dw = (dvec(g.sample_wi) - s.wi).length();
+                worst = worst.max(dw);
+                assert!(dw < 2e-4, "{azimuth:?} {fresnel_eta:?}: ω_i {:?} vs {:?} at {c:?}", g.sample_wi, s.wi);
+                for k in 0..3 {
+                    assert!(
+                        (f64::from(g.sample_weight[k]) - s.weight[k]).abs() < 1e-4,
+                        "{azimuth:?} {fresnel_eta:?}: weight {:?} vs {:?}",
+                        g.sample_weight,
+                        s.weight
+                    );
+                }
+            }
+            eprintln!("specular {azimuth:?} η {fresnel_eta:?}: worst |Δω_i| {worst:.1e}");
         }
     }
 }

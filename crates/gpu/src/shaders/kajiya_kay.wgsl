@@ -141,24 +141,29 @@ fn kk_sample_lobe(m: KajiyaKay, a: f32, b: f32, u: f32) -> f32 {
     return clamp(m.x0 + (f32(i) + frac) * m.dx, a, b);
 }
 
+/// θ_i drawn as the CPU's `sample_theta` with u = (lobe, θ, θ) given θ_o; −10 when the chosen
+/// lobe has no mass.
+fn kk_sample_theta(m: KajiyaKay, theta_o: f32, u: vec3<f32>) -> f32 {
+    if u.x < kk_diffuse_weight(m, theta_o) {
+        let sc = sin_cos_f(TAU * u.z);
+        return untaper(asin_f(clamp(sqrt(u.y) * sc.y, -1.0, 1.0)));
+    }
+    let r = kk_lobe_range(theta_o);
+    let x = kk_sample_lobe(m, r.x, r.y, u.y);
+    if x < m.x0 {
+        return -10.0;
+    }
+    return untaper(clamp(x - theta_o, -HALF_PI, HALF_PI));
+}
+
 /// A sample of ω_i (local) with u = (lobe, θ, θ, φ) as the CPU's `sample`.
 fn kk_sample(m: KajiyaKay, wo: vec3<f32>, u: vec4<f32>) -> FiberSample {
     var out: FiberSample;
     out.pdf = 0.0;
-    let sin_o = local_sin_theta(wo);
-    let cos_o = local_cos_theta(wo);
-    let theta_o = atan2_f(sin_o, cos_o);
-    var theta_i: f32;
-    if u.x < kk_diffuse_weight(m, theta_o) {
-        let sc = sin_cos_f(TAU * u.z);
-        theta_i = untaper(asin_f(clamp(sqrt(u.y) * sc.y, -1.0, 1.0)));
-    } else {
-        let r = kk_lobe_range(theta_o);
-        let x = kk_sample_lobe(m, r.x, r.y, u.y);
-        if x < m.x0 {
-            return out;
-        }
-        theta_i = untaper(clamp(x - theta_o, -HALF_PI, HALF_PI));
+    let theta_o = atan2_f(local_sin_theta(wo), local_cos_theta(wo));
+    let theta_i = kk_sample_theta(m, theta_o, u.xyz);
+    if theta_i < -2.0 {
+        return out;
     }
     let st = sin_cos_f(theta_i);
     let phi_i = local_phi(wo) - PI * (2.0 * u.w - 1.0);

@@ -170,3 +170,20 @@ fn probe_sampler_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
     let key = pixel_key(seed.xy, a.x, a.y);
     probe_out[3u * i] = vec4<f32>(next_2d(key, a.z, a.w), 0.0, 0.0);
 }
+
+/// As `probe_chiang_cases` for the reference fiber at word 0 (Goldman's table after it).
+@compute @workgroup_size(64)
+fn probe_reference_fiber_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let m = load_reference_fiber(0u);
+    let a = probe_in[3u * i];
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    probe_out[3u * i] = reference_fiber_eval(m, wi, a.xyz);
+    let s = reference_fiber_sample(m, a.xyz, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}

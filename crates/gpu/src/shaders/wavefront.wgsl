@@ -12,11 +12,12 @@ const MATERIAL_MIRROR: u32 = 1u;
 const MATERIAL_CHIANG: u32 = 2u;
 // MATERIAL_KAJIYA_KAY (3) is in kajiya_kay.wgsl, MATERIAL_MARSCHNER (4) in marschner.wgsl,
 // MATERIAL_DEON (5) in deon.wgsl, MATERIAL_YAN_FUR (6) in yan_fur.wgsl, MATERIAL_LEAF (7) in
-// leaf.wgsl, MATERIAL_LAMBERTIAN (8) in lambertian.wgsl.
+// leaf.wgsl, MATERIAL_LAMBERTIAN (8) in lambertian.wgsl, the reference fibers (20–23) in
+// reference_fibers.wgsl.
 
 fn is_fiber_material(kind: u32) -> bool {
     return kind == MATERIAL_CHIANG || kind == MATERIAL_KAJIYA_KAY || kind == MATERIAL_MARSCHNER
-        || kind == MATERIAL_DEON || kind == MATERIAL_YAN_FUR;
+        || kind == MATERIAL_DEON || kind == MATERIAL_YAN_FUR || is_reference_fiber(kind);
 }
 
 fn material_kind(m: u32) -> u32 {
@@ -228,6 +229,7 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     var dem: Deon;
     var yfm: YanFur;
     var lfm: Leaf;
+    var rfm: ReferenceFiber;
     // A Lambertian surface model's albedo at the hit.
     var k_d: vec3<f32>;
     // ω_o in the fiber (or surface model's) frame.
@@ -263,6 +265,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             dem = load_deon(params.material_base + 32u * material);
         } else if fiber_kind == MATERIAL_YAN_FUR {
             yfm = load_yan_fur(params.material_base + 32u * material);
+        } else if is_reference_fiber(fiber_kind) {
+            rfm = load_reference_fiber(params.material_base + 32u * material);
         } else {
             kkm = load_kajiya_kay(params.material_base + 32u * material);
         }
@@ -306,7 +310,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     let mkind = material_kind(material);
-    let delta = mkind == MATERIAL_MIRROR;
+    // The mirror and the specular fiber scatter into a delta lobe: no next-event estimation.
+    let delta = mkind == MATERIAL_MIRROR || mkind == MATERIAL_SPECULAR_FIBER;
     if s.depth >= params.max_depth {
         paths[pi].l = s.l;
         return;
@@ -334,6 +339,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
                         e = deon_eval(dem, wi_l, wo_l);
                     } else if mkind == MATERIAL_YAN_FUR {
                         e = yan_eval(yfm, wi_l, wo_l, s.hit_h);
+                    } else if is_reference_fiber(mkind) {
+                        e = reference_fiber_eval(rfm, wi_l, wo_l);
                     } else {
                         e = kk_eval(kkm, wi_l, wo_l);
                     }
@@ -397,6 +404,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             fs = deon_sample(dem, wo_l, vec4<f32>(ua, ub));
         } else if mkind == MATERIAL_YAN_FUR {
             fs = yan_sample(yfm, wo_l, s.hit_h, vec4<f32>(ua, ub));
+        } else if is_reference_fiber(mkind) {
+            fs = reference_fiber_sample(rfm, wo_l, vec4<f32>(ua, ub));
         } else {
             fs = kk_sample(kkm, wo_l, vec4<f32>(ua, ub));
         }
@@ -407,6 +416,10 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
         wi = normalize(fu * fs.wi.x + fv * fs.wi.y + fw * fs.wi.z);
         weight = fs.weight;
         pdf = fs.pdf;
+        if mkind == MATERIAL_SPECULAR_FIBER {
+            pdf = 0.0;
+            sampled_delta = true;
+        }
     } else if mkind == MATERIAL_LAMBERTIAN {
         let ls = lambertian_sample(k_d, wo_l, vec4<f32>(ua, ub));
         wi = normalize(fu * ls.wi.x + fv * ls.wi.y + fw * ls.wi.z);

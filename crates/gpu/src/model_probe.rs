@@ -3,11 +3,13 @@
 
 use crate::device::Gpu;
 use crate::scene_buffers::{
-    chiang_words, deon_words, kajiya_kay_words, lambertian_words, leaf_words, marschner_words, yan_fur_words,
+    chiang_words, deon_words, irawan_words, kajiya_kay_words, lambertian_words, leaf_words, marschner_words,
+    yan_fur_words,
 };
 use crate::wavefront::GpuRenderError;
 use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::Deon;
+use fiberlab_scatter::irawan_2012::Irawan2012;
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::lambert_1760::Lambertian;
 use fiberlab_scatter::leaf::Leaf;
@@ -16,7 +18,7 @@ use fiberlab_scatter::yan_2017::YanFur;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-const PROBE: [&str; 10] = [
+const PROBE: [&str; 11] = [
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
     include_str!("shaders/pole_taper.wgsl"),
@@ -26,6 +28,7 @@ const PROBE: [&str; 10] = [
     include_str!("shaders/yan_fur.wgsl"),
     include_str!("shaders/leaf.wgsl"),
     include_str!("shaders/lambertian.wgsl"),
+    include_str!("shaders/irawan_2012.wgsl"),
     include_str!("shaders/probe.wgsl"),
 ];
 
@@ -199,6 +202,25 @@ pub fn lambertian(gpu: &Gpu, model: &Lambertian, cases: &[ChiangCase]) -> Result
         cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
     let (words, _) = lambertian_words(model, None, 32);
     let out = run_probe(gpu, "probe_lambertian_cases", &words, &input)?;
+    Ok(results(&out))
+}
+
+/// The GPU's `irawan-2012` surface model on each case at the tile position `positions[k]`
+/// (`u`, `v` as the model's parameters), in the surface's local frame (`h` is ignored).
+pub fn irawan(
+    gpu: &Gpu,
+    model: &Irawan2012,
+    cases: &[ChiangCase],
+    positions: &[[f32; 2]],
+) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> = cases
+        .iter()
+        .zip(positions)
+        .flat_map(|(c, p)| [c.wo.extend(p[0]).to_array(), c.wi.extend(p[1]).to_array(), c.u])
+        .collect();
+    let (words, table) = irawan_words(model, [1.0, 1.0], 32);
+    let material: Vec<u32> = words.iter().chain(&table).copied().collect();
+    let out = run_probe(gpu, "probe_irawan_cases", &material, &input)?;
     Ok(results(&out))
 }
 

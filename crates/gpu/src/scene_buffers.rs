@@ -15,6 +15,7 @@ use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, TABLE_ROWS};
 use fiberlab_scatter::hair::roughness::lobe_variances;
 use fiberlab_scatter::hair::tilt::lobe_tilts;
+use fiberlab_scatter::irawan_2012::{Irawan2012, Variation, YarnKind};
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::lambert_1760::Lambertian;
 use fiberlab_scatter::leaf::Leaf;
@@ -33,9 +34,12 @@ pub enum Unsupported {
     FiberModel(String),
     /// A surface material without a GPU implementation.
     #[error(
-        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror, leaf, lambertian); render with --device cpu"
+        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror, leaf, lambertian, irawan-2012); render with --device cpu"
     )]
     SurfaceModel(String),
+    /// A surface material with an option the GPU does not implement.
+    #[error("surface material `{0}` with {1} is not implemented on the GPU; render with --device cpu")]
+    SurfaceOption(String, &'static str),
     /// The dual-scattering integrator.
     #[error(
         "the dual-scattering integrator is not implemented on the GPU (path tracing only); render with --device cpu"
@@ -64,6 +68,7 @@ const MATERIAL_DEON: u32 = 5;
 const MATERIAL_YAN_FUR: u32 = 6;
 const MATERIAL_LEAF: u32 = 7;
 const MATERIAL_LAMBERTIAN: u32 = 8;
+const MATERIAL_IRAWAN: u32 = 12;
 /// Primitive kinds of the objects (as the shaders' `KIND_*`).
 const KIND_SEGMENT: u32 = 1;
 const KIND_TRIANGLE: u32 = 3;
@@ -397,6 +402,46 @@ pub fn lambertian_words(l: &Lambertian, m: Option<&ModelMaterial>, table_at: u32
     (w, table)
 }
 
+/// The words of an `irawan-2012` material (the order of `irawan_2012.wgsl`) at the uv scale
+/// `uv_scale` of its position, whose table starts at word `table_at`, and that table: the
+/// tile's 0-based yarn ids, then per yarn its record (the spine radius, the area share and the
+/// colours with their scales computed here in f64).
+#[must_use]
+pub fn irawan_words(m: &Irawan2012, uv_scale: [f64; 2], table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    let p = m.pattern();
+    let (alpha, beta) = m.alpha_beta();
+    let (k_d_scale, k_s_scale) = m.colour_scales();
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_IRAWAN;
+    w[1] = f(alpha);
+    w[2] = f(beta);
+    w[3] = f(m.normalisation());
+    w[4] = f(1.0 / (2.0 * PI * fiberlab_math::special::i0e(beta)));
+    w[5] = p.width as u32;
+    w[6] = p.height as u32;
+    w[7] = p.cells.len() as u32;
+    w[8] = f(p.ss);
+    w[9] = f(p.h_width);
+    w[10] = table_at;
+    w[13] = f(uv_scale[0]);
+    w[14] = f(uv_scale[1]);
+    w[15] = f(m.position()[0]);
+    w[16] = f(m.position()[1]);
+    let mut table: Vec<u32> = p.cells.iter().map(|&id| id as u32 - 1).collect();
+    for y in &p.yarns {
+        let area = match y.kind {
+            YarnKind::Warp => p.warp_area,
+            YarnKind::Weft => p.weft_area,
+        };
+        table.extend([u32::from(y.kind == YarnKind::Weft), f(y.psi.tan()), f(y.psi.sin().abs()), f(y.u_max)]);
+        table.extend([f(y.width), f(y.length), f(y.center[0]), f(y.center[1])]);
+        table.extend([f(0.5 * y.length / y.u_max.sin()), f((p.warp_area + p.weft_area) / area)]);
+        table.extend(rgb(y.k_d * k_d_scale));
+        table.extend(rgb(y.k_s * k_s_scale));
+    }
+    (w, table)
+}
+
 /// The shading records of a mesh's triangles, 18 words each: the tangent along u, the three
 /// corners' shading normals (zero without them), then their texture coordinates (zero without
 /// them), as
@@ -439,6 +484,16 @@ fn surface_material(
                     leaf_words(leaf, table_at)
                 }
                 SurfaceModel::Lambertian(l) if m.uv_scale().is_none() => lambertian_words(l, Some(m), table_at),
+                SurfaceModel::Irawan(i) => {
+                    let refuse = |what| Err(Unsupported::SurfaceOption(m.model_name().to_string(), what));
+                    if !m.textures().is_empty() {
+                        return refuse("textured parameters");
+                    }
+                    if i.options() != Variation::default() {
+                        return refuse("spine = \"conic\", fineness or umax_noise (the circular spine only)");
+                    }
+                    irawan_words(i, m.uv_scale().unwrap_or([1.0, 1.0]), table_at)
+                }
                 _ => return Err(Unsupported::SurfaceModel(m.model_name().to_string())),
             };
             // Spheres always have texture coordinates; a mesh may not.

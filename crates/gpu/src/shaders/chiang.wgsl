@@ -110,6 +110,17 @@ fn asin_f(x: f32) -> f32 {
     return atan2_f(c, sqrt((1.0 - c) * (1.0 + c)));
 }
 
+/// glam's `any_orthonormal_pair` (Duff et al. 2017), as the CPU samples cones with it.
+fn orthonormal_pair(n: vec3<f32>) -> array<vec3<f32>, 2> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return array<vec3<f32>, 2>(
+        vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        vec3<f32>(b, sign + n.y * n.y * a, -n.y),
+    );
+}
+
 fn luminance(c: vec3<f32>) -> f32 {
     return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
 }

@@ -13,8 +13,9 @@ use fiberlab_render::texture::Wrap;
 use fiberlab_scatter::Model;
 use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, TABLE_ROWS};
-use fiberlab_scatter::hair::roughness::lobe_variances;
+use fiberlab_scatter::hair::roughness::{lobe_variances, logistic_scale};
 use fiberlab_scatter::hair::tilt::lobe_tilts;
+use fiberlab_scatter::hollow_fiber::HollowFiber;
 use fiberlab_scatter::irawan_2012::{Irawan2012, Variation, YarnKind};
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::lambert_1760::Lambertian;
@@ -29,7 +30,7 @@ use std::f64::consts::PI;
 pub enum Unsupported {
     /// A fiber model without a GPU implementation.
     #[error(
-        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner, yan-fur); render with --device cpu"
+        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner, yan-fur, hollow-fiber with field = near); render with --device cpu"
     )]
     FiberModel(String),
     /// A surface material without a GPU implementation.
@@ -69,6 +70,7 @@ const MATERIAL_YAN_FUR: u32 = 6;
 const MATERIAL_LEAF: u32 = 7;
 const MATERIAL_LAMBERTIAN: u32 = 8;
 const MATERIAL_IRAWAN: u32 = 12;
+const MATERIAL_HOLLOW_FIBER: u32 = 13;
 /// Primitive kinds of the objects (as the shaders' `KIND_*`).
 const KIND_SEGMENT: u32 = 1;
 const KIND_TRIANGLE: u32 = 3;
@@ -120,14 +122,19 @@ fn rgb(c: Rgb) -> [u32; 3] {
 #[must_use]
 pub fn chiang_words(c: &Chiang) -> [u32; MATERIAL_WORDS] {
     let p = c.params();
-    let s = c.logistic_scale();
+    near_field_words(MATERIAL_CHIANG, p.eta, c.sigma_a(), c.logistic_scale(), p.beta_m, p.alpha)
+}
+
+/// The words of a near-field fiber built from Chiang's lobes (the order of `load_chiang`): index
+/// η, absorption σ_a, logistic scale s, roughness β_m and tilt α.
+fn near_field_words(kind: u32, eta: f64, sigma_a: Rgb, s: f64, beta_m: f64, alpha: f64) -> [u32; MATERIAL_WORDS] {
     let cdf = |x: f64| fiberlab_math::special::logistic_cdf(x, s);
-    let v = lobe_variances(p.beta_m);
-    let tilt = lobe_tilts(p.alpha);
+    let v = lobe_variances(beta_m);
+    let tilt = lobe_tilts(alpha);
     let mut w = [0u32; MATERIAL_WORDS];
-    w[0] = MATERIAL_CHIANG;
-    w[1] = f(p.eta);
-    w[2..5].copy_from_slice(&rgb(c.sigma_a()));
+    w[0] = kind;
+    w[1] = f(eta);
+    w[2..5].copy_from_slice(&rgb(sigma_a));
     w[5] = f(s);
     w[6] = f(1.0 / (cdf(PI) - cdf(-PI)));
     w[7] = f(cdf(-PI));
@@ -318,6 +325,19 @@ pub fn yan_fur_words(y: &YanFur, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u
     (w, table)
 }
 
+/// The words of a near-field hollow fiber (the order of `hollow_fiber.wgsl`): Chiang's constants
+/// of its wall, then κ, η_l and the enabled lobes.
+#[must_use]
+pub fn hollow_fiber_words(h: &HollowFiber) -> [u32; MATERIAL_WORDS] {
+    let p = h.params();
+    let mut w =
+        near_field_words(MATERIAL_HOLLOW_FIBER, p.eta, h.sigma_a(), logistic_scale(p.beta_n), p.beta_m, p.alpha);
+    w[29] = f(p.kappa);
+    w[30] = f(p.lumen_eta);
+    w[31] = p.lobes.iter().enumerate().map(|(k, &on)| u32::from(on) << k).sum();
+    w
+}
+
 /// A fiber material's words and its table (empty for most), whose first word is at
 /// `table_at`.
 fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS], Vec<u32>), Unsupported> {
@@ -327,6 +347,7 @@ fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS]
         Model::Marschner(m) => Ok(marschner_words(m, table_at)),
         Model::Deon(d) => Ok(deon_words(d, table_at)),
         Model::YanFur(y) => Ok(yan_fur_words(y, table_at)),
+        Model::HollowFiber(h) if h.params().field == Field::Near => Ok((hollow_fiber_words(h), Vec::new())),
         other => Err(Unsupported::FiberModel(other.name().to_string())),
     }
 }

@@ -278,6 +278,22 @@ fn yan_fur_images_match_the_cpu() {
     assert_matches_the_cpu(gpu, &b.build(), "yan-fur");
 }
 
+/// Hollow fibers (an air lumen of half the radius in an absorbing wall) under sun and sky, GPU
+/// against CPU at the same seed, as above.
+#[test]
+fn hollow_fiber_images_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let fiber = fiberlab_scatter::build("hollow-fiber", &[("kappa", "0.5"), ("sigma_a", "0.4,0.6,1.0")]).unwrap();
+    let hair_m = b.fiber_material(fiber);
+    let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::new(0.6, 0.45, 0.35)));
+    b.fibers(hair(200), hair_m);
+    b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
+    b.light(Light::sun(DVec3::new(1.0, 1.3, 0.5), 0.05, Rgb::new(3.0, 2.8, 2.5)));
+    b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+    assert_matches_the_cpu(gpu, &b.build(), "hollow-fiber");
+}
+
 /// A surface model as the scene file makes it.
 fn surface_model(name: &str, params: &[(&str, &str)]) -> SurfaceMaterial {
     let spec = fiberlab_scatter::find_surface(name).unwrap();
@@ -518,4 +534,13 @@ fn unsupported_models_are_refused_by_name() {
             .unwrap_err()
             .to_string();
     assert!(err.contains("`irawan-2012` with spine") && err.contains("--device cpu"), "{err}");
+    let mut b = builder();
+    let far = fiberlab_scatter::build("hollow-fiber", &[("field", "far")]).unwrap();
+    let m = b.fiber_material(far);
+    b.fibers(hair(10), m).light(Light::Constant { radiance: Rgb::ONE });
+    let err =
+        fiberlab_gpu::render(gpu, &b.build(), &settings(1), GpuOptions::default(), &|_| {}, &AtomicBool::new(false))
+            .unwrap_err()
+            .to_string();
+    assert!(err.contains("`hollow-fiber`") && err.contains("field = near"), "{err}");
 }

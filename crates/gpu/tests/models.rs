@@ -18,6 +18,7 @@ use fiberlab_scatter::chiang_2016::{Chiang, ChiangParams};
 use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, DeonParams};
 use fiberlab_scatter::hair::absorption::Absorption;
 use fiberlab_scatter::hair::fiber::HairFiberParams;
+use fiberlab_scatter::hollow_fiber::{HollowFiber, HollowFiberParams};
 use fiberlab_scatter::irawan_2012::Irawan2012;
 use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
 use fiberlab_scatter::lambert_1760::{Lambertian, LambertianParams};
@@ -521,6 +522,75 @@ fn leaf_gpu_samples_follow_the_cpu_pdf() {
         let grid = AsFiberGrid(leaf);
         let wo_grid = to_fiber(dvec(wo.as_vec3()));
         gpu_samples_follow_the_cpu_pdf(&format!("leaf {name}"), &grid, wo_grid, 0.0, &got, &cfg);
+    }
+}
+
+fn hollow_fibers() -> Vec<(&'static str, HollowFiber)> {
+    let deg = |x: f64| x.to_radians();
+    // A thin absorbing wall round a wide lumen, the narrowest lobes, the most negative tilt.
+    let thin = HollowFiberParams {
+        kappa: 0.9,
+        absorption: Absorption::SigmaA(Rgb::new(0.4, 0.8, 1.6)),
+        beta_m: 0.05,
+        beta_n: 0.05,
+        alpha: deg(-20.0),
+        ..HollowFiberParams::default()
+    };
+    // A water-filled lumen in a dense wall (η 2.5), the widest lobes.
+    let water = HollowFiberParams {
+        eta: 2.5,
+        kappa: 0.6,
+        lumen_eta: 1.33,
+        beta_m: 1.0,
+        beta_n: 1.0,
+        alpha: deg(20.0),
+        ..HollowFiberParams::default()
+    };
+    // A lumen denser than the wall, TT and the residual only.
+    let dense = HollowFiberParams {
+        kappa: 0.7,
+        lumen_eta: 2.0,
+        lobes: [false, true, false, true],
+        ..HollowFiberParams::default()
+    };
+    [
+        ("default", HollowFiberParams::default()),
+        ("thin absorbing wall", thin),
+        ("water-filled", water),
+        ("dense lumen, TT and residual", dense),
+    ]
+    .into_iter()
+    .map(|(n, p)| (n, HollowFiber::new(p).unwrap()))
+    .collect()
+}
+
+/// Hollow fibers (air, water and denser-than-wall lumens, every wall-pass kind; the ends of the
+/// roughness and tilt ranges; lobes switched off), as `matches_the_cpu` checks them, over random
+/// directions and h (grazing viewers and h = ±1 among them).
+#[test]
+fn hollow_fiber_eval_pdf_and_samples_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut rng = TestRng::new(29);
+    for (name, fiber) in hollow_fibers() {
+        let cases: Vec<ChiangCase> = (0..4000).map(|k| case(&mut rng, k)).collect();
+        let got = model_probe::hollow_fiber(gpu, &fiber, &cases).unwrap();
+        matches_the_cpu(&format!("hollow-fiber {name}"), &fiber, &cases, &got);
+    }
+}
+
+/// χ² of the GPU's hollow-fiber samples against the CPU's pdf, at a camera direction and offset
+/// through the lumen and one that misses it.
+#[test]
+fn hollow_fiber_gpu_samples_follow_the_cpu_pdf() {
+    let Some(gpu) = common::gpu() else { return };
+    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 100_000, seed: 31, ..Default::default() };
+    let fibers = hollow_fibers();
+    for (name, theta_o, h) in [("default", 0.35, 0.3), ("water-filled", -1.1, -0.2), ("thin absorbing wall", 0.2, 0.95)]
+    {
+        let fiber = &fibers.iter().find(|(n, _)| *n == name).unwrap().1;
+        let wo = direction(theta_o, FRAC_PI_2);
+        let got = model_probe::hollow_fiber(gpu, fiber, &sample_cases(wo, h, &cfg)).unwrap();
+        gpu_samples_follow_the_cpu_pdf(&format!("hollow-fiber {name} θ_o {theta_o} h {h}"), fiber, wo, h, &got, &cfg);
     }
 }
 

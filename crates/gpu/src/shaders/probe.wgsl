@@ -58,6 +58,25 @@ fn probe_chiang_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
     probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
 }
 
+/// As `probe_chiang_cases` for the hollow fiber at word 0 (Chiang's constants, then κ, η_l and
+/// the lobes).
+@compute @workgroup_size(64)
+fn probe_hollow_fiber_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let m = probe_chiang();
+    let a = probe_in[3u * i];
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    let v = hollow_at_vertex(m, 0u, a.xyz, a.w);
+    probe_out[3u * i] = hollow_eval(m, v, wi);
+    let s = hollow_sample(m, v, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
 /// As `probe_chiang_cases` for the Kajiya–Kay material at word 0 (its table after it).
 @compute @workgroup_size(64)
 fn probe_kajiya_kay_cases(@builtin(global_invocation_id) gid: vec3<u32>) {

@@ -12,11 +12,11 @@ const MATERIAL_MIRROR: u32 = 1u;
 const MATERIAL_CHIANG: u32 = 2u;
 // MATERIAL_KAJIYA_KAY (3) is in kajiya_kay.wgsl, MATERIAL_MARSCHNER (4) in marschner.wgsl,
 // MATERIAL_DEON (5) in deon.wgsl, MATERIAL_YAN_FUR (6) in yan_fur.wgsl, MATERIAL_LEAF (7) in
-// leaf.wgsl, MATERIAL_LAMBERTIAN (8) in lambertian.wgsl, MATERIAL_IRAWAN (12) in irawan_2012.wgsl.
+// leaf.wgsl, MATERIAL_LAMBERTIAN (8) in lambertian.wgsl, MATERIAL_IRAWAN (12) in irawan_2012.wgsl, MATERIAL_HOLLOW_FIBER (13) in hollow_fiber.wgsl.
 
 fn is_fiber_material(kind: u32) -> bool {
     return kind == MATERIAL_CHIANG || kind == MATERIAL_KAJIYA_KAY || kind == MATERIAL_MARSCHNER
-        || kind == MATERIAL_DEON || kind == MATERIAL_YAN_FUR;
+        || kind == MATERIAL_DEON || kind == MATERIAL_YAN_FUR || kind == MATERIAL_HOLLOW_FIBER;
 }
 
 fn material_kind(m: u32) -> u32 {
@@ -223,6 +223,7 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     var n: vec3<f32>;
     var chm: Chiang;
     var chv: ChiangVertex;
+    var hfv: HollowVertex;
     var kkm: KajiyaKay;
     var msm: Marschner;
     var dem: Deon;
@@ -264,6 +265,9 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             dem = load_deon(params.material_base + 32u * material);
         } else if fiber_kind == MATERIAL_YAN_FUR {
             yfm = load_yan_fur(params.material_base + 32u * material);
+        } else if fiber_kind == MATERIAL_HOLLOW_FIBER {
+            chm = load_chiang(material);
+            hfv = hollow_at_vertex(chm, params.material_base + 32u * material, wo_l, s.hit_h);
         } else {
             kkm = load_kajiya_kay(params.material_base + 32u * material);
         }
@@ -342,6 +346,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
                         e = deon_eval(dem, wi_l, wo_l);
                     } else if mkind == MATERIAL_YAN_FUR {
                         e = yan_eval(yfm, wi_l, wo_l, s.hit_h);
+                    } else if mkind == MATERIAL_HOLLOW_FIBER {
+                        e = hollow_eval(chm, hfv, wi_l);
                     } else {
                         e = kk_eval(kkm, wi_l, wo_l);
                     }
@@ -413,6 +419,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             fs = deon_sample(dem, wo_l, vec4<f32>(ua, ub));
         } else if mkind == MATERIAL_YAN_FUR {
             fs = yan_sample(yfm, wo_l, s.hit_h, vec4<f32>(ua, ub));
+        } else if mkind == MATERIAL_HOLLOW_FIBER {
+            fs = hollow_sample(chm, hfv, vec4<f32>(ua, ub));
         } else {
             fs = kk_sample(kkm, wo_l, vec4<f32>(ua, ub));
         }

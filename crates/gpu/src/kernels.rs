@@ -3,7 +3,7 @@
 //! pipelines, made once per device.
 
 /// The WGSL source of the path tracer, in dependency order.
-pub(crate) const SHADER: [&str; 15] = [
+pub(crate) const SHADER: [&str; 17] = [
     include_str!("shaders/bindings.wgsl"),
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
@@ -13,8 +13,10 @@ pub(crate) const SHADER: [&str; 15] = [
     include_str!("shaders/deon.wgsl"),
     include_str!("shaders/yan_fur.wgsl"),
     include_str!("shaders/reference_fibers.wgsl"),
+    include_str!("shaders/hollow_fiber.wgsl"),
     include_str!("shaders/leaf.wgsl"),
     include_str!("shaders/lambertian.wgsl"),
+    include_str!("shaders/irawan_2012.wgsl"),
     include_str!("shaders/textures.wgsl"),
     include_str!("shaders/geometry.wgsl"),
     include_str!("shaders/lights.wgsl"),

@@ -3,12 +3,14 @@
 
 use crate::device::Gpu;
 use crate::scene_buffers::{
-    chiang_words, deon_words, kajiya_kay_words, lambertian_words, leaf_words, marschner_words, reference_fiber_words,
-    yan_fur_words,
+    chiang_words, deon_words, hollow_fiber_words, irawan_words, kajiya_kay_words, lambertian_words, leaf_words,
+    marschner_words, reference_fiber_words, yan_fur_words,
 };
 use crate::wavefront::GpuRenderError;
 use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::Deon;
+use fiberlab_scatter::hollow_fiber::HollowFiber;
+use fiberlab_scatter::irawan_2012::Irawan2012;
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::lambert_1760::Lambertian;
 use fiberlab_scatter::leaf::Leaf;
@@ -17,7 +19,7 @@ use fiberlab_scatter::yan_2017::YanFur;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-const PROBE: [&str; 11] = [
+const PROBE: [&str; 13] = [
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
     include_str!("shaders/pole_taper.wgsl"),
@@ -26,8 +28,10 @@ const PROBE: [&str; 11] = [
     include_str!("shaders/deon.wgsl"),
     include_str!("shaders/yan_fur.wgsl"),
     include_str!("shaders/reference_fibers.wgsl"),
+    include_str!("shaders/hollow_fiber.wgsl"),
     include_str!("shaders/leaf.wgsl"),
     include_str!("shaders/lambertian.wgsl"),
+    include_str!("shaders/irawan_2012.wgsl"),
     include_str!("shaders/probe.wgsl"),
 ];
 
@@ -184,6 +188,14 @@ pub fn yan_fur(gpu: &Gpu, model: &YanFur, cases: &[ChiangCase]) -> Result<Vec<Ch
     Ok(results(&out))
 }
 
+/// The GPU's hollow fiber (near field) on each case.
+pub fn hollow_fiber(gpu: &Gpu, model: &HollowFiber, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let out = run_probe(gpu, "probe_hollow_fiber_cases", &hollow_fiber_words(model), &input)?;
+    Ok(results(&out))
+}
+
 /// The GPU's leaf surface model (its cuticle albedo table copied) on each case, in the surface's
 /// local frame (z the normal; `h` is ignored).
 pub fn leaf(gpu: &Gpu, model: &Leaf, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
@@ -217,6 +229,25 @@ pub fn reference_fiber(
     let (words, table) = reference_fiber_words(model, 32)?;
     let material: Vec<u32> = words.iter().chain(&table).copied().collect();
     Some(run_probe(gpu, "probe_reference_fiber_cases", &material, &input).map(|out| results(&out)))
+}
+
+/// The GPU's `irawan-2012` surface model on each case at the tile position `positions[k]`
+/// (`u`, `v` as the model's parameters), in the surface's local frame (`h` is ignored).
+pub fn irawan(
+    gpu: &Gpu,
+    model: &Irawan2012,
+    cases: &[ChiangCase],
+    positions: &[[f32; 2]],
+) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> = cases
+        .iter()
+        .zip(positions)
+        .flat_map(|(c, p)| [c.wo.extend(p[0]).to_array(), c.wi.extend(p[1]).to_array(), c.u])
+        .collect();
+    let (words, table) = irawan_words(model, [1.0, 1.0], 32);
+    let material: Vec<u32> = words.iter().chain(&table).copied().collect();
+    let out = run_probe(gpu, "probe_irawan_cases", &material, &input)?;
+    Ok(results(&out))
 }
 
 fn results(out: &[[f32; 4]]) -> Vec<ChiangResult> {

@@ -13,9 +13,11 @@ use fiberlab_render::texture::Wrap;
 use fiberlab_scatter::Model;
 use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, TABLE_ROWS};
-use fiberlab_scatter::hair::roughness::lobe_variances;
+use fiberlab_scatter::hair::roughness::{lobe_variances, logistic_scale};
 use fiberlab_scatter::hair::tilt::lobe_tilts;
 use fiberlab_scatter::ideal_specular::Azimuth;
+use fiberlab_scatter::hollow_fiber::HollowFiber;
+use fiberlab_scatter::irawan_2012::{Irawan2012, Variation, YarnKind};
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::lambert_1760::Lambertian;
 use fiberlab_scatter::leaf::Leaf;
@@ -29,14 +31,17 @@ use std::f64::consts::PI;
 pub enum Unsupported {
     /// A fiber model without a GPU implementation.
     #[error(
-        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner, yan-fur, diffuse, lambertian-cylinder, specular, goldman); render with --device cpu"
+        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner, yan-fur, hollow-fiber with field = near, diffuse, lambertian-cylinder, specular, goldman); render with --device cpu"
     )]
     FiberModel(String),
     /// A surface material without a GPU implementation.
     #[error(
-        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror, leaf, lambertian); render with --device cpu"
+        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror, leaf, lambertian, irawan-2012); render with --device cpu"
     )]
     SurfaceModel(String),
+    /// A surface material with an option the GPU does not implement.
+    #[error("surface material `{0}` with {1} is not implemented on the GPU; render with --device cpu")]
+    SurfaceOption(String, &'static str),
     /// The dual-scattering integrator.
     #[error(
         "the dual-scattering integrator is not implemented on the GPU (path tracing only); render with --device cpu"
@@ -69,6 +74,8 @@ const MATERIAL_DEON: u32 = 5;
 const MATERIAL_YAN_FUR: u32 = 6;
 const MATERIAL_LEAF: u32 = 7;
 const MATERIAL_LAMBERTIAN: u32 = 8;
+const MATERIAL_IRAWAN: u32 = 12;
+const MATERIAL_HOLLOW_FIBER: u32 = 13;
 /// Primitive kinds of the objects (as the shaders' `KIND_*`).
 const KIND_SEGMENT: u32 = 1;
 const KIND_TRIANGLE: u32 = 3;
@@ -120,14 +127,19 @@ fn rgb(c: Rgb) -> [u32; 3] {
 #[must_use]
 pub fn chiang_words(c: &Chiang) -> [u32; MATERIAL_WORDS] {
     let p = c.params();
-    let s = c.logistic_scale();
+    near_field_words(MATERIAL_CHIANG, p.eta, c.sigma_a(), c.logistic_scale(), p.beta_m, p.alpha)
+}
+
+/// The words of a near-field fiber built from Chiang's lobes (the order of `load_chiang`): index
+/// η, absorption σ_a, logistic scale s, roughness β_m and tilt α.
+fn near_field_words(kind: u32, eta: f64, sigma_a: Rgb, s: f64, beta_m: f64, alpha: f64) -> [u32; MATERIAL_WORDS] {
     let cdf = |x: f64| fiberlab_math::special::logistic_cdf(x, s);
-    let v = lobe_variances(p.beta_m);
-    let tilt = lobe_tilts(p.alpha);
+    let v = lobe_variances(beta_m);
+    let tilt = lobe_tilts(alpha);
     let mut w = [0u32; MATERIAL_WORDS];
-    w[0] = MATERIAL_CHIANG;
-    w[1] = f(p.eta);
-    w[2..5].copy_from_slice(&rgb(c.sigma_a()));
+    w[0] = kind;
+    w[1] = f(eta);
+    w[2..5].copy_from_slice(&rgb(sigma_a));
     w[5] = f(s);
     w[6] = f(1.0 / (cdf(PI) - cdf(-PI)));
     w[7] = f(cdf(-PI));
@@ -359,6 +371,19 @@ pub fn yan_fur_words(y: &YanFur, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u
     (w, table)
 }
 
+/// The words of a near-field hollow fiber (the order of `hollow_fiber.wgsl`): Chiang's constants
+/// of its wall, then κ, η_l and the enabled lobes.
+#[must_use]
+pub fn hollow_fiber_words(h: &HollowFiber) -> [u32; MATERIAL_WORDS] {
+    let p = h.params();
+    let mut w =
+        near_field_words(MATERIAL_HOLLOW_FIBER, p.eta, h.sigma_a(), logistic_scale(p.beta_n), p.beta_m, p.alpha);
+    w[29] = f(p.kappa);
+    w[30] = f(p.lumen_eta);
+    w[31] = p.lobes.iter().enumerate().map(|(k, &on)| u32::from(on) << k).sum();
+    w
+}
+
 /// A fiber material's words and its table (empty for most), whose first word is at
 /// `table_at`.
 fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS], Vec<u32>), Unsupported> {
@@ -371,6 +396,7 @@ fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS]
         Model::Diffuse(_) | Model::LambertianCylinder(_) | Model::Specular(_) | Model::Goldman(_) => {
             Ok(reference_fiber_words(model, table_at).expect("a reference fiber"))
         }
+        Model::HollowFiber(h) if h.params().field == Field::Near => Ok((hollow_fiber_words(h), Vec::new())),
         other => Err(Unsupported::FiberModel(other.name().to_string())),
     }
 }
@@ -446,6 +472,46 @@ pub fn lambertian_words(l: &Lambertian, m: Option<&ModelMaterial>, table_at: u32
     (w, table)
 }
 
+/// The words of an `irawan-2012` material (the order of `irawan_2012.wgsl`) at the uv scale
+/// `uv_scale` of its position, whose table starts at word `table_at`, and that table: the
+/// tile's 0-based yarn ids, then per yarn its record (the spine radius, the area share and the
+/// colours with their scales computed here in f64).
+#[must_use]
+pub fn irawan_words(m: &Irawan2012, uv_scale: [f64; 2], table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    let p = m.pattern();
+    let (alpha, beta) = m.alpha_beta();
+    let (k_d_scale, k_s_scale) = m.colour_scales();
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_IRAWAN;
+    w[1] = f(alpha);
+    w[2] = f(beta);
+    w[3] = f(m.normalisation());
+    w[4] = f(1.0 / (2.0 * PI * fiberlab_math::special::i0e(beta)));
+    w[5] = p.width as u32;
+    w[6] = p.height as u32;
+    w[7] = p.cells.len() as u32;
+    w[8] = f(p.ss);
+    w[9] = f(p.h_width);
+    w[10] = table_at;
+    w[13] = f(uv_scale[0]);
+    w[14] = f(uv_scale[1]);
+    w[15] = f(m.position()[0]);
+    w[16] = f(m.position()[1]);
+    let mut table: Vec<u32> = p.cells.iter().map(|&id| id as u32 - 1).collect();
+    for y in &p.yarns {
+        let area = match y.kind {
+            YarnKind::Warp => p.warp_area,
+            YarnKind::Weft => p.weft_area,
+        };
+        table.extend([u32::from(y.kind == YarnKind::Weft), f(y.psi.tan()), f(y.psi.sin().abs()), f(y.u_max)]);
+        table.extend([f(y.width), f(y.length), f(y.center[0]), f(y.center[1])]);
+        table.extend([f(0.5 * y.length / y.u_max.sin()), f((p.warp_area + p.weft_area) / area)]);
+        table.extend(rgb(y.k_d * k_d_scale));
+        table.extend(rgb(y.k_s * k_s_scale));
+    }
+    (w, table)
+}
+
 /// The shading records of a mesh's triangles, 18 words each: the tangent along u, the three
 /// corners' shading normals (zero without them), then their texture coordinates (zero without
 /// them), as
@@ -488,6 +554,16 @@ fn surface_material(
                     leaf_words(leaf, table_at)
                 }
                 SurfaceModel::Lambertian(l) if m.uv_scale().is_none() => lambertian_words(l, Some(m), table_at),
+                SurfaceModel::Irawan(i) => {
+                    let refuse = |what| Err(Unsupported::SurfaceOption(m.model_name().to_string(), what));
+                    if !m.textures().is_empty() {
+                        return refuse("textured parameters");
+                    }
+                    if i.options() != Variation::default() {
+                        return refuse("spine = \"conic\", fineness or umax_noise (the circular spine only)");
+                    }
+                    irawan_words(i, m.uv_scale().unwrap_or([1.0, 1.0]), table_at)
+                }
                 _ => return Err(Unsupported::SurfaceModel(m.model_name().to_string())),
             };
             // Spheres always have texture coordinates; a mesh may not.

@@ -302,6 +302,22 @@ fn yan_fur_images_match_the_cpu() {
     assert_matches_the_cpu(gpu, &b.build(), "yan-fur");
 }
 
+/// Hollow fibers (an air lumen of half the radius in an absorbing wall) under sun and sky, GPU
+/// against CPU at the same seed, as above.
+#[test]
+fn hollow_fiber_images_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let fiber = fiberlab_scatter::build("hollow-fiber", &[("kappa", "0.5"), ("sigma_a", "0.4,0.6,1.0")]).unwrap();
+    let hair_m = b.fiber_material(fiber);
+    let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::new(0.6, 0.45, 0.35)));
+    b.fibers(hair(200), hair_m);
+    b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
+    b.light(Light::sun(DVec3::new(1.0, 1.3, 0.5), 0.05, Rgb::new(3.0, 2.8, 2.5)));
+    b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+    assert_matches_the_cpu(gpu, &b.build(), "hollow-fiber");
+}
+
 /// A surface model as the scene file makes it.
 fn surface_model(name: &str, params: &[(&str, &str)]) -> SurfaceMaterial {
     let spec = fiberlab_scatter::find_surface(name).unwrap();
@@ -343,6 +359,48 @@ fn leaf_images_match_the_cpu() {
     b.light(Light::sun(DVec3::new(-0.6, 0.5, -1.0), 0.05, Rgb::new(3.0, 2.8, 2.5)));
     b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
     assert_matches_the_cpu(gpu, &b.build(), "leaf");
+}
+
+/// Woven cloth (`irawan-2012`): staple-yarn denim on a bent quad with corner normals and texture
+/// coordinates, the pattern repeated 3 × 3 times (`uv_scale`), and filament-yarn charmeuse on a
+/// sphere (its spherical coordinates, 8 × 4 repeats), with hair and a floor, under a low sun and
+/// sky: GPU against CPU at the same seed, as above.
+#[test]
+fn irawan_images_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let cloth = |preset: &str, scale: [f64; 2]| {
+        let spec = fiberlab_scatter::find_surface("irawan-2012").unwrap();
+        let model = fiberlab_scatter::build_surface("irawan-2012", &[("preset", preset)]).unwrap();
+        let m = ModelMaterial::new(spec.name, spec.params, model, &[]).unwrap();
+        SurfaceMaterial::Model(Box::new(m.with_uv_scale(scale).unwrap()))
+    };
+    let mut b = builder();
+    let denim = b.surface_material(cloth("cotton-denim", [3.0, 3.0]));
+    let silk = b.surface_material(cloth("silk-charmeuse", [8.0, 4.0]));
+    let floor = b.surface_material(SurfaceMaterial::Lambert(Rgb::splat(0.4)));
+    let hair_m = b.fiber_material(chiang(&[("eumelanin", "0.3"), ("beta_m", "0.25")]));
+    let (p, n) = (
+        [
+            DVec3::new(-1.4, -0.9, -0.4),
+            DVec3::new(0.4, -0.9, -0.9),
+            DVec3::new(0.6, 0.7, -0.5),
+            DVec3::new(-1.2, 0.6, 0.1),
+        ],
+        [DVec3::new(-0.3, 0.2, 1.0), DVec3::new(0.2, 0.1, 1.0), DVec3::new(0.3, -0.2, 1.0), DVec3::new(-0.2, 0.1, 1.0)],
+    );
+    let uv = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+    let quad = TriangleMesh::with_attributes(
+        vec![[p[0], p[1], p[2]], [p[0], p[2], p[3]]],
+        vec![[uv[0], uv[1], uv[2]], [uv[0], uv[2], uv[3]]],
+        [[n[0], n[1], n[2]], [n[0], n[2], n[3]]].map(|t| t.map(DVec3::normalize)).to_vec(),
+    );
+    b.mesh(quad, denim);
+    b.sphere(DVec3::new(0.9, -0.5, 0.3), 0.45, silk, None);
+    b.fibers(hair(100), hair_m);
+    b.mesh(TriangleMesh::floor(-1.0, 10.0), floor);
+    b.light(Light::sun(DVec3::new(-0.6, 0.5, 1.0), 0.05, Rgb::new(3.0, 2.8, 2.5)));
+    b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+    assert_matches_the_cpu(gpu, &b.build(), "irawan-2012");
 }
 
 /// The `lambertian` surface model with a uv-mapped albedo texture (8 × 4 texels, linear EXR): on
@@ -488,4 +546,25 @@ fn unsupported_models_are_refused_by_name() {
             .unwrap_err()
             .to_string();
     assert!(err.contains("surface material `wood`") && err.contains("leaf") && err.contains("--device cpu"), "{err}");
+    let mut b = builder();
+    let model = fiberlab_scatter::build_surface("irawan-2012", &[("spine", "conic")]).unwrap();
+    let spec = fiberlab_scatter::find_surface("irawan-2012").unwrap();
+    let conic = b.surface_material(SurfaceMaterial::Model(Box::new(
+        ModelMaterial::new(spec.name, spec.params, model, &[]).unwrap(),
+    )));
+    b.mesh(TriangleMesh::floor(-1.0, 10.0), conic).light(Light::Constant { radiance: Rgb::ONE });
+    let err =
+        fiberlab_gpu::render(gpu, &b.build(), &settings(1), GpuOptions::default(), &|_| {}, &AtomicBool::new(false))
+            .unwrap_err()
+            .to_string();
+    assert!(err.contains("`irawan-2012` with spine") && err.contains("--device cpu"), "{err}");
+    let mut b = builder();
+    let far = fiberlab_scatter::build("hollow-fiber", &[("field", "far")]).unwrap();
+    let m = b.fiber_material(far);
+    b.fibers(hair(10), m).light(Light::Constant { radiance: Rgb::ONE });
+    let err =
+        fiberlab_gpu::render(gpu, &b.build(), &settings(1), GpuOptions::default(), &|_| {}, &AtomicBool::new(false))
+            .unwrap_err()
+            .to_string();
+    assert!(err.contains("`hollow-fiber`") && err.contains("field = near"), "{err}");
 }

@@ -1,7 +1,8 @@
 //! The GPU's scattering code and sampler against the CPU's: the f_s and pdf of Chiang's,
-//! Kajiya–Kay's, Marschner's, d'Eon's and Yan's fur fibers, the reference fibers (diffuse,
-//! Lambertian cylinder, specular, Goldman) and of the leaf and Lambertian
-//! surface models on random directions and offsets (f32 tolerance), their samples' density and
+//! Kajiya–Kay's, Marschner's, d'Eon's, Yan's fur and hollow fibers, the reference fibers
+//! (diffuse, Lambertian cylinder, specular, Goldman) and of the leaf, Lambertian and
+//! Irawan–Marschner cloth surface models on random directions and offsets (f32 tolerance), their
+//! samples' density and
 //! weight at the directions they return, the χ² of the GPU's samples against the CPU's pdf, and
 //! the sampler's values.
 
@@ -22,6 +23,8 @@ use fiberlab_scatter::hair::absorption::Absorption;
 use fiberlab_scatter::hair::fiber::HairFiberParams;
 use fiberlab_scatter::ideal_diffuse::{IdealDiffuse, IdealDiffuseParams};
 use fiberlab_scatter::ideal_specular::{Azimuth, IdealSpecular, IdealSpecularParams};
+use fiberlab_scatter::hollow_fiber::{HollowFiber, HollowFiberParams};
+use fiberlab_scatter::irawan_2012::Irawan2012;
 use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
 use fiberlab_scatter::lambert_1760::{Lambertian, LambertianParams};
 use fiberlab_scatter::lambertian_cylinder::{LambertianCylinder, LambertianCylinderParams};
@@ -621,6 +624,175 @@ fn leaf_gpu_samples_follow_the_cpu_pdf() {
         let grid = AsFiberGrid(leaf);
         let wo_grid = to_fiber(dvec(wo.as_vec3()));
         gpu_samples_follow_the_cpu_pdf(&format!("leaf {name}"), &grid, wo_grid, 0.0, &got, &cfg);
+    }
+}
+
+fn hollow_fibers() -> Vec<(&'static str, HollowFiber)> {
+    let deg = |x: f64| x.to_radians();
+    // A thin absorbing wall round a wide lumen, the narrowest lobes, the most negative tilt.
+    let thin = HollowFiberParams {
+        kappa: 0.9,
+        absorption: Absorption::SigmaA(Rgb::new(0.4, 0.8, 1.6)),
+        beta_m: 0.05,
+        beta_n: 0.05,
+        alpha: deg(-20.0),
+        ..HollowFiberParams::default()
+    };
+    // A water-filled lumen in a dense wall (η 2.5), the widest lobes.
+    let water = HollowFiberParams {
+        eta: 2.5,
+        kappa: 0.6,
+        lumen_eta: 1.33,
+        beta_m: 1.0,
+        beta_n: 1.0,
+        alpha: deg(20.0),
+        ..HollowFiberParams::default()
+    };
+    // A lumen denser than the wall, TT and the residual only.
+    let dense = HollowFiberParams {
+        kappa: 0.7,
+        lumen_eta: 2.0,
+        lobes: [false, true, false, true],
+        ..HollowFiberParams::default()
+    };
+    [
+        ("default", HollowFiberParams::default()),
+        ("thin absorbing wall", thin),
+        ("water-filled", water),
+        ("dense lumen, TT and residual", dense),
+    ]
+    .into_iter()
+    .map(|(n, p)| (n, HollowFiber::new(p).unwrap()))
+    .collect()
+}
+
+/// Hollow fibers (air, water and denser-than-wall lumens, every wall-pass kind; the ends of the
+/// roughness and tilt ranges; lobes switched off), as `matches_the_cpu` checks them, over random
+/// directions and h (grazing viewers and h = ±1 among them).
+#[test]
+fn hollow_fiber_eval_pdf_and_samples_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut rng = TestRng::new(29);
+    for (name, fiber) in hollow_fibers() {
+        let cases: Vec<ChiangCase> = (0..4000).map(|k| case(&mut rng, k)).collect();
+        let got = model_probe::hollow_fiber(gpu, &fiber, &cases).unwrap();
+        matches_the_cpu(&format!("hollow-fiber {name}"), &fiber, &cases, &got);
+    }
+}
+
+/// χ² of the GPU's hollow-fiber samples against the CPU's pdf, at a camera direction and offset
+/// through the lumen and one that misses it.
+#[test]
+fn hollow_fiber_gpu_samples_follow_the_cpu_pdf() {
+    let Some(gpu) = common::gpu() else { return };
+    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 100_000, seed: 31, ..Default::default() };
+    let fibers = hollow_fibers();
+    for (name, theta_o, h) in [("default", 0.35, 0.3), ("water-filled", -1.1, -0.2), ("thin absorbing wall", 0.2, 0.95)]
+    {
+        let fiber = &fibers.iter().find(|(n, _)| *n == name).unwrap().1;
+        let wo = direction(theta_o, FRAC_PI_2);
+        let got = model_probe::hollow_fiber(gpu, fiber, &sample_cases(wo, h, &cfg)).unwrap();
+        gpu_samples_follow_the_cpu_pdf(&format!("hollow-fiber {name} θ_o {theta_o} h {h}"), fiber, wo, h, &got, &cfg);
+    }
+}
+
+/// Woven fabrics: filament (silk charmeuse: ψ = 0, smoothing ss = 0.5; polyester lining) and
+/// staple yarns (cotton denim and wool gabardine: ψ = ∓30°), warps and wefts.
+fn fabrics() -> Vec<(&'static str, Irawan2012)> {
+    ["silk-charmeuse", "polyester-lining", "cotton-denim", "wool-gabardine"]
+        .into_iter()
+        .map(|n| (n, Irawan2012::preset(n).unwrap()))
+        .collect()
+}
+
+/// `irawan-2012` on the GPU against the CPU at random tile positions (u, v ∈ [−3, 5): tiles
+/// other than the first and negative coordinates) and direction pairs on both sides, grazing
+/// ones among them: f_s to 5·10⁻⁴ of the largest channel and the pdf to 5·10⁻⁴ relative, except
+/// where the f64 and f32 evaluations fall on the two sides of a highlight's edge (the integrand
+/// is cut off at |y − y*| = δ_y/2, |x − x*| = δ_x/2, |u*| = u_max and |D| = 1): there the CPU at
+/// inputs moved by 10⁻⁵ must reach the GPU's value, and such cases are under 1 %; sampled
+/// directions are unit vectors whose pdf the CPU confirms (3·10⁻³), their weights too but for
+/// under 1 % (edges again).
+#[test]
+fn irawan_eval_pdf_and_samples_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut rng = TestRng::new(23);
+    for (name, fabric) in fabrics() {
+        let cases: Vec<ChiangCase> = (0..6000).map(|k| surface_case(&mut rng, k)).collect();
+        let positions: Vec<[f32; 2]> =
+            cases.iter().map(|_| rng.u4()).map(|u| [(8.0 * u[0] - 3.0) as f32, (8.0 * u[1] - 3.0) as f32]).collect();
+        let got = model_probe::irawan(gpu, &fabric, &cases, &positions).unwrap();
+        let (mut sampled, mut edges, mut weight_edges, mut highlights, mut worst) = (0, 0, 0, 0, 0.0f64);
+        for ((c, p), g) in cases.iter().zip(&positions).zip(&got) {
+            let at = |du: f64, dv: f64| {
+                let mut m = fabric.clone();
+                m.set_position(f64::from(p[0]) + du, f64::from(p[1]) + dv);
+                m
+            };
+            let cpu = at(0.0, 0.0);
+            let (wo, wi) = (dvec(c.wo), dvec(c.wi));
+            let (f, pdf) = (cpu.eval(wi, wo), cpu.pdf(wi, wo));
+            let scale = f.max_component().max(1e-3);
+            let err = (0..3).map(|k| (f64::from(g.f[k]) - f[k]).abs() / scale).fold(0.0, f64::max);
+            if cpu.integrand(wi, wo) > 0.0 {
+                highlights += 1;
+            }
+            if err < 5e-4 {
+                worst = worst.max(err);
+            } else {
+                // On an edge: some nearby input of the CPU gives the GPU's value.
+                let near = (0..64).any(|k| {
+                    let d = 1e-5 * ((k as f64) * 0.7).sin();
+                    let e = 1e-5 * ((k as f64) * 1.3).cos();
+                    let m = at(d, e);
+                    let wi2 = (wi + DVec3::new(e, d, -e)).normalize();
+                    let f2 = m.eval(wi2, wo);
+                    (0..3).all(|j| (f64::from(g.f[j]) - f2[j]).abs() < 5e-4 * f2.max_component().max(1e-3))
+                });
+                assert!(near, "{name}: f {:?} vs {f:?} at {c:?}, position {p:?}", g.f);
+                edges += 1;
+            }
+            assert!((f64::from(g.pdf) - pdf).abs() <= 5e-4 * pdf.max(1e-3), "{name}: pdf {} vs {pdf}", g.pdf);
+            if g.sample_pdf > 0.0 {
+                let swi = dvec(g.sample_wi);
+                assert!((swi.length() - 1.0).abs() < 1e-5, "{name}: |ω_i| = {}", swi.length());
+                let spdf = cpu.pdf(swi, wo);
+                assert!((f64::from(g.sample_pdf) / spdf - 1.0).abs() < 3e-3, "{name}: {} vs {spdf}", g.sample_pdf);
+                let weight = cpu.eval(swi, wo) * (swi.z.max(0.0) / spdf);
+                let err = (0..3).map(|k| (f64::from(g.sample_weight[k]) - weight[k]).abs()).fold(0.0, f64::max);
+                if err > 3e-3 * weight.max_component().max(1e-2) {
+                    weight_edges += 1;
+                }
+                sampled += 1;
+            }
+        }
+        eprintln!(
+            "{name}: {} evaluations ({highlights} in a highlight), {edges} on an edge, {sampled} samples ({weight_edges} weights off), worst relative f error {worst:.2e}",
+            cases.len()
+        );
+        assert!(edges * 100 < cases.len() && weight_edges * 100 < sampled, "{name}: too many on an edge");
+        assert!(highlights > 100 && sampled > 2000, "{name}: {highlights} highlights, {sampled} samples");
+    }
+}
+
+/// χ² of the GPU's `irawan-2012` samples against the CPU's pdf (binned on the check harness's
+/// grid about the normal), at a near-normal and a grazing viewer.
+#[test]
+fn irawan_gpu_samples_follow_the_cpu_pdf() {
+    let Some(gpu) = common::gpu() else { return };
+    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 100_000, seed: 19, ..Default::default() };
+    let fabric = Irawan2012::preset("cotton-denim").unwrap();
+    for wo in [DVec3::new(0.3, 0.1, 0.95), DVec3::new(-0.9, 0.3, 0.15)] {
+        let wo = wo.normalize();
+        let cases = sample_cases(wo, 0.0, &cfg);
+        let positions = vec![[0.3, 0.6]; cases.len()];
+        let got: Vec<ChiangResult> = model_probe::irawan(gpu, &fabric, &cases, &positions)
+            .unwrap()
+            .into_iter()
+            .map(|g| ChiangResult { sample_wi: to_fiber(dvec(g.sample_wi)).as_vec3(), ..g })
+            .collect();
+        let grid = AsFiberGrid(&fabric);
+        gpu_samples_follow_the_cpu_pdf("irawan cotton-denim", &grid, to_fiber(dvec(wo.as_vec3())), 0.0, &got, &cfg);
     }
 }
 

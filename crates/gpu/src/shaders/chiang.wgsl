@@ -110,6 +110,17 @@ fn asin_f(x: f32) -> f32 {
     return atan2_f(c, sqrt((1.0 - c) * (1.0 + c)));
 }
 
+/// glam's `any_orthonormal_pair` (Duff et al. 2017), as the CPU samples cones with it.
+fn orthonormal_pair(n: vec3<f32>) -> array<vec3<f32>, 2> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return array<vec3<f32>, 2>(
+        vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        vec3<f32>(b, sign + n.y * n.y * a, -n.y),
+    );
+}
+
 fn luminance(c: vec3<f32>) -> f32 {
     return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
 }
@@ -272,6 +283,26 @@ struct FiberSample {
     pdf: f32,
 }
 
+/// sinθ_i drawn from lobe p's M_p about the tilted camera side (sinθ_o, cosθ_o) with u₁, u₂.
+fn sample_longitudinal(m: Chiang, p: u32, so: f32, co: f32, u1: f32, u2: f32) -> f32 {
+    let cc = max(1.0 + m.v[p] * log1p((1.0 - u1) * m.expm1_neg[p]), -1.0);
+    let ss = safe_sqrt(1.0 - cc * cc);
+    return clamp(-cc * so + ss * sin_cos_f(TAU * u2).y * co, -1.0, 1.0);
+}
+
+/// An offset from the trimmed logistic by its inverse CDF, in [−π, π].
+fn sample_trimmed_logistic(m: Chiang, u: f32) -> f32 {
+    let cdf = m.cdf_lo + u * (m.cdf_hi - m.cdf_lo);
+    var x = m.s * (log(cdf) - log1p(-cdf));
+    if not_finite(x) {
+        x = select(select(0.0, PI, x > 0.0), -PI, x < 0.0);
+        if x != x {
+            x = 0.0;
+        }
+    }
+    return clamp(x, -PI, PI);
+}
+
 fn chiang_sample(m: Chiang, c: ChiangVertex, u: vec4<f32>) -> FiberSample {
     var out: FiberSample;
     out.pdf = 0.0;
@@ -288,25 +319,12 @@ fn chiang_sample(m: Chiang, c: ChiangVertex, u: vec4<f32>) -> FiberSample {
         p -= 1u;
     }
     // θ_i from M_p(·, θ_o^(p)).
-    let so = c.tilted_sin[p];
-    let co = c.tilted_cos[p];
-    let v = m.v[p];
-    let cc = max(1.0 + v * log1p((1.0 - u.y) * m.expm1_neg[p]), -1.0);
-    let ss = safe_sqrt(1.0 - cc * cc);
-    let sin_i = clamp(-cc * so + ss * sin_cos_f(TAU * u.z).y * co, -1.0, 1.0);
+    let sin_i = sample_longitudinal(m, p, c.tilted_sin[p], c.tilted_cos[p], u.y, u.z);
     let cos_i = safe_sqrt(1.0 - sin_i * sin_i);
     // φ_i from the trimmed logistic by its inverse CDF (uniform for p = 3).
     var dphi = TAU * u.w;
     if p < 3u {
-        let cdf = m.cdf_lo + u.w * (m.cdf_hi - m.cdf_lo);
-        var x = m.s * (log(cdf) - log1p(-cdf));
-        if not_finite(x) {
-            x = select(select(0.0, PI, x > 0.0), -PI, x < 0.0);
-            if x != x {
-                x = 0.0;
-            }
-        }
-        dphi = c.exit[p] + clamp(x, -PI, PI);
+        dphi = c.exit[p] + sample_trimmed_logistic(m, u.w);
     }
     let phi_i = c.phi_o + dphi;
     let sc = sin_cos_f(phi_i);

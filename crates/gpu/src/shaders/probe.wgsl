@@ -21,6 +21,10 @@ fn word_u(i: u32) -> u32 {
     return probe_material[i];
 }
 
+fn word_v3(i: u32) -> vec3<f32> {
+    return vec3<f32>(word_f(i), word_f(i + 1u), word_f(i + 2u));
+}
+
 fn probe_chiang() -> Chiang {
     var c: Chiang;
     c.eta = probe_f(1u);
@@ -50,6 +54,25 @@ fn probe_chiang_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
     let v = chiang_at_vertex(m, a.xyz, a.w);
     probe_out[3u * i] = chiang_eval(m, v, wi);
     let s = chiang_sample(m, v, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
+/// As `probe_chiang_cases` for the hollow fiber at word 0 (Chiang's constants, then κ, η_l and
+/// the lobes).
+@compute @workgroup_size(64)
+fn probe_hollow_fiber_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let m = probe_chiang();
+    let a = probe_in[3u * i];
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    let v = hollow_at_vertex(m, 0u, a.xyz, a.w);
+    probe_out[3u * i] = hollow_eval(m, v, wi);
+    let s = hollow_sample(m, v, u);
     probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
     probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
 }
@@ -154,6 +177,24 @@ fn probe_lambertian_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
     let u = probe_in[3u * i + 2u];
     probe_out[3u * i] = lambertian_eval(k_d, wi, wo);
     let s = lambertian_sample(k_d, wo, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
+/// As `probe_chiang_cases` for the `irawan-2012` material at word 0 (its table after it), in the
+/// surface's local frame, at the tile position (ω_o's w, ω_i's w).
+@compute @workgroup_size(64)
+fn probe_irawan_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let a = probe_in[3u * i];
+    let b = probe_in[3u * i + 1u];
+    let u = probe_in[3u * i + 2u];
+    let m = irawan_at(0u, vec2<f32>(a.w, b.w));
+    probe_out[3u * i] = irawan_eval(m, b.xyz, a.xyz);
+    let s = irawan_sample(m, a.xyz, u);
     probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
     probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
 }

@@ -12,12 +12,14 @@ const MATERIAL_MIRROR: u32 = 1u;
 const MATERIAL_CHIANG: u32 = 2u;
 // MATERIAL_KAJIYA_KAY (3) is in kajiya_kay.wgsl, MATERIAL_MARSCHNER (4) in marschner.wgsl,
 // MATERIAL_DEON (5) in deon.wgsl, MATERIAL_YAN_FUR (6) in yan_fur.wgsl, MATERIAL_LEAF (7) in
-// leaf.wgsl, MATERIAL_LAMBERTIAN (8) in lambertian.wgsl, the reference fibers (20–23) in
+// leaf.wgsl, MATERIAL_LAMBERTIAN (8) in lambertian.wgsl, MATERIAL_IRAWAN (12) in irawan_2012.wgsl,
+// MATERIAL_HOLLOW_FIBER (13) in hollow_fiber.wgsl, the reference fibers (20–23) in
 // reference_fibers.wgsl.
 
 fn is_fiber_material(kind: u32) -> bool {
     return kind == MATERIAL_CHIANG || kind == MATERIAL_KAJIYA_KAY || kind == MATERIAL_MARSCHNER
-        || kind == MATERIAL_DEON || kind == MATERIAL_YAN_FUR || is_reference_fiber(kind);
+        || kind == MATERIAL_DEON || kind == MATERIAL_YAN_FUR || kind == MATERIAL_HOLLOW_FIBER
+        || is_reference_fiber(kind);
 }
 
 fn material_kind(m: u32) -> u32 {
@@ -224,12 +226,14 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     var n: vec3<f32>;
     var chm: Chiang;
     var chv: ChiangVertex;
+    var hfv: HollowVertex;
     var kkm: KajiyaKay;
     var msm: Marschner;
     var dem: Deon;
     var yfm: YanFur;
     var lfm: Leaf;
     var rfm: ReferenceFiber;
+    var irm: Irawan;
     // A Lambertian surface model's albedo at the hit.
     var k_d: vec3<f32>;
     // ω_o in the fiber (or surface model's) frame.
@@ -267,6 +271,9 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             yfm = load_yan_fur(params.material_base + 32u * material);
         } else if is_reference_fiber(fiber_kind) {
             rfm = load_reference_fiber(params.material_base + 32u * material);
+        } else if fiber_kind == MATERIAL_HOLLOW_FIBER {
+            chm = load_chiang(material);
+            hfv = hollow_at_vertex(chm, params.material_base + 32u * material, wo_l, s.hit_h);
         } else {
             kkm = load_kajiya_kay(params.material_base + 32u * material);
         }
@@ -289,7 +296,7 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         n = select(-ng, ng, dot(ng, s.d) < 0.0);
         let surface_kind = material_kind(material);
-        if surface_kind == MATERIAL_LEAF || surface_kind == MATERIAL_LAMBERTIAN {
+        if surface_kind == MATERIAL_LEAF || surface_kind == MATERIAL_LAMBERTIAN || surface_kind == MATERIAL_IRAWAN {
             let b = params.material_base + 32u * material;
             let frame = surface_frame(b, kind, index, ng, s.o, s.d);
             fu = frame.x;
@@ -299,6 +306,13 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             wo_l = vec3<f32>(dot(wo, fu), dot(wo, fv), dot(wo, fw));
             if surface_kind == MATERIAL_LEAF {
                 lfm = load_leaf(b);
+            } else if surface_kind == MATERIAL_IRAWAN {
+                // The tile position: uv times the uv scale, where the surface has uvs.
+                var position = vec2<f32>(word_f(b + 15u), word_f(b + 16u));
+                if kind == KIND_SPHERE || word_u(b + 19u) != 0u {
+                    position = frame.uv * vec2<f32>(word_f(b + 13u), word_f(b + 14u));
+                }
+                irm = irawan_at(b, position);
             } else {
                 k_d = word_v3(b + 1u);
                 // Textured, where the surface has texture coordinates (spheres always do).
@@ -341,6 +355,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
                         e = yan_eval(yfm, wi_l, wo_l, s.hit_h);
                     } else if is_reference_fiber(mkind) {
                         e = reference_fiber_eval(rfm, wi_l, wo_l);
+                    } else if mkind == MATERIAL_HOLLOW_FIBER {
+                        e = hollow_eval(chm, hfv, wi_l);
                     } else {
                         e = kk_eval(kkm, wi_l, wo_l);
                     }
@@ -351,6 +367,14 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
                     if dot(n, ls.wi) > 0.0 {
                         let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
                         let e = lambertian_eval(k_d, wi_l, wo_l);
+                        f = e.xyz * abs(wi_l.z);
+                        bsdf_pdf = e.w;
+                    }
+                } else if mkind == MATERIAL_IRAWAN {
+                    // Opaque, as Lambertian.
+                    if dot(n, ls.wi) > 0.0 {
+                        let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
+                        let e = irawan_eval(irm, wi_l, wo_l);
                         f = e.xyz * abs(wi_l.z);
                         bsdf_pdf = e.w;
                     }
@@ -406,6 +430,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             fs = yan_sample(yfm, wo_l, s.hit_h, vec4<f32>(ua, ub));
         } else if is_reference_fiber(mkind) {
             fs = reference_fiber_sample(rfm, wo_l, vec4<f32>(ua, ub));
+        } else if mkind == MATERIAL_HOLLOW_FIBER {
+            fs = hollow_sample(chm, hfv, vec4<f32>(ua, ub));
         } else {
             fs = kk_sample(kkm, wo_l, vec4<f32>(ua, ub));
         }
@@ -422,6 +448,15 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     } else if mkind == MATERIAL_LAMBERTIAN {
         let ls = lambertian_sample(k_d, wo_l, vec4<f32>(ua, ub));
+        wi = normalize(fu * ls.wi.x + fv * ls.wi.y + fw * ls.wi.z);
+        if ls.pdf <= 0.0 || dot(n, wi) <= 0.0 {
+            paths[pi].l = s.l;
+            return;
+        }
+        weight = ls.weight;
+        pdf = ls.pdf;
+    } else if mkind == MATERIAL_IRAWAN {
+        let ls = irawan_sample(irm, wo_l, vec4<f32>(ua, ub));
         wi = normalize(fu * ls.wi.x + fv * ls.wi.y + fw * ls.wi.z);
         if ls.pdf <= 0.0 || dot(n, wi) <= 0.0 {
             paths[pi].l = s.l;

@@ -392,6 +392,30 @@ impl Irawan2012 {
         &self.fabric.pattern
     }
 
+    /// The options fixed at construction (spine, fiber variation, `u_max` noise).
+    #[must_use]
+    pub fn options(&self) -> Variation {
+        self.fabric.variation
+    }
+
+    /// Uniform scattering α and forward-scattering concentration β in use.
+    #[must_use]
+    pub fn alpha_beta(&self) -> (f64, f64) {
+        (self.alpha, self.beta)
+    }
+
+    /// The scales of every yarn's `k_d` and `k_s`.
+    #[must_use]
+    pub fn colour_scales(&self) -> (Rgb, Rgb) {
+        (self.k_d_scale, self.k_s_scale)
+    }
+
+    /// The evaluation point's UV position.
+    #[must_use]
+    pub fn position(&self) -> [f64; 2] {
+        self.position
+    }
+
     /// Moves the evaluation point to UV `(u, v)`.
     pub fn set_position(&mut self, u: f64, v: f64) {
         self.position = [u, v];

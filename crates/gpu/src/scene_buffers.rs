@@ -15,6 +15,7 @@ use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, TABLE_ROWS};
 use fiberlab_scatter::hair::roughness::lobe_variances;
 use fiberlab_scatter::hair::tilt::lobe_tilts;
+use fiberlab_scatter::huang_2022::{Huang, Orientation};
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::lambert_1760::Lambertian;
 use fiberlab_scatter::leaf::Leaf;
@@ -28,7 +29,7 @@ use std::f64::consts::PI;
 pub enum Unsupported {
     /// A fiber model without a GPU implementation.
     #[error(
-        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner, yan-fur); render with --device cpu"
+        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, huang-2022, kajiya-kay, marschner, yan-fur); render with --device cpu"
     )]
     FiberModel(String),
     /// A surface material without a GPU implementation.
@@ -64,6 +65,8 @@ const MATERIAL_DEON: u32 = 5;
 const MATERIAL_YAN_FUR: u32 = 6;
 const MATERIAL_LEAF: u32 = 7;
 const MATERIAL_LAMBERTIAN: u32 = 8;
+/// Huang 2022 (13: clear of the kinds other models are given in parallel branches).
+const MATERIAL_HUANG: u32 = 13;
 /// Primitive kinds of the objects (as the shaders' `KIND_*`).
 const KIND_SEGMENT: u32 = 1;
 const KIND_TRIANGLE: u32 = 3;
@@ -313,6 +316,59 @@ pub fn yan_fur_words(y: &YanFur, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u
     (w, table)
 }
 
+/// The words of a Huang 2022 material (the order of `load_huang` in the shaders) whose table
+/// starts at word `table_at`, and that table: the h-shift rates split for f32 (`r₁` a multiple
+/// of 4 below 8192, so 11 significant bits; `r₂ = rate − r₁`; `fract(2·rate)`), then the inside
+/// interface's `E_R` and `E_T` tables.
+#[must_use]
+pub fn huang_words(hg: &Huang, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    use fiberlab_scatter::hair::rough_interface::NODES;
+    use fiberlab_scatter::huang_2022::{ENTRY_SIDE, INTERNAL_SIDE, R2, RESIDUAL_FLOOR, SHIFT_RATES, UNIFORM_SHARE};
+    const { assert!(INTERNAL_SIDE == 1, "huang_2022.wgsl draws one internal microfacet per entry path") };
+    const { assert!(NODES == 33, "huang_2022.wgsl's HUANG_NODES") };
+    let p = hg.params();
+    let r1 = SHIFT_RATES.map(|r| (r / 4.0).floor() * 4.0);
+    let mut table: Vec<u32> = r1.iter().map(|&x| f(x)).collect();
+    table.extend(SHIFT_RATES.iter().zip(&r1).map(|(r, a)| f(r - a)));
+    table.extend(SHIFT_RATES.iter().map(|r| f((2.0 * r).fract())));
+    let (e_r, e_t) = hg.inside_albedo().tables();
+    table.extend(e_r.iter().chain(e_t).map(|&x| f(x)));
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_HUANG;
+    w[1] = f(p.eta);
+    w[2..5].copy_from_slice(&rgb(hg.sigma_a()));
+    w[5] = f(p.roughness);
+    w[6] = f(p.aspect);
+    let psi = match p.orientation {
+        Orientation::Fixed(psi) => psi,
+        Orientation::Average => {
+            w[9] = 1;
+            0.0
+        }
+    };
+    w[7] = f(psi.cos());
+    w[8] = f(psi.sin());
+    w[10] = table_at;
+    w[11] = f(p.alpha.sin());
+    w[12] = f(p.alpha.cos());
+    w[13] = f(hg.mean_chord());
+    w[14] = f(hg.mean_half_width());
+    w[15] = f(p.reflection);
+    w[16] = f(p.transmission);
+    w[17] = f(p.secondary_reflection);
+    let v = 4.0 * p.roughness * p.roughness;
+    let expm1 = (-2.0 / v).exp_m1();
+    w[18] = f(v);
+    w[19] = f(1.0 / (v * -expm1));
+    w[20] = f(expm1);
+    w[21] = ENTRY_SIDE as u32;
+    w[22] = f(R2[0]);
+    w[23] = f(R2[1]);
+    w[24] = f(RESIDUAL_FLOOR);
+    w[25] = f(UNIFORM_SHARE);
+    (w, table)
+}
+
 /// A fiber material's words and its table (empty for most), whose first word is at
 /// `table_at`.
 fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS], Vec<u32>), Unsupported> {
@@ -322,6 +378,7 @@ fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS]
         Model::Marschner(m) => Ok(marschner_words(m, table_at)),
         Model::Deon(d) => Ok(deon_words(d, table_at)),
         Model::YanFur(y) => Ok(yan_fur_words(y, table_at)),
+        Model::Huang(hg) => Ok(huang_words(hg, table_at)),
         other => Err(Unsupported::FiberModel(other.name().to_string())),
     }
 }

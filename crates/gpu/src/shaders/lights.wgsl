@@ -40,17 +40,6 @@ struct LightSample {
     aim: u32,
 }
 
-/// glam's `any_orthonormal_pair` (Duff et al. 2017), as the CPU samples cones with it.
-fn orthonormal_pair(n: vec3<f32>) -> array<vec3<f32>, 2> {
-    let sign = select(-1.0, 1.0, n.z >= 0.0);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    return array<vec3<f32>, 2>(
-        vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        vec3<f32>(b, sign + n.y * n.y * a, -n.y),
-    );
-}
-
 /// A uniform direction in the cone around `axis` with 1 − cos of its half-angle `omc`.
 fn sample_cone(axis: vec3<f32>, omc: f32, u: vec2<f32>) -> vec3<f32> {
     let x = u.x * omc;

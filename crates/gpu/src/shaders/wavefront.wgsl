@@ -12,11 +12,12 @@ const MATERIAL_MIRROR: u32 = 1u;
 const MATERIAL_CHIANG: u32 = 2u;
 // MATERIAL_KAJIYA_KAY (3) is in kajiya_kay.wgsl, MATERIAL_MARSCHNER (4) in marschner.wgsl,
 // MATERIAL_DEON (5) in deon.wgsl, MATERIAL_YAN_FUR (6) in yan_fur.wgsl, MATERIAL_LEAF (7) in
-// leaf.wgsl, MATERIAL_LAMBERTIAN (8) in lambertian.wgsl.
+// leaf.wgsl, MATERIAL_LAMBERTIAN (8) in lambertian.wgsl, MATERIAL_HUANG (13) in huang_2022.wgsl.
 
 fn is_fiber_material(kind: u32) -> bool {
     return kind == MATERIAL_CHIANG || kind == MATERIAL_KAJIYA_KAY || kind == MATERIAL_MARSCHNER
-        || kind == MATERIAL_DEON || kind == MATERIAL_YAN_FUR;
+        || kind == MATERIAL_DEON || kind == MATERIAL_YAN_FUR
+        || kind == MATERIAL_HUANG;
 }
 
 fn material_kind(m: u32) -> u32 {
@@ -227,6 +228,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     var msm: Marschner;
     var dem: Deon;
     var yfm: YanFur;
+    var hgm: Huang;
+    var hgv: HuangVertex;
     var lfm: Leaf;
     // A Lambertian surface model's albedo at the hit.
     var k_d: vec3<f32>;
@@ -263,6 +266,9 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             dem = load_deon(params.material_base + 32u * material);
         } else if fiber_kind == MATERIAL_YAN_FUR {
             yfm = load_yan_fur(params.material_base + 32u * material);
+        } else if fiber_kind == MATERIAL_HUANG {
+            hgm = load_huang(params.material_base + 32u * material);
+            hgv = huang_at_vertex(hgm, wo_l, s.hit_h);
         } else {
             kkm = load_kajiya_kay(params.material_base + 32u * material);
         }
@@ -334,6 +340,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
                         e = deon_eval(dem, wi_l, wo_l);
                     } else if mkind == MATERIAL_YAN_FUR {
                         e = yan_eval(yfm, wi_l, wo_l, s.hit_h);
+                    } else if mkind == MATERIAL_HUANG {
+                        e = huang_eval(hgm, hgv, wi_l);
                     } else {
                         e = kk_eval(kkm, wi_l, wo_l);
                     }
@@ -397,6 +405,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             fs = deon_sample(dem, wo_l, vec4<f32>(ua, ub));
         } else if mkind == MATERIAL_YAN_FUR {
             fs = yan_sample(yfm, wo_l, s.hit_h, vec4<f32>(ua, ub));
+        } else if mkind == MATERIAL_HUANG {
+            fs = huang_sample(hgm, hgv, vec4<f32>(ua, ub));
         } else {
             fs = kk_sample(kkm, wo_l, vec4<f32>(ua, ub));
         }

@@ -11,8 +11,8 @@
 use fiberlab_math::microfacet::{Ggx, reflect, refract};
 use fiberlab_math::{DVec3, fresnel};
 
-/// Nodes of the table in μ ∈ [0, 1].
-const NODES: usize = 33;
+/// Nodes of the table in μ ∈ [0, 1] (equally spaced, both ends included).
+pub const NODES: usize = 33;
 /// Side of the lattice of visible normals per node.
 const LATTICE: usize = 48;
 
@@ -74,6 +74,12 @@ impl InterfaceAlbedo {
         let k = (x as usize).min(NODES - 2);
         let f = x - k as f64;
         table[k] * (1.0 - f) + table[k + 1] * f
+    }
+
+    /// The tables `(E_R, E_T)` at the [`NODES`] equally spaced μ (for copies, e.g. the GPU's).
+    #[must_use]
+    pub fn tables(&self) -> (&[f64; NODES], &[f64; NODES]) {
+        (&self.reflected, &self.transmitted)
     }
 
     /// The reflected fraction `E_R(μ)`.

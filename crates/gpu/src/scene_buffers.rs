@@ -322,7 +322,7 @@ pub fn yan_fur_words(y: &YanFur, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u
 /// interface's `E_R` and `E_T` tables.
 #[must_use]
 pub fn huang_words(hg: &Huang, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
-    use fiberlab_scatter::hair::rough_interface::NODES;
+    use fiberlab_scatter::hair::rough_interface::{CHORD_OFFSETS, NODES};
     use fiberlab_scatter::huang_2022::{ENTRY_SIDE, INTERNAL_SIDE, R2, RESIDUAL_FLOOR, SHIFT_RATES, UNIFORM_SHARE};
     const { assert!(INTERNAL_SIDE == 1, "huang_2022.wgsl draws one internal microfacet per entry path") };
     const { assert!(NODES == 33, "huang_2022.wgsl's HUANG_NODES") };
@@ -366,6 +366,7 @@ pub fn huang_words(hg: &Huang, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32
     w[23] = f(R2[1]);
     w[24] = f(RESIDUAL_FLOOR);
     w[25] = f(UNIFORM_SHARE);
+    w[26] = CHORD_OFFSETS as u32;
     (w, table)
 }
 

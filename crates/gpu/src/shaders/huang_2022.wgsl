@@ -13,7 +13,9 @@
 // 9 flags (1: orientation `average`), 10 the table's first word, 11–12 (sin, cos) of the tilt,
 // 13 mean chord, 14 mean half-width, 15–17 multipliers (R, TT, TRT), 18–20 TRRT+'s M (v,
 // 1/(v(1 − e^{−2/v})), e^{−2/v} − 1), 21 entry lattice side, 22–23 R2's step, 24 residual
-// floor, 25 uniform share. The table: the five h-shifts' rates split as (r₁, r₂, fract(2r)) so
+// floor, 25 uniform share, 26 the offsets Ē_R, Ē_T average (the CPU's 16: read, not a
+// constant, so that lavapipe's compiler keeps the loop rolled — unrolled it cost 9 s of CPU per
+// kernel compilation). The table: the five h-shifts' rates split as (r₁, r₂, fract(2r)) so
 // that fract((h + 2)·rate) keeps f32 precision (r₁ with 11 bits, products exact), then E_R and
 // E_T of the inside interface at HUANG_NODES equally spaced μ.
 
@@ -37,6 +39,8 @@ struct Huang {
     res_inv_norm: f32,
     res_expm1: f32,
     side: u32,
+    /// Offsets averaged across chords (TRRT+).
+    chord_offsets: u32,
     r2: vec2<f32>,
     residual_floor: f32,
     uniform_share: f32,
@@ -59,6 +63,7 @@ fn load_huang(b: u32) -> Huang {
     m.res_inv_norm = word_f(b + 19u);
     m.res_expm1 = word_f(b + 20u);
     m.side = word_u(b + 21u);
+    m.chord_offsets = word_u(b + 26u);
     m.r2 = vec2<f32>(word_f(b + 22u), word_f(b + 23u));
     m.residual_floor = word_f(b + 24u);
     m.uniform_share = word_f(b + 25u);
@@ -366,12 +371,12 @@ fn huang_walk(m: Huang, v: HuangVertex, wi: vec3<f32>, pick: u32, goal: f32) -> 
         // TRRT+: E_R at p₃, then E_R·A·Ē_T/(1 − A·Ē_R) over the mean chords.
         let cos_d2 = length(d2.yz);
         var next = vec2<f32>(0.0);
-        for (var q = 0u; q < 16u; q++) {
-            let x = (f32(q) + 0.5) / 16.0;
+        for (var q = 0u; q < m.chord_offsets; q++) {
+            let x = (f32(q) + 0.5) / f32(m.chord_offsets);
             let mu = cos_d2 * sqrt(1.0 - x * x);
             next += vec2<f32>(huang_albedo(m, 0u, mu), huang_albedo(m, 1u, mu));
         }
-        next /= 16.0;
+        next /= f32(m.chord_offsets);
         let a = exp(-m.sigma_a * (m.mean_chord / max(cos_d2, MIN_COS)));
         let escapes = a * next.y / max(1.0 - a * next.x, vec3<f32>(1e-12));
         s.residual += w_trt * escapes * huang_albedo(m, 0u, dot(d2, m3));

@@ -69,15 +69,15 @@ fn a_gpu_render_resumes_on_the_cpu_and_devices_lists_the_adapter() {
     let image = fiberlab_io::LinearImage::read_exr(&d.join("g.exr")).unwrap();
     assert_eq!(image.attribute("spp"), Some("5"));
     // The other supported fiber models render on the GPU too.
-    for model in ["marschner", "deon", "kajiya-kay", "yan-fur"] {
+    for model in ["marschner", "deon", "kajiya-kay", "yan-fur", "huang-2022"] {
         std::fs::write(d.join("m.toml"), SCENE.replace("\"chiang\"", &format!("\"{model}\""))).unwrap();
         let log = stderr_of(fiberlab_in(d).args(["render", "m.toml", "--device", "gpu", "--quiet", "--out", "m"]));
         assert!(log.contains("rendering 20×14 to 2 spp on ") && !log.contains("on the CPU"), "{model}: {log}");
     }
     // An unsupported model is refused before rendering, with the way out.
-    std::fs::write(d.join("k.toml"), SCENE.replace("\"chiang\"", "\"huang-2022\"")).unwrap();
+    std::fs::write(d.join("k.toml"), SCENE.replace("\"chiang\"", "\"sadeghi-thread\"")).unwrap();
     let err = refused(fiberlab_in(d).args(["render", "k.toml", "--device", "gpu", "--quiet"]));
-    assert!(err.contains("`huang-2022`") && err.contains("--device cpu"), "{err}");
+    assert!(err.contains("`sadeghi-thread`") && err.contains("huang-2022") && err.contains("--device cpu"), "{err}");
 }
 
 #[test]

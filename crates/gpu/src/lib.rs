@@ -9,7 +9,7 @@
 //! * [`render_device`]: rendering on the CPU, the GPU or whichever there is (`--device`).
 //! * [`model_probe`]: the GPU's scattering model and sampler on given inputs (tests).
 //!
-//! Supported: the `chiang`, `deon`, `kajiya-kay`, `marschner` and `yan-fur` fiber models; `lambert` and
+//! Supported: the `chiang`, `deon`, `huang-2022`, `kajiya-kay`, `marschner` and `yan-fur` fiber models; `lambert` and
 //! `mirror` surfaces, the `leaf` and `lambertian` surface models (`lambertian`'s `k_d` textured
 //! too); constant and importance-sampled map environments, sun, distant and
 //! emitting-sphere lights with the CPU's light picker and MIS; spheres, tube segments (the CPU's

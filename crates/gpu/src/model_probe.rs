@@ -3,14 +3,15 @@
 
 use crate::device::Gpu;
 use crate::scene_buffers::{
-    chiang_words, deon_words, hollow_fiber_words, irawan_words, kajiya_kay_words, lambertian_words, leaf_words,
-    marschner_words, reference_fiber_words, yan_fur_words,
+    chiang_words, deon_words, hollow_fiber_words, huang_words, irawan_words, kajiya_kay_words, lambertian_words,
+    leaf_words, marschner_words, reference_fiber_words, yan_fur_words,
 };
 use crate::wavefront::GpuRenderError;
 use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::Deon;
 use fiberlab_scatter::hollow_fiber::HollowFiber;
 use fiberlab_scatter::irawan_2012::Irawan2012;
+use fiberlab_scatter::huang_2022::Huang;
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::lambert_1760::Lambertian;
 use fiberlab_scatter::leaf::Leaf;
@@ -19,7 +20,7 @@ use fiberlab_scatter::yan_2017::YanFur;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-const PROBE: [&str; 13] = [
+const PROBE: [&str; 14] = [
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
     include_str!("shaders/pole_taper.wgsl"),
@@ -29,6 +30,7 @@ const PROBE: [&str; 13] = [
     include_str!("shaders/yan_fur.wgsl"),
     include_str!("shaders/reference_fibers.wgsl"),
     include_str!("shaders/hollow_fiber.wgsl"),
+    include_str!("shaders/huang_2022.wgsl"),
     include_str!("shaders/leaf.wgsl"),
     include_str!("shaders/lambertian.wgsl"),
     include_str!("shaders/irawan_2012.wgsl"),
@@ -193,6 +195,16 @@ pub fn hollow_fiber(gpu: &Gpu, model: &HollowFiber, cases: &[ChiangCase]) -> Res
     let input: Vec<[f32; 4]> =
         cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
     let out = run_probe(gpu, "probe_hollow_fiber_cases", &hollow_fiber_words(model), &input)?;
+    Ok(results(&out))
+}
+
+/// The GPU's Huang 2022 model (its shift constants and interface tables copied) on each case.
+pub fn huang(gpu: &Gpu, model: &Huang, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let (words, table) = huang_words(model, 32);
+    let material: Vec<u32> = words.iter().chain(&table).copied().collect();
+    let out = run_probe(gpu, "probe_huang_cases", &material, &input)?;
     Ok(results(&out))
 }
 

@@ -18,6 +18,7 @@ use fiberlab_scatter::hair::tilt::lobe_tilts;
 use fiberlab_scatter::ideal_specular::Azimuth;
 use fiberlab_scatter::hollow_fiber::HollowFiber;
 use fiberlab_scatter::irawan_2012::{Irawan2012, Variation, YarnKind};
+use fiberlab_scatter::huang_2022::{Huang, Orientation};
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::lambert_1760::Lambertian;
 use fiberlab_scatter::leaf::Leaf;
@@ -31,7 +32,7 @@ use std::f64::consts::PI;
 pub enum Unsupported {
     /// A fiber model without a GPU implementation.
     #[error(
-        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, kajiya-kay, marschner, yan-fur, hollow-fiber with field = near, diffuse, lambertian-cylinder, specular, goldman); render with --device cpu"
+        "fiber model `{0}` is not implemented on the GPU (supported: chiang, deon, huang-2022, kajiya-kay, marschner, yan-fur, hollow-fiber with field = near, diffuse, lambertian-cylinder, specular, goldman); render with --device cpu"
     )]
     FiberModel(String),
     /// A surface material without a GPU implementation.
@@ -76,6 +77,7 @@ const MATERIAL_LEAF: u32 = 7;
 const MATERIAL_LAMBERTIAN: u32 = 8;
 const MATERIAL_IRAWAN: u32 = 12;
 const MATERIAL_HOLLOW_FIBER: u32 = 13;
+const MATERIAL_HUANG: u32 = 14;
 /// Primitive kinds of the objects (as the shaders' `KIND_*`).
 const KIND_SEGMENT: u32 = 1;
 const KIND_TRIANGLE: u32 = 3;
@@ -384,6 +386,60 @@ pub fn hollow_fiber_words(h: &HollowFiber) -> [u32; MATERIAL_WORDS] {
     w
 }
 
+/// The words of a Huang 2022 material (the order of `load_huang` in the shaders) whose table
+/// starts at word `table_at`, and that table: the h-shift rates split for f32 (`r₁` a multiple
+/// of 4 below 8192, so 11 significant bits; `r₂ = rate − r₁`; `fract(2·rate)`), then the inside
+/// interface's `E_R` and `E_T` tables.
+#[must_use]
+pub fn huang_words(hg: &Huang, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    use fiberlab_scatter::hair::rough_interface::{CHORD_OFFSETS, NODES};
+    use fiberlab_scatter::huang_2022::{ENTRY_SIDE, INTERNAL_SIDE, R2, RESIDUAL_FLOOR, SHIFT_RATES, UNIFORM_SHARE};
+    const { assert!(INTERNAL_SIDE == 1, "huang_2022.wgsl draws one internal microfacet per entry path") };
+    const { assert!(NODES == 33, "huang_2022.wgsl's HUANG_NODES") };
+    let p = hg.params();
+    let r1 = SHIFT_RATES.map(|r| (r / 4.0).floor() * 4.0);
+    let mut table: Vec<u32> = r1.iter().map(|&x| f(x)).collect();
+    table.extend(SHIFT_RATES.iter().zip(&r1).map(|(r, a)| f(r - a)));
+    table.extend(SHIFT_RATES.iter().map(|r| f((2.0 * r).fract())));
+    let (e_r, e_t) = hg.inside_albedo().tables();
+    table.extend(e_r.iter().chain(e_t).map(|&x| f(x)));
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_HUANG;
+    w[1] = f(p.eta);
+    w[2..5].copy_from_slice(&rgb(hg.sigma_a()));
+    w[5] = f(p.roughness);
+    w[6] = f(p.aspect);
+    let psi = match p.orientation {
+        Orientation::Fixed(psi) => psi,
+        Orientation::Average => {
+            w[9] = 1;
+            0.0
+        }
+    };
+    w[7] = f(psi.cos());
+    w[8] = f(psi.sin());
+    w[10] = table_at;
+    w[11] = f(p.alpha.sin());
+    w[12] = f(p.alpha.cos());
+    w[13] = f(hg.mean_chord());
+    w[14] = f(hg.mean_half_width());
+    w[15] = f(p.reflection);
+    w[16] = f(p.transmission);
+    w[17] = f(p.secondary_reflection);
+    let v = 4.0 * p.roughness * p.roughness;
+    let expm1 = (-2.0 / v).exp_m1();
+    w[18] = f(v);
+    w[19] = f(1.0 / (v * -expm1));
+    w[20] = f(expm1);
+    w[21] = ENTRY_SIDE as u32;
+    w[22] = f(R2[0]);
+    w[23] = f(R2[1]);
+    w[24] = f(RESIDUAL_FLOOR);
+    w[25] = f(UNIFORM_SHARE);
+    w[26] = CHORD_OFFSETS as u32;
+    (w, table)
+}
+
 /// A fiber material's words and its table (empty for most), whose first word is at
 /// `table_at`.
 fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS], Vec<u32>), Unsupported> {
@@ -397,6 +453,7 @@ fn fiber_material(model: &Model, table_at: u32) -> Result<([u32; MATERIAL_WORDS]
             Ok(reference_fiber_words(model, table_at).expect("a reference fiber"))
         }
         Model::HollowFiber(h) if h.params().field == Field::Near => Ok((hollow_fiber_words(h), Vec::new())),
+        Model::Huang(hg) => Ok(huang_words(hg, table_at)),
         other => Err(Unsupported::FiberModel(other.name().to_string())),
     }
 }

@@ -318,6 +318,22 @@ fn hollow_fiber_images_match_the_cpu() {
     assert_matches_the_cpu(gpu, &b.build(), "hollow-fiber");
 }
 
+/// Huang 2022 (elliptical fibers of random orientation, a rough surface, its TRRT+ residual)
+/// under sun and sky, GPU against CPU at the same seed, as above.
+#[test]
+fn huang_images_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut b = builder();
+    let params = [("roughness", "0.2"), ("aspect", "0.6"), ("orientation", "average"), ("eumelanin", "0.4")];
+    let hair_m = b.fiber_material(fiberlab_scatter::build("huang-2022", &params).unwrap());
+    let skin = b.surface_material(SurfaceMaterial::Lambert(Rgb::new(0.6, 0.45, 0.35)));
+    b.fibers(hair(200), hair_m);
+    b.sphere(DVec3::new(0.0, -0.4, -0.3), 0.6, skin, None);
+    b.light(Light::sun(DVec3::new(1.0, 1.3, 0.5), 0.05, Rgb::new(3.0, 2.8, 2.5)));
+    b.light(Light::Constant { radiance: Rgb::new(0.2, 0.25, 0.3) });
+    assert_matches_the_cpu(gpu, &b.build(), "huang-2022");
+}
+
 /// A surface model as the scene file makes it.
 fn surface_model(name: &str, params: &[(&str, &str)]) -> SurfaceMaterial {
     let spec = fiberlab_scatter::find_surface(name).unwrap();
@@ -531,13 +547,13 @@ fn progressive_state_resumes_across_stops_tiles_chunks_and_devices() {
 fn unsupported_models_are_refused_by_name() {
     let Some(gpu) = common::gpu() else { return };
     let mut b = builder();
-    let m = b.fiber_material(fiberlab_scatter::build::<&str, &str>("huang-2022", &[]).unwrap());
+    let m = b.fiber_material(fiberlab_scatter::build::<&str, &str>("sadeghi-thread", &[]).unwrap());
     b.fibers(hair(10), m).light(Light::Constant { radiance: Rgb::ONE });
     let err =
         fiberlab_gpu::render(gpu, &b.build(), &settings(1), GpuOptions::default(), &|_| {}, &AtomicBool::new(false))
             .unwrap_err()
             .to_string();
-    assert!(err.contains("`huang-2022`") && err.contains("--device cpu"), "{err}");
+    assert!(err.contains("`sadeghi-thread`") && err.contains("huang-2022") && err.contains("goldman") && err.contains("--device cpu"), "{err}");
     let mut b = builder();
     let wood = b.surface_material(surface_model("wood", &[]));
     b.mesh(TriangleMesh::floor(-1.0, 10.0), wood).light(Light::Constant { radiance: Rgb::ONE });

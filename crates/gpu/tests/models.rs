@@ -25,6 +25,7 @@ use fiberlab_scatter::ideal_diffuse::{IdealDiffuse, IdealDiffuseParams};
 use fiberlab_scatter::ideal_specular::{Azimuth, IdealSpecular, IdealSpecularParams};
 use fiberlab_scatter::hollow_fiber::{HollowFiber, HollowFiberParams};
 use fiberlab_scatter::irawan_2012::Irawan2012;
+use fiberlab_scatter::huang_2022::{Huang, HuangParams, Orientation};
 use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
 use fiberlab_scatter::lambert_1760::{Lambertian, LambertianParams};
 use fiberlab_scatter::lambertian_cylinder::{LambertianCylinder, LambertianCylinderParams};
@@ -93,19 +94,37 @@ fn chiang_eval_pdf_and_samples_match_the_cpu() {
 /// pdf to 5·10⁻⁴ relative (at ω_i, or within 2·10⁻⁶ rad of it in θ: a table's cell edge), sampled directions unit vectors whose pdf (to 3·10⁻³) and weight the
 /// CPU confirms, and more than 2,000 samples checked.
 fn matches_the_cpu<M: ScatteringFunction>(name: &str, cpu: &M, cases: &[ChiangCase], got: &[ChiangResult]) {
+    matches_the_cpu_where(name, cpu, cases, got, 5e-4, |_| true);
+}
+
+/// [`matches_the_cpu`] with f_s and the pdf to `tol` (instead of 5·10⁻⁴) on the cases where
+/// `compare` holds; on the others only that the GPU's values are finite and non-negative.
+fn matches_the_cpu_where<M: ScatteringFunction>(
+    name: &str,
+    cpu: &M,
+    cases: &[ChiangCase],
+    got: &[ChiangResult],
+    tol: f64,
+    compare: impl Fn(&ChiangCase) -> bool,
+) {
     let (mut sampled, mut worst) = (0, 0.0f64);
     for (c, g) in cases.iter().zip(got) {
+        let finite = g.f.iter().chain([&g.pdf]).all(|x| x.is_finite() && *x >= 0.0);
+        assert!(finite, "{name}: f {:?} pdf {} at {c:?}", g.f, g.pdf);
+        if !compare(c) {
+            continue;
+        }
         let (wo, wi, h) = (dvec(c.wo), dvec(c.wi), f64::from(c.h));
         let (f, pdf) = (cpu.eval(wi, wo, h), cpu.pdf(wi, wo, h));
         let scale = f.max_component().max(1e-3);
         for k in 0..3 {
             let err = (f64::from(g.f[k]) - f[k]).abs() / scale;
             worst = worst.max(err);
-            assert!(err < 5e-4, "{name}: f[{k}] {} vs {} at {c:?}", g.f[k], f[k]);
+            assert!(err < tol, "{name}: f[{k}] {} vs {} at {c:?}", g.f[k], f[k]);
         }
         // A tabulated lobe's density (Kajiya–Kay's, Goldman's) steps at its cells' edges: where
         // ω_i lies within f32 rounding (2·10⁻⁶ rad) of an edge either cell's value is right.
-        let pdf_close = |p: f64| (f64::from(g.pdf) - p).abs() <= 5e-4 * p.max(1e-3);
+        let pdf_close = |p: f64| (f64::from(g.pdf) - p).abs() <= tol * p.max(1e-3);
         let (theta_i, phi_i) = (sin_theta(wi).atan2(cos_theta(wi)), phi(wi));
         let near_edge = || [-2e-6, 2e-6].iter().any(|d| pdf_close(cpu.pdf(direction(theta_i + d, phi_i), wo, h)));
         assert!(pdf_close(pdf) || near_edge(), "{name}: pdf {} vs {pdf} at {c:?}", g.pdf);
@@ -495,6 +514,92 @@ fn yan_fur_gpu_samples_follow_the_cpu_pdf() {
         let wo = direction(theta_o, FRAC_PI_2);
         let got = model_probe::yan_fur(gpu, fiber, &sample_cases(wo, h, &cfg)).unwrap();
         gpu_samples_follow_the_cpu_pdf(&format!("yan-fur {name} θ_o {theta_o} h {h}"), fiber, wo, h, &got, &cfg);
+    }
+}
+
+fn huangs() -> Vec<(&'static str, Huang)> {
+    let deg = |x: f64| x.to_radians();
+    // The roughest, flattest fiber, random orientations, the steepest tilt, η at its top.
+    let flat = HuangParams {
+        roughness: 1.0,
+        aspect: 0.1,
+        orientation: Orientation::Average,
+        alpha: deg(20.0),
+        eta: 4.0,
+        absorption: Absorption::BLOND,
+        ..HuangParams::default()
+    };
+    // The smoothest: a circle, the most negative tilt, black, multipliers at their ends.
+    let smooth = HuangParams {
+        roughness: 0.01,
+        aspect: 1.0,
+        alpha: deg(-20.0),
+        absorption: Absorption::BLACK,
+        reflection: 10.0,
+        transmission: 0.0,
+        secondary_reflection: 10.0,
+        ..HuangParams::default()
+    };
+    // Lossless, a tilted ellipse, the lowest η.
+    let lossless = HuangParams {
+        roughness: 0.15,
+        aspect: 0.5,
+        orientation: Orientation::Fixed(deg(30.0)),
+        eta: 1.01,
+        absorption: Absorption::NONE,
+        ..HuangParams::default()
+    };
+    // The hair of `scenes/hair_huang.toml`.
+    let scene = HuangParams {
+        roughness: 0.15,
+        aspect: 0.7,
+        orientation: Orientation::Average,
+        absorption: Absorption::Melanin { eumelanin: 0.4, pheomelanin: 0.15 },
+        ..HuangParams::default()
+    };
+    [
+        ("default", HuangParams::default()),
+        ("rough flat average", flat),
+        ("smooth black", smooth),
+        ("lossless tilted ellipse", lossless),
+        ("scene", scene),
+    ]
+    .into_iter()
+    .map(|(n, p)| (n, Huang::new(p).unwrap()))
+    .collect()
+}
+
+/// Huang 2022 (its interface tables and lattice shifts copied; every parameter at an end of
+/// its range in some variant: roughness 0.01 and 1, aspect 0.1 and 1, tilt ±20°, η 1.01 and 4,
+/// multipliers 0 and 10, fixed and averaged orientations): f_s to 5·10⁻⁴ of the largest channel,
+/// the pdf to 5·10⁻⁴ relative, and each sample's pdf and weight as the CPU computes them at the
+/// direction returned, over random directions and h (grazing viewers and h = ±1 among them).
+#[test]
+fn huang_eval_pdf_and_samples_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut rng = TestRng::new(15);
+    for (name, fiber) in huangs() {
+        let cases: Vec<ChiangCase> = (0..3200).map(|k| case(&mut rng, k)).collect();
+        let got = model_probe::huang(gpu, &fiber, &cases).unwrap();
+        matches_the_cpu_where(&format!("huang-2022 {name}"), &fiber, &cases, &got, 1e-3, |c| c.h.abs() < 1.0);
+    }
+}
+
+/// χ² of the GPU's Huang samples against the CPU's pdf: the default fiber, the rough flat one
+/// with random orientations, the smooth one (narrow R and TRT lobes), at near-normal, steep and
+/// grazing camera directions (100,000 samples each).
+#[test]
+fn huang_gpu_samples_follow_the_cpu_pdf() {
+    let Some(gpu) = common::gpu() else { return };
+    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 100_000, seed: 16, ..Default::default() };
+    let fibers = huangs();
+    for (name, theta_o, h) in
+        [("default", 0.35, 0.3), ("rough flat average", -1.1, -0.6), ("lossless tilted ellipse", 1.4, 0.1)]
+    {
+        let fiber = &fibers.iter().find(|(n, _)| *n == name).unwrap().1;
+        let wo = direction(theta_o, FRAC_PI_2);
+        let got = model_probe::huang(gpu, fiber, &sample_cases(wo, h, &cfg)).unwrap();
+        gpu_samples_follow_the_cpu_pdf(&format!("huang-2022 {name} θ_o {theta_o} h {h}"), fiber, wo, h, &got, &cfg);
     }
 }
 

@@ -97,15 +97,17 @@ const TRT_PATHS: usize = TT_PATHS * INTERNAL_SIDE * INTERNAL_SIDE;
 /// Panels of the width average ([`ScatteringFunction::eval_far`], 4 nodes each).
 const FAR_PANELS: usize = 256;
 /// Least probability of the TRRT+/uniform sampling component.
-const RESIDUAL_FLOOR: f64 = 0.02;
+pub const RESIDUAL_FLOOR: f64 = 0.02;
 /// Share of the uniform sphere in the TRRT+ sampling component.
-const UNIFORM_SHARE: f64 = 0.25;
+pub const UNIFORM_SHARE: f64 = 0.25;
 /// Multipliers of h that make the lattice shifts (and the orientation of `average`)
-/// equidistributed as h varies: large and mutually incommensurate.
-const SHIFT_RATES: [f64; 5] = [7_919.137_5, 6_451.371_3, 5_003.732_9, 3_571.939_1, 4_409.571_7];
+/// equidistributed as h varies: large and mutually incommensurate (the shifts are
+/// `((h + 2)·rate).fract()`: the entry lattice's two, the internal lattice's two, the
+/// orientation's).
+pub const SHIFT_RATES: [f64; 5] = [7_919.137_5, 6_451.371_3, 5_003.732_9, 3_571.939_1, 4_409.571_7];
 /// The additive recurrence of the R2 low-discrepancy sequence in two dimensions, `(1/g, 1/g²)`
 /// with g the plastic number (Roberts 2018).
-const R2: [f64; 2] = [0.754_877_666_246_693, 0.569_840_290_998_053];
+pub const R2: [f64; 2] = [0.754_877_666_246_693, 0.569_840_290_998_053];
 
 const ROUGHNESS: ParamSpec = ParamSpec {
     key: "roughness",
@@ -358,6 +360,24 @@ impl Huang {
     #[must_use]
     pub fn sigma_a(&self) -> Rgb {
         self.sigma_a
+    }
+
+    /// The albedos of the rough interface met from inside (TRRT+ and the sampling shares).
+    #[must_use]
+    pub fn inside_albedo(&self) -> &InterfaceAlbedo {
+        &self.inside
+    }
+
+    /// Mean chord `π·area/perimeter` of the cross-section (TRRT+).
+    #[must_use]
+    pub fn mean_chord(&self) -> f64 {
+        self.mean_chord
+    }
+
+    /// Mean projected half-width over orientations (`orientation = average`).
+    #[must_use]
+    pub fn mean_half_width(&self) -> f64 {
+        self.mean_half_width
     }
 
     /// The far-field `f_s(ω_i, ω_o)`: `eval` averaged over `n_h` midpoint offsets (each with

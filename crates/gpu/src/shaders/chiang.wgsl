@@ -110,17 +110,6 @@ fn asin_f(x: f32) -> f32 {
     return atan2_f(c, sqrt((1.0 - c) * (1.0 + c)));
 }
 
-/// glam's `any_orthonormal_pair` (Duff et al. 2017), as the CPU samples cones with it.
-fn orthonormal_pair(n: vec3<f32>) -> array<vec3<f32>, 2> {
-    let sign = select(-1.0, 1.0, n.z >= 0.0);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    return array<vec3<f32>, 2>(
-        vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        vec3<f32>(b, sign + n.y * n.y * a, -n.y),
-    );
-}
-
 fn luminance(c: vec3<f32>) -> f32 {
     return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
 }
@@ -143,6 +132,18 @@ fn fresnel_dielectric(cos_i0: f32, eta0: f32) -> f32 {
     let r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
     let r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     return 0.5 * (r_s * r_s + r_p * r_p);
+}
+
+/// glam's `any_orthonormal_pair` (Duff et al. 2017), as the CPU samples cones with it
+/// (the lights' cones, the frames about an axis of the fiber models).
+fn orthonormal_pair(n: vec3<f32>) -> array<vec3<f32>, 2> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return array<vec3<f32>, 2>(
+        vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        vec3<f32>(b, sign + n.y * n.y * a, -n.y),
+    );
 }
 
 // Local fiber coordinates: x along the tangent, ω = (sinθ, cosθ cosφ, cosθ sinφ).
@@ -182,6 +183,14 @@ fn longitudinal(v: f32, inv_norm: f32, sin_i: f32, cos_i: f32, sin_o: f32, cos_o
         return 0.0;
     }
     return i0e(a) * e * inv_norm;
+}
+
+/// sinθ_i drawn from M(·, θ_o) of variance `v` (`expm1_neg` = e^{−2/v} − 1) by exact inversion
+/// (`Longitudinal::sample_sin_theta`): the cosine to the mirror direction, then its azimuth.
+fn longitudinal_sample_sin(v: f32, expm1_neg: f32, sin_o: f32, cos_o: f32, u1: f32, u2: f32) -> f32 {
+    let cc = max(1.0 + v * log1p((1.0 - u1) * expm1_neg), -1.0);
+    let ss = safe_sqrt(1.0 - cc * cc);
+    return clamp(-cc * sin_o + ss * sin_cos_f(TAU * u2).y * cos_o, -1.0, 1.0);
 }
 
 fn logistic(x: f32, s: f32) -> f32 {
@@ -285,9 +294,7 @@ struct FiberSample {
 
 /// sinθ_i drawn from lobe p's M_p about the tilted camera side (sinθ_o, cosθ_o) with u₁, u₂.
 fn sample_longitudinal(m: Chiang, p: u32, so: f32, co: f32, u1: f32, u2: f32) -> f32 {
-    let cc = max(1.0 + m.v[p] * log1p((1.0 - u1) * m.expm1_neg[p]), -1.0);
-    let ss = safe_sqrt(1.0 - cc * cc);
-    return clamp(-cc * so + ss * sin_cos_f(TAU * u2).y * co, -1.0, 1.0);
+    return longitudinal_sample_sin(m.v[p], m.expm1_neg[p], so, co, u1, u2);
 }
 
 /// An offset from the trimmed logistic by its inverse CDF, in [−π, π].

@@ -145,6 +145,22 @@ fn probe_yan_fur_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
     probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
 }
 
+/// As `probe_chiang_cases` for the Huang 2022 material at word 0 (its table after it).
+@compute @workgroup_size(64)
+fn probe_huang_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let m = load_huang(0u);
+    let a = probe_in[3u * i];
+    let v = huang_at_vertex(m, a.xyz, a.w);
+    probe_out[3u * i] = huang_eval(m, v, probe_in[3u * i + 1u].xyz);
+    let s = huang_sample(m, v, probe_in[3u * i + 2u]);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
 /// As `probe_chiang_cases` for the leaf material at word 0 (its table after it), in the
 /// surface's local frame.
 @compute @workgroup_size(64)

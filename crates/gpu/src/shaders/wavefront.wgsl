@@ -13,13 +13,13 @@ const MATERIAL_CHIANG: u32 = 2u;
 // MATERIAL_KAJIYA_KAY (3) is in kajiya_kay.wgsl, MATERIAL_MARSCHNER (4) in marschner.wgsl,
 // MATERIAL_DEON (5) in deon.wgsl, MATERIAL_YAN_FUR (6) in yan_fur.wgsl, MATERIAL_LEAF (7) in
 // leaf.wgsl, MATERIAL_LAMBERTIAN (8) in lambertian.wgsl, MATERIAL_IRAWAN (12) in irawan_2012.wgsl,
-// MATERIAL_HOLLOW_FIBER (13) in hollow_fiber.wgsl, the reference fibers (20–23) in
-// reference_fibers.wgsl.
+// MATERIAL_HOLLOW_FIBER (13) in hollow_fiber.wgsl, MATERIAL_HUANG (14) in huang_2022.wgsl, the
+// reference fibers (20–23) in reference_fibers.wgsl.
 
 fn is_fiber_material(kind: u32) -> bool {
     return kind == MATERIAL_CHIANG || kind == MATERIAL_KAJIYA_KAY || kind == MATERIAL_MARSCHNER
         || kind == MATERIAL_DEON || kind == MATERIAL_YAN_FUR || kind == MATERIAL_HOLLOW_FIBER
-        || is_reference_fiber(kind);
+        || kind == MATERIAL_HUANG || is_reference_fiber(kind);
 }
 
 fn material_kind(m: u32) -> u32 {
@@ -231,6 +231,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     var msm: Marschner;
     var dem: Deon;
     var yfm: YanFur;
+    var hgm: Huang;
+    var hgv: HuangVertex;
     var lfm: Leaf;
     var rfm: ReferenceFiber;
     var irm: Irawan;
@@ -274,6 +276,9 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
         } else if fiber_kind == MATERIAL_HOLLOW_FIBER {
             chm = load_chiang(material);
             hfv = hollow_at_vertex(chm, params.material_base + 32u * material, wo_l, s.hit_h);
+        } else if fiber_kind == MATERIAL_HUANG {
+            hgm = load_huang(params.material_base + 32u * material);
+            hgv = huang_at_vertex(hgm, wo_l, s.hit_h);
         } else {
             kkm = load_kajiya_kay(params.material_base + 32u * material);
         }
@@ -357,6 +362,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
                         e = reference_fiber_eval(rfm, wi_l, wo_l);
                     } else if mkind == MATERIAL_HOLLOW_FIBER {
                         e = hollow_eval(chm, hfv, wi_l);
+                    } else if mkind == MATERIAL_HUANG {
+                        e = huang_eval(hgm, hgv, wi_l);
                     } else {
                         e = kk_eval(kkm, wi_l, wo_l);
                     }
@@ -432,6 +439,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             fs = reference_fiber_sample(rfm, wo_l, vec4<f32>(ua, ub));
         } else if mkind == MATERIAL_HOLLOW_FIBER {
             fs = hollow_sample(chm, hfv, vec4<f32>(ua, ub));
+        } else if mkind == MATERIAL_HUANG {
+            fs = huang_sample(hgm, hgv, vec4<f32>(ua, ub));
         } else {
             fs = kk_sample(kkm, wo_l, vec4<f32>(ua, ub));
         }

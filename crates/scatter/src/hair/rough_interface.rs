@@ -11,8 +11,10 @@
 use fiberlab_math::microfacet::{Ggx, reflect, refract};
 use fiberlab_math::{DVec3, fresnel};
 
-/// Nodes of the table in μ ∈ [0, 1].
-const NODES: usize = 33;
+/// Nodes of the table in μ ∈ [0, 1] (equally spaced, both ends included).
+pub const NODES: usize = 33;
+/// Midpoint offsets of [`InterfaceAlbedo::across_chords`]' average.
+pub const CHORD_OFFSETS: usize = 16;
 /// Side of the lattice of visible normals per node.
 const LATTICE: usize = 48;
 
@@ -76,6 +78,12 @@ impl InterfaceAlbedo {
         table[k] * (1.0 - f) + table[k + 1] * f
     }
 
+    /// The tables `(E_R, E_T)` at the [`NODES`] equally spaced μ (for copies, e.g. the GPU's).
+    #[must_use]
+    pub fn tables(&self) -> (&[f64; NODES], &[f64; NODES]) {
+        (&self.reflected, &self.transmitted)
+    }
+
     /// The reflected fraction `E_R(μ)`.
     #[must_use]
     pub fn reflected(&self, mu: f64) -> f64 {
@@ -94,7 +102,7 @@ impl InterfaceAlbedo {
     /// reflections have spread its offsets while the cylinder keeps its inclination.
     #[must_use]
     pub fn across_chords(&self, cos_theta: f64) -> (f64, f64) {
-        let n = 16;
+        let n = CHORD_OFFSETS;
         let (mut r, mut t) = (0.0, 0.0);
         for k in 0..n {
             let s = (k as f64 + 0.5) / n as f64;

@@ -3,7 +3,7 @@
 //! pipelines, made once per device.
 
 /// The WGSL source of the path tracer, in dependency order.
-pub(crate) const SHADER: [&str; 14] = [
+pub(crate) const SHADER: [&str; 17] = [
     include_str!("shaders/bindings.wgsl"),
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
@@ -12,7 +12,10 @@ pub(crate) const SHADER: [&str; 14] = [
     include_str!("shaders/marschner.wgsl"),
     include_str!("shaders/deon.wgsl"),
     include_str!("shaders/yan_fur.wgsl"),
+    include_str!("shaders/ggx.wgsl"),
     include_str!("shaders/leaf.wgsl"),
+    include_str!("shaders/wood.wgsl"),
+    include_str!("shaders/sadeghi.wgsl"),
     include_str!("shaders/lambertian.wgsl"),
     include_str!("shaders/textures.wgsl"),
     include_str!("shaders/geometry.wgsl"),

@@ -3,7 +3,8 @@
 
 use crate::device::Gpu;
 use crate::scene_buffers::{
-    chiang_words, deon_words, kajiya_kay_words, lambertian_words, leaf_words, marschner_words, yan_fur_words,
+    chiang_words, deon_words, kajiya_kay_words, lambertian_words, leaf_words, marschner_words, sadeghi_words,
+    wood_words, yan_fur_words,
 };
 use crate::wavefront::GpuRenderError;
 use fiberlab_scatter::chiang_2016::Chiang;
@@ -12,11 +13,13 @@ use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::lambert_1760::Lambertian;
 use fiberlab_scatter::leaf::Leaf;
 use fiberlab_scatter::marschner_2003::Marschner;
+use fiberlab_scatter::marschner_2005::Wood;
+use fiberlab_scatter::sadeghi_2013::Sadeghi2013;
 use fiberlab_scatter::yan_2017::YanFur;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-const PROBE: [&str; 10] = [
+const PROBE: [&str; 14] = [
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
     include_str!("shaders/pole_taper.wgsl"),
@@ -24,8 +27,12 @@ const PROBE: [&str; 10] = [
     include_str!("shaders/marschner.wgsl"),
     include_str!("shaders/deon.wgsl"),
     include_str!("shaders/yan_fur.wgsl"),
+    include_str!("shaders/ggx.wgsl"),
     include_str!("shaders/leaf.wgsl"),
     include_str!("shaders/lambertian.wgsl"),
+    include_str!("shaders/wood.wgsl"),
+    include_str!("shaders/sadeghi.wgsl"),
+    include_str!("shaders/textures.wgsl"),
     include_str!("shaders/probe.wgsl"),
 ];
 
@@ -199,6 +206,27 @@ pub fn lambertian(gpu: &Gpu, model: &Lambertian, cases: &[ChiangCase]) -> Result
         cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
     let (words, _) = lambertian_words(model, None, 32);
     let out = run_probe(gpu, "probe_lambertian_cases", &words, &input)?;
+    Ok(results(&out))
+}
+
+/// The GPU's `wood` surface model (untextured) on each case, in the surface's local frame; a
+/// sample of the smooth finish's mirror lobe has `sample_pdf` −1.
+pub fn wood(gpu: &Gpu, model: &Wood, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let (words, _) = wood_words(model, None, 32);
+    let out = run_probe(gpu, "probe_wood_cases", &words, &input)?;
+    Ok(results(&out))
+}
+
+/// The GPU's `sadeghi-2013` cloth (untextured; its thread families copied) on each case, in the surface's
+/// local frame.
+pub fn sadeghi(gpu: &Gpu, model: &Sadeghi2013, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let (words, table) = sadeghi_words(model, None, 32);
+    let material: Vec<u32> = words.iter().chain(&table).copied().collect();
+    let out = run_probe(gpu, "probe_sadeghi_cases", &material, &input)?;
     Ok(results(&out))
 }
 

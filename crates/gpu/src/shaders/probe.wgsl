@@ -21,6 +21,10 @@ fn word_u(i: u32) -> u32 {
     return probe_material[i];
 }
 
+fn word_v3(i: u32) -> vec3<f32> {
+    return vec3<f32>(word_f(i), word_f(i + 1u), word_f(i + 2u));
+}
+
 fn probe_chiang() -> Chiang {
     var c: Chiang;
     c.eta = probe_f(1u);
@@ -154,6 +158,42 @@ fn probe_lambertian_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
     let u = probe_in[3u * i + 2u];
     probe_out[3u * i] = lambertian_eval(k_d, wi, wo);
     let s = lambertian_sample(k_d, wo, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
+/// As `probe_chiang_cases` for the untextured `wood` material at word 0, in the surface's local
+/// frame (a mirror sample of the smooth finish has pdf −1).
+@compute @workgroup_size(64)
+fn probe_wood_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let m = load_wood(0u, vec2<f32>(0.0), false);
+    let wo = probe_in[3u * i].xyz;
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    probe_out[3u * i] = wood_eval(m, wi, wo);
+    let s = wood_sample(m, wo, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
+/// As `probe_chiang_cases` for the untextured `sadeghi-2013` material at word 0 (its families after it),
+/// in the surface's local frame.
+@compute @workgroup_size(64)
+fn probe_sadeghi_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let wo = probe_in[3u * i].xyz;
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    let c = load_sadeghi(0u, vec2<f32>(0.0), false);
+    probe_out[3u * i] = sadeghi_eval(c, wi, wo);
+    let s = sadeghi_sample(c, wo, u);
     probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
     probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
 }

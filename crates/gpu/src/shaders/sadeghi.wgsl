@@ -34,10 +34,11 @@ fn sadeghi_family(b: u32, j: u32) -> u32 {
     return word_u(b + 10u) + SADEGHI_FAMILY_WORDS * j;
 }
 
-/// The cloth at one hit: its material's first word and its threads' parameters there.
+/// The cloth at one hit: its material's first word and its two threads' parameters there.
 struct Sadeghi {
     b: u32,
-    threads: array<SadeghiThread, 2>,
+    thread1: SadeghiThread,
+    thread2: SadeghiThread,
 }
 
 /// Thread parameter `k` (η, k_d, A, γ_s, γ_v) of family j: word `at` of the family, or its
@@ -52,18 +53,25 @@ fn sadeghi_param(b: u32, j: u32, k: u32, at: u32, uv: vec2<f32>, has_uv: bool) -
 
 /// The material at `b`, its textured parameters read at uv where the surface has coordinates.
 fn load_sadeghi(b: u32, uv: vec2<f32>, has_uv: bool) -> Sadeghi {
-    var c: Sadeghi;
-    c.b = b;
-    for (var j = 0u; j < 2u; j++) {
-        c.threads[j] = SadeghiThread(
-            sadeghi_param(b, j, 0u, 0u, uv, has_uv).x,
-            sadeghi_param(b, j, 1u, 1u, uv, has_uv).x,
-            sadeghi_param(b, j, 2u, 2u, uv, has_uv),
-            sadeghi_param(b, j, 3u, 5u, uv, has_uv).x,
-            sadeghi_param(b, j, 4u, 6u, uv, has_uv).x,
-        );
+    return Sadeghi(b, sadeghi_load_thread(b, 0u, uv, has_uv), sadeghi_load_thread(b, 1u, uv, has_uv));
+}
+
+fn sadeghi_load_thread(b: u32, j: u32, uv: vec2<f32>, has_uv: bool) -> SadeghiThread {
+    return SadeghiThread(
+        sadeghi_param(b, j, 0u, 0u, uv, has_uv).x,
+        sadeghi_param(b, j, 1u, 1u, uv, has_uv).x,
+        sadeghi_param(b, j, 2u, 2u, uv, has_uv),
+        sadeghi_param(b, j, 3u, 5u, uv, has_uv).x,
+        sadeghi_param(b, j, 4u, 6u, uv, has_uv).x,
+    );
+}
+
+/// Thread j's parameters (no array: a dynamically indexed one would live in memory).
+fn sadeghi_thread(c: Sadeghi, j: u32) -> SadeghiThread {
+    if j == 0u {
+        return c.thread1;
     }
-    return c;
+    return c.thread2;
 }
 
 /// The frame (columns t, n, t × n) of offset k of family j at word f: `v * m` is v in it.
@@ -117,8 +125,12 @@ fn sadeghi_lobe_pdf(sigma: f32, theta_o: f32, wi: vec3<f32>) -> f32 {
 /// The thread sampler's density in its frame.
 fn sadeghi_thread_pdf(th: SadeghiThread, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     let theta_o = atan2_f(local_sin_theta(wo), local_cos_theta(wo));
-    return (sadeghi_lobe_pdf(th.gamma_s, theta_o, wi) + sadeghi_lobe_pdf(th.gamma_v, theta_o, wi)
-        + local_cos_theta(wi) / (PI * PI)) / 3.0;
+    var lobes = local_cos_theta(wi) / (PI * PI);
+    // A loop, not two calls: one copy of the lobe's code in the kernel (lavapipe compiles it).
+    for (var l = 0u; l < 2u; l++) {
+        lobes += sadeghi_lobe_pdf(select(th.gamma_v, th.gamma_s, l == 0u), theta_o, wi);
+    }
+    return lobes / 3.0;
 }
 
 /// (f_r rgb, pdf) at ω_i for ω_o, both local.
@@ -134,7 +146,7 @@ fn sadeghi_eval(c: Sadeghi, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
         if coverage <= 0.0 {
             continue;
         }
-        let th = c.threads[j];
+        let th = sadeghi_thread(c, j);
         let count = word_u(f + 8u);
         var sum = vec3<f32>(0.0);
         var sum_p = 0.0;
@@ -191,7 +203,7 @@ fn sadeghi_sample(c: Sadeghi, wo: vec3<f32>, u: vec4<f32>) -> FiberSample {
             x = min((x * total - c0) / c1, 0.99999994);
         }
         let f = sadeghi_family(c.b, j);
-        let th = c.threads[j];
+        let th = sadeghi_thread(c, j);
         let count = word_u(f + 8u);
         let k = min(u32(x * f32(count)), count - 1u);
         x = x * f32(count) - f32(k);

@@ -93,15 +93,13 @@ fn sadeghi_masking(a: f32, b: f32) -> f32 {
     return (1.0 - u) * ma * mb + u * min(ma, mb);
 }
 
-/// The thread's f_s for directions in its fiber frame.
-fn sadeghi_thread_value(th: SadeghiThread, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
-    let ci = local_cos_theta(wi);
-    let co = local_cos_theta(wo);
-    let theta_i = atan2_f(local_sin_theta(wi), ci);
-    let theta_o = atan2_f(local_sin_theta(wo), co);
+/// The thread's f_s from the inclinations θ and their cosines in its fiber frame and the
+/// difference of the azimuths (each angle computed once per offset by `sadeghi_eval`: lavapipe
+/// compiles every inlined copy).
+fn sadeghi_thread_value(th: SadeghiThread, theta_i: f32, ci: f32, theta_o: f32, co: f32, dphi: f32) -> vec3<f32> {
     let theta_h = 0.5 * (theta_i + theta_o);
     let cos_d = sin_cos_f(0.5 * (theta_i - theta_o)).y;
-    let cos_half = max(sin_cos_f(0.5 * wrap_few_turns(local_phi(wi) - local_phi(wo))).y, 0.0);
+    let cos_half = max(sin_cos_f(0.5 * wrap_few_turns(dphi)).y, 0.0);
     let fr = fresnel_dielectric(cos_d * cos_half, th.eta);
     let surface = fr * cos_half * gaussian_f(th.gamma_s, theta_h);
     let ft = 1.0 - fr;
@@ -109,26 +107,19 @@ fn sadeghi_thread_value(th: SadeghiThread, wi: vec3<f32>, wo: vec3<f32>) -> vec3
     return (vec3<f32>(surface) + th.albedo * volume) / max(cos_d * cos_d, 1e-12);
 }
 
-/// Density per sr of a Gaussian-in-θ lobe of width σ about −θ_o through the pole taper, φ
-/// uniform.
-fn sadeghi_lobe_pdf(sigma: f32, theta_o: f32, wi: vec3<f32>) -> f32 {
-    let c = local_cos_theta(wi);
-    let theta_i = atan2_f(local_sin_theta(wi), c);
-    let mass = normal_mass_f((-HALF_PI + theta_o) / sigma, (HALF_PI + theta_o) / sigma);
+/// The thread sampler's density per sr at θ_i (cosine ci) given θ_o: two Gaussian-in-θ lobes of
+/// widths γ_s and γ_v about −θ_o through the pole taper, φ uniform, and cosθ_i/π², a third each.
+fn sadeghi_thread_pdf(th: SadeghiThread, theta_i: f32, ci: f32, theta_o: f32) -> f32 {
+    var lobes = ci / (PI * PI);
     let slope = taper_derivative(theta_i);
-    if mass <= 0.0 || slope <= 0.0 {
-        return 0.0;
-    }
-    return gaussian_f(sigma, taper(theta_i) + theta_o) / mass * slope / (TAU * max(c, MIN_COS));
-}
-
-/// The thread sampler's density in its frame.
-fn sadeghi_thread_pdf(th: SadeghiThread, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let theta_o = atan2_f(local_sin_theta(wo), local_cos_theta(wo));
-    var lobes = local_cos_theta(wi) / (PI * PI);
     // A loop, not two calls: one copy of the lobe's code in the kernel (lavapipe compiles it).
     for (var l = 0u; l < 2u; l++) {
-        lobes += sadeghi_lobe_pdf(select(th.gamma_v, th.gamma_s, l == 0u), theta_o, wi);
+        let sigma = select(th.gamma_v, th.gamma_s, l == 0u);
+        // The interval [−π/2, π/2] holds the lobe's centre −θ_o: its mass is 1 less both tails.
+        let mass = 1.0 - normal_cdf_f((-HALF_PI + theta_o) / sigma) - normal_sf_f((HALF_PI + theta_o) / sigma);
+        if mass > 0.0 && slope > 0.0 {
+            lobes += gaussian_f(sigma, taper(theta_i) + theta_o) / mass * slope / (TAU * max(ci, MIN_COS));
+        }
     }
     return lobes / 3.0;
 }
@@ -154,14 +145,20 @@ fn sadeghi_eval(c: Sadeghi, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
             let m = sadeghi_frame(f, j, k);
             let li = wi * m;
             let lo = wo * m;
-            thread_pdf += coverage / (total * f32(count)) * sadeghi_thread_pdf(th, li, lo);
+            let ci = local_cos_theta(li);
+            let co = local_cos_theta(lo);
+            let theta_i = atan2_f(local_sin_theta(li), ci);
+            let theta_o = atan2_f(local_sin_theta(lo), co);
+            thread_pdf += coverage / (total * f32(count)) * sadeghi_thread_pdf(th, theta_i, ci, theta_o);
             if up {
                 // P: angles from n in the (t, n) plane; M: azimuths about t from n.
+                let phi_i = local_phi(li);
+                let phi_o = local_phi(lo);
                 let p = sadeghi_masking(atan2_f(li.x, li.y), atan2_f(lo.x, lo.y));
-                let mm = sadeghi_masking(local_phi(li), local_phi(lo));
+                let mm = sadeghi_masking(phi_i, phi_o);
                 sum_p += p;
                 if p * mm > 0.0 {
-                    sum += sadeghi_thread_value(th, li, lo) * (p * mm * local_cos_theta(lo));
+                    sum += sadeghi_thread_value(th, theta_i, ci, theta_o, co, phi_i - phi_o) * (p * mm * co);
                 }
             }
         }

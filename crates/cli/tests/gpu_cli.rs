@@ -1,5 +1,5 @@
 //! `fiberlab devices` and `fiberlab render --device`: a render begun on the GPU is continued on
-//! the CPU through `--resume`; no adapter gives an error naming what was looked for, and `auto`
+//! the CPU through `--resume`; the other fiber models and the shipped wood scene render on the GPU; no adapter gives an error naming what was looked for, and `auto`
 //! falls back to the CPU with a note. Runs on Mesa's lavapipe in CI (`FIBERLAB_GPU_TESTS=skip`
 //! skips the GPU renders on a machine without any Vulkan driver).
 
@@ -74,6 +74,14 @@ fn a_gpu_render_resumes_on_the_cpu_and_devices_lists_the_adapter() {
         let log = stderr_of(fiberlab_in(d).args(["render", "m.toml", "--device", "gpu", "--quiet", "--out", "m"]));
         assert!(log.contains("rendering 20×14 to 2 spp on ") && !log.contains("on the CPU"), "{model}: {log}");
     }
+    // The shipped figured-maple scene (the wood surface model with textured fiber angle, dip and
+    // k_d), small.
+    let wood = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/wood.toml");
+    let wood = wood.to_str().unwrap();
+    let args = ["render", wood, "--device", "gpu", "--size", "24x24", "--spp", "2", "--quiet", "--out", "w"];
+    let log = stderr_of(fiberlab_in(d).args(args));
+    assert!(log.contains("rendering 24×24 to 2 spp on ") && !log.contains("on the CPU"), "wood: {log}");
+    assert!(d.join("w.exr").exists(), "wood: {log}");
     // An unsupported model is refused before rendering, with the way out.
     std::fs::write(d.join("k.toml"), SCENE.replace("\"chiang\"", "\"sadeghi-thread\"")).unwrap();
     let err = refused(fiberlab_in(d).args(["render", "k.toml", "--device", "gpu", "--quiet"]));

@@ -3,7 +3,7 @@
 //! pipelines, made once per device.
 
 /// The WGSL source of the path tracer, in dependency order.
-pub(crate) const SHADER: [&str; 18] = [
+pub(crate) const SHADER: [&str; 21] = [
     include_str!("shaders/bindings.wgsl"),
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
@@ -15,7 +15,10 @@ pub(crate) const SHADER: [&str; 18] = [
     include_str!("shaders/reference_fibers.wgsl"),
     include_str!("shaders/hollow_fiber.wgsl"),
     include_str!("shaders/huang_2022.wgsl"),
+    include_str!("shaders/ggx.wgsl"),
     include_str!("shaders/leaf.wgsl"),
+    include_str!("shaders/wood.wgsl"),
+    include_str!("shaders/sadeghi.wgsl"),
     include_str!("shaders/lambertian.wgsl"),
     include_str!("shaders/irawan_2012.wgsl"),
     include_str!("shaders/textures.wgsl"),

@@ -4,23 +4,25 @@
 use crate::device::Gpu;
 use crate::scene_buffers::{
     chiang_words, deon_words, hollow_fiber_words, huang_words, irawan_words, kajiya_kay_words, lambertian_words,
-    leaf_words, marschner_words, reference_fiber_words, yan_fur_words,
+    leaf_words, marschner_words, reference_fiber_words, sadeghi_words, wood_words, yan_fur_words,
 };
 use crate::wavefront::GpuRenderError;
 use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::Deon;
 use fiberlab_scatter::hollow_fiber::HollowFiber;
-use fiberlab_scatter::irawan_2012::Irawan2012;
 use fiberlab_scatter::huang_2022::Huang;
+use fiberlab_scatter::irawan_2012::Irawan2012;
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::lambert_1760::Lambertian;
 use fiberlab_scatter::leaf::Leaf;
 use fiberlab_scatter::marschner_2003::Marschner;
+use fiberlab_scatter::marschner_2005::Wood;
+use fiberlab_scatter::sadeghi_2013::Sadeghi2013;
 use fiberlab_scatter::yan_2017::YanFur;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-const PROBE: [&str; 14] = [
+const PROBE: [&str; 18] = [
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
     include_str!("shaders/pole_taper.wgsl"),
@@ -31,9 +33,13 @@ const PROBE: [&str; 14] = [
     include_str!("shaders/reference_fibers.wgsl"),
     include_str!("shaders/hollow_fiber.wgsl"),
     include_str!("shaders/huang_2022.wgsl"),
+    include_str!("shaders/ggx.wgsl"),
     include_str!("shaders/leaf.wgsl"),
     include_str!("shaders/lambertian.wgsl"),
     include_str!("shaders/irawan_2012.wgsl"),
+    include_str!("shaders/wood.wgsl"),
+    include_str!("shaders/sadeghi.wgsl"),
+    include_str!("shaders/textures.wgsl"),
     include_str!("shaders/probe.wgsl"),
 ];
 
@@ -259,6 +265,27 @@ pub fn irawan(
     let (words, table) = irawan_words(model, [1.0, 1.0], 32);
     let material: Vec<u32> = words.iter().chain(&table).copied().collect();
     let out = run_probe(gpu, "probe_irawan_cases", &material, &input)?;
+    Ok(results(&out))
+}
+
+/// The GPU's `wood` surface model (untextured) on each case, in the surface's local frame; a
+/// sample of the smooth finish's mirror lobe has `sample_pdf` −1.
+pub fn wood(gpu: &Gpu, model: &Wood, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let (words, _) = wood_words(model, None, 32);
+    let out = run_probe(gpu, "probe_wood_cases", &words, &input)?;
+    Ok(results(&out))
+}
+
+/// The GPU's `sadeghi-2013` cloth (untextured; its thread families copied) on each case, in the surface's
+/// local frame.
+pub fn sadeghi(gpu: &Gpu, model: &Sadeghi2013, cases: &[ChiangCase]) -> Result<Vec<ChiangResult>, GpuRenderError> {
+    let input: Vec<[f32; 4]> =
+        cases.iter().flat_map(|c| [c.wo.extend(c.h).to_array(), c.wi.extend(0.0).to_array(), c.u]).collect();
+    let (words, table) = sadeghi_words(model, None, 32);
+    let material: Vec<u32> = words.iter().chain(&table).copied().collect();
+    let out = run_probe(gpu, "probe_sadeghi_cases", &material, &input)?;
     Ok(results(&out))
 }
 

@@ -8,21 +8,23 @@ use fiberlab_geometry::bvh::FlatBvh;
 use fiberlab_math::Rgb;
 use fiberlab_render::light::{EnvironmentMap, Light};
 use fiberlab_render::scene::{Scene, SurfaceMaterial};
-use fiberlab_render::surface_material::ModelMaterial;
+use fiberlab_render::surface_material::{ModelMaterial, TexturedParameter};
 use fiberlab_render::texture::Wrap;
 use fiberlab_scatter::Model;
 use fiberlab_scatter::chiang_2016::Chiang;
 use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, TABLE_ROWS};
 use fiberlab_scatter::hair::roughness::{lobe_variances, logistic_scale};
 use fiberlab_scatter::hair::tilt::lobe_tilts;
-use fiberlab_scatter::ideal_specular::Azimuth;
 use fiberlab_scatter::hollow_fiber::HollowFiber;
-use fiberlab_scatter::irawan_2012::{Irawan2012, Variation, YarnKind};
 use fiberlab_scatter::huang_2022::{Huang, Orientation};
+use fiberlab_scatter::ideal_specular::Azimuth;
+use fiberlab_scatter::irawan_2012::{Irawan2012, Variation, YarnKind};
 use fiberlab_scatter::kajiya_kay_1989::KajiyaKay;
 use fiberlab_scatter::lambert_1760::Lambertian;
 use fiberlab_scatter::leaf::Leaf;
 use fiberlab_scatter::marschner_2003::Marschner;
+use fiberlab_scatter::marschner_2005::Wood;
+use fiberlab_scatter::sadeghi_2013::{MAX_OFFSETS, Sadeghi2013};
 use fiberlab_scatter::yan_2017::YanFur;
 use fiberlab_scatter::{Field, ScatteringFunction, SurfaceModel};
 use std::f64::consts::PI;
@@ -37,7 +39,7 @@ pub enum Unsupported {
     FiberModel(String),
     /// A surface material without a GPU implementation.
     #[error(
-        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror, leaf, lambertian, irawan-2012); render with --device cpu"
+        "surface material `{0}` is not implemented on the GPU (supported: lambert, mirror, leaf, lambertian, wood, sadeghi-2013, irawan-2012); render with --device cpu"
     )]
     SurfaceModel(String),
     /// A surface material with an option the GPU does not implement.
@@ -75,6 +77,8 @@ const MATERIAL_DEON: u32 = 5;
 const MATERIAL_YAN_FUR: u32 = 6;
 const MATERIAL_LEAF: u32 = 7;
 const MATERIAL_LAMBERTIAN: u32 = 8;
+const MATERIAL_WOOD: u32 = 9;
+const MATERIAL_SADEGHI: u32 = 10;
 const MATERIAL_IRAWAN: u32 = 12;
 const MATERIAL_HOLLOW_FIBER: u32 = 13;
 const MATERIAL_HUANG: u32 = 14;
@@ -569,6 +573,88 @@ pub fn irawan_words(m: &Irawan2012, uv_scale: [f64; 2], table_at: u32) -> ([u32;
     (w, table)
 }
 
+/// A texture of a surface model's parameter as `textures.wgsl`'s `texture_at` reads it: width,
+/// height, wrapping (0 repeat, 1 clamp), uv scale, then the texels as the parameter's values
+/// (`TexturedParameter::value`: a scalar's red channel on all three, degrees as radians), rgb,
+/// rows from the top.
+#[must_use]
+pub fn texture_words(t: &TexturedParameter) -> Vec<u32> {
+    let tex = t.texture();
+    let (w, h) = (tex.width(), tex.height());
+    let mut words = Vec::with_capacity(5 + 3 * w * h);
+    words.extend([w as u32, h as u32, u32::from(tex.wrap() == Wrap::Clamp), f(tex.scale()[0]), f(tex.scale()[1])]);
+    for y in 0..h {
+        for x in 0..w {
+            words.extend(rgb(t.value(tex.texel(x, y))));
+        }
+    }
+    words
+}
+
+/// The words of a `wood` material (the order of `wood.wgsl`) whose table starts at word
+/// `table_at`, and that table: the textures of its material `m` (`texture_words`), if any.
+#[must_use]
+pub fn wood_words(wood: &Wood, m: Option<&ModelMaterial>, table_at: u32) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    let p = wood.params();
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_WOOD;
+    w[1..4].copy_from_slice(&rgb(p.k_d));
+    w[4..7].copy_from_slice(&rgb(p.k_f));
+    w[7] = f(p.eta);
+    w[8] = f(p.roughness);
+    w[9] = f(p.beta);
+    w[10] = table_at;
+    w[13] = f(p.fiber_angle);
+    w[14] = f(p.fiber_dip);
+    let mut table = Vec::new();
+    for t in m.map_or(&[][..], ModelMaterial::textures) {
+        // The texturable keys in the order of words 20–24.
+        if let Some(k) = ["k_d", "k_f", "beta", "fiber_angle", "fiber_dip"].iter().position(|&key| key == t.key()) {
+            w[20 + k] = 1 + table.len() as u32;
+            table.extend(texture_words(t));
+        }
+    }
+    (w, table)
+}
+
+/// The words of a `sadeghi-2013` material (the order of `sadeghi.wgsl`) whose table starts at
+/// word `table_at`, and that table: its two thread families, 25 words each (the thread's
+/// parameters, the coverage, the number of offsets and each offset's sine and cosine), then
+/// the textures of its material `m` (`texture_words`), if any.
+#[must_use]
+pub fn sadeghi_words(
+    cloth: &Sadeghi2013,
+    m: Option<&ModelMaterial>,
+    table_at: u32,
+) -> ([u32; MATERIAL_WORDS], Vec<u32>) {
+    let mut w = [0u32; MATERIAL_WORDS];
+    w[0] = MATERIAL_SADEGHI;
+    w[10] = table_at;
+    let mut table = Vec::with_capacity(2 * (9 + 2 * MAX_OFFSETS));
+    for fam in cloth.families() {
+        let t = fam.thread;
+        table.extend([f(t.eta), f(t.k_d)]);
+        table.extend(rgb(t.albedo));
+        table.extend([f(t.gamma_s), f(t.gamma_v), f(fam.coverage), fam.count as u32]);
+        for k in 0..MAX_OFFSETS {
+            let (s, c) = fam.offsets[k].sin_cos();
+            table.extend([f(s), f(c)]);
+        }
+    }
+    // The texturable keys in the order of words 20–29.
+    let keys = ["eta", "k_d", "albedo", "gamma_s", "gamma_v"];
+    for t in m.map_or(&[][..], ModelMaterial::textures) {
+        if let Some((name, family)) = t.key().rsplit_once('_')
+            && let Some(k) = keys.iter().position(|&key| key == name)
+            && let Some(j) = ["1", "2"].iter().position(|&x| x == family)
+        {
+            w[20 + 5 * j + k] = 1 + table.len() as u32;
+            table.extend(texture_words(t));
+        }
+    }
+    (w, table)
+}
+
 /// The shading records of a mesh's triangles, 18 words each: the tangent along u, the three
 /// corners' shading normals (zero without them), then their texture coordinates (zero without
 /// them), as
@@ -620,6 +706,12 @@ fn surface_material(
                         return refuse("spine = \"conic\", fineness or umax_noise (the circular spine only)");
                     }
                     irawan_words(i, m.uv_scale().unwrap_or([1.0, 1.0]), table_at)
+                }
+                SurfaceModel::Wood(wood) => wood_words(wood, Some(m), table_at),
+                SurfaceModel::Sadeghi(cloth) => sadeghi_words(cloth, Some(m), table_at),
+                SurfaceModel::Leaf(_) | SurfaceModel::Lambertian(_) => {
+                    let what = "textured parameters other than lambertian's k_d, or uv_scale";
+                    return Err(Unsupported::SurfaceOption(m.model_name().to_string(), what));
                 }
                 _ => return Err(Unsupported::SurfaceModel(m.model_name().to_string())),
             };

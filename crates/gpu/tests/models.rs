@@ -1,8 +1,8 @@
 //! The GPU's scattering code and sampler against the CPU's: the f_s and pdf of Chiang's,
 //! Kajiya–Kay's, Marschner's, d'Eon's, Yan's fur and hollow fibers, the reference fibers
-//! (diffuse, Lambertian cylinder, specular, Goldman) and of the leaf, Lambertian and
-//! Irawan–Marschner cloth surface models on random directions and offsets (f32 tolerance), their
-//! samples' density and
+//! (diffuse, Lambertian cylinder, specular, Goldman) and of the leaf, Lambertian, wood,
+//! Sadeghi and Irawan–Marschner cloth surface models on random directions and offsets (f32
+//! tolerance), their samples' density and
 //! weight at the directions they return, the χ² of the GPU's samples against the CPU's pdf, and
 //! the sampler's values.
 
@@ -21,16 +21,18 @@ use fiberlab_scatter::deon_2011::{AzimuthalInclination, Deon, DeonParams};
 use fiberlab_scatter::goldman_1997::{Goldman, GoldmanParams};
 use fiberlab_scatter::hair::absorption::Absorption;
 use fiberlab_scatter::hair::fiber::HairFiberParams;
+use fiberlab_scatter::hollow_fiber::{HollowFiber, HollowFiberParams};
+use fiberlab_scatter::huang_2022::{Huang, HuangParams, Orientation};
 use fiberlab_scatter::ideal_diffuse::{IdealDiffuse, IdealDiffuseParams};
 use fiberlab_scatter::ideal_specular::{Azimuth, IdealSpecular, IdealSpecularParams};
-use fiberlab_scatter::hollow_fiber::{HollowFiber, HollowFiberParams};
 use fiberlab_scatter::irawan_2012::Irawan2012;
-use fiberlab_scatter::huang_2022::{Huang, HuangParams, Orientation};
 use fiberlab_scatter::kajiya_kay_1989::{KajiyaKay, KajiyaKayParams};
 use fiberlab_scatter::lambert_1760::{Lambertian, LambertianParams};
 use fiberlab_scatter::lambertian_cylinder::{LambertianCylinder, LambertianCylinderParams};
 use fiberlab_scatter::leaf::{Leaf, LeafParams};
 use fiberlab_scatter::marschner_2003::{Marschner, MarschnerParams};
+use fiberlab_scatter::marschner_2005::{Wood, WoodParams};
+use fiberlab_scatter::sadeghi_2013::{SADEGHI_PRESETS, Sadeghi2013};
 use fiberlab_scatter::yan_2017::{CortexAbsorption, YanFur, YanFurParams};
 use fiberlab_scatter::{Model, Properties, Sample, ScatteringFunction, SurfaceScattering};
 use glam::Vec3;
@@ -898,6 +900,132 @@ fn irawan_gpu_samples_follow_the_cpu_pdf() {
             .collect();
         let grid = AsFiberGrid(&fabric);
         gpu_samples_follow_the_cpu_pdf("irawan cotton-denim", &grid, to_fiber(dvec(wo.as_vec3())), 0.0, &got, &cfg);
+    }
+}
+
+fn woods() -> Vec<(&'static str, Wood)> {
+    let deg = f64::to_radians;
+    let rough = WoodParams {
+        roughness: 0.3,
+        fiber_angle: deg(35.0),
+        fiber_dip: deg(25.0),
+        beta: deg(4.0),
+        ..WoodParams::default()
+    };
+    let steep = WoodParams {
+        eta: 1.75,
+        roughness: 0.08,
+        k_d: Rgb::new(0.5, 0.3, 0.1),
+        k_f: Rgb::new(0.1, 0.05, 0.02),
+        beta: deg(20.0),
+        fiber_angle: deg(-120.0),
+        fiber_dip: deg(80.0),
+    };
+    let vertical = WoodParams {
+        k_d: Rgb::splat(0.2),
+        roughness: 0.5,
+        beta: deg(45.0),
+        fiber_dip: deg(-90.0),
+        ..WoodParams::default()
+    };
+    [
+        ("default (smooth finish)", WoodParams::default()),
+        ("rough, dipped", rough),
+        ("tiger's eye", WoodParams::tigers_eye()),
+        ("steep dip", steep),
+        ("vertical fibers, β 45°", vertical),
+    ]
+    .into_iter()
+    .map(|(n, p)| (n, Wood::new(p).unwrap()))
+    .collect()
+}
+
+/// The wood surface model (Marschner et al. 2005: smooth and rough finishes, fibers in the
+/// plane, dipped, vertical; β from 3° to 45°), as `surface_matches_the_cpu` checks, over random
+/// direction pairs on the whole sphere; the smooth finish's mirror samples (pdf −1 on the GPU)
+/// are the CPU's delta samples of the same uniforms, direction and weight.
+#[test]
+fn wood_eval_pdf_and_samples_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut rng = TestRng::new(19);
+    for (name, wood) in woods() {
+        let cases: Vec<ChiangCase> = (0..6000).map(|k| surface_case(&mut rng, k)).collect();
+        let got = model_probe::wood(gpu, &wood, &cases).unwrap();
+        surface_matches_the_cpu(&format!("wood {name}"), &wood, &cases, &got);
+        let mut mirrored = 0;
+        for (c, g) in cases.iter().zip(&got) {
+            let cpu = wood.sample(dvec(c.wo), c.u.map(f64::from));
+            if g.sample_pdf < 0.0 {
+                let s = cpu.unwrap_or_else(|| panic!("wood {name}: GPU mirror sample, none on the CPU at {c:?}"));
+                assert!(s.delta && (dvec(g.sample_wi) - s.wi).length() < 1e-6, "wood {name}: {c:?}");
+                assert!((f64::from(g.sample_weight[0]) / s.weight[0] - 1.0).abs() < 1e-4, "wood {name}: {c:?}");
+                mirrored += 1;
+            } else {
+                assert!(!cpu.is_some_and(|s| s.delta), "wood {name}: CPU mirror sample, not on the GPU at {c:?}");
+            }
+        }
+        eprintln!("wood {name}: {mirrored} mirror samples");
+        assert_eq!(mirrored > 100, wood.properties().has_delta, "wood {name}: {mirrored} mirror samples");
+    }
+}
+
+/// χ² of the GPU's wood samples against the CPU's pdf (the smooth finish's mirror samples
+/// against the mass the pdf leaves out), each wood at a near-normal, oblique or grazing viewer.
+#[test]
+fn wood_gpu_samples_follow_the_cpu_pdf() {
+    let Some(gpu) = common::gpu() else { return };
+    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 100_000, seed: 20, ..Default::default() };
+    let directions = [
+        DVec3::new(0.3, 0.1, 0.95),
+        DVec3::new(-0.5, 0.6, 0.4),
+        DVec3::new(0.6, 0.3, 0.5),
+        DVec3::new(0.95, -0.2, 0.08),
+        DVec3::new(0.1, 0.4, 0.7),
+    ];
+    for ((name, wood), wo) in woods().iter().zip(directions) {
+        let wo = wo.normalize();
+        let got: Vec<ChiangResult> = model_probe::wood(gpu, wood, &sample_cases(wo, 0.0, &cfg))
+            .unwrap()
+            .into_iter()
+            .map(|g| ChiangResult { sample_wi: to_fiber(dvec(g.sample_wi)).as_vec3(), ..g })
+            .collect();
+        let wo_grid = to_fiber(dvec(wo.as_vec3()));
+        gpu_samples_follow_the_cpu_pdf(&format!("wood {name}"), &AsFiberGrid(wood), wo_grid, 0.0, &got, &cfg);
+    }
+}
+
+/// The Sadeghi et al. 2013 cloth (each fabric of the paper's table: one to eight offsets per
+/// family, velvet's at ±90°), as `surface_matches_the_cpu` checks, over random direction pairs
+/// on the whole sphere (the pdf also below the surface, where the thread lobes reach).
+#[test]
+fn sadeghi_eval_pdf_and_samples_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let mut rng = TestRng::new(21);
+    for name in SADEGHI_PRESETS {
+        let cloth = Sadeghi2013::preset(name).unwrap();
+        let cases: Vec<ChiangCase> = (0..6000).map(|k| surface_case(&mut rng, k)).collect();
+        let got = model_probe::sadeghi(gpu, &cloth, &cases).unwrap();
+        surface_matches_the_cpu(&format!("sadeghi-2013 {name}"), &cloth, &cases, &got);
+    }
+}
+
+/// χ² of the GPU's cloth samples against the CPU's pdf, three fabrics at a near-normal, an
+/// oblique and a grazing viewer.
+#[test]
+fn sadeghi_gpu_samples_follow_the_cpu_pdf() {
+    let Some(gpu) = common::gpu() else { return };
+    let cfg = Chi2Config { bins_theta: 24, bins_phi: 48, sub: 4, samples: 100_000, seed: 22, ..Default::default() };
+    let directions = [DVec3::new(0.3, 0.1, 0.95), DVec3::new(-0.5, 0.6, 0.4), DVec3::new(0.95, -0.2, 0.08)];
+    for (name, wo) in ["linen-plain", "polyester-satin-charmeuse", "velvet"].into_iter().zip(directions) {
+        let cloth = Sadeghi2013::preset(name).unwrap();
+        let wo = wo.normalize();
+        let got: Vec<ChiangResult> = model_probe::sadeghi(gpu, &cloth, &sample_cases(wo, 0.0, &cfg))
+            .unwrap()
+            .into_iter()
+            .map(|g| ChiangResult { sample_wi: to_fiber(dvec(g.sample_wi)).as_vec3(), ..g })
+            .collect();
+        let wo_grid = to_fiber(dvec(wo.as_vec3()));
+        gpu_samples_follow_the_cpu_pdf(&format!("sadeghi-2013 {name}"), &AsFiberGrid(&cloth), wo_grid, 0.0, &got, &cfg);
     }
 }
 

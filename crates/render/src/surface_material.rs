@@ -52,8 +52,11 @@ impl TexturedParameter {
         &self.texture
     }
 
-    /// The value to set for texel value `c` (raw, in the table's unit).
-    fn value(&self, c: [f64; 3]) -> Rgb {
+    /// The value to set for texel value `c` (raw, in the table's unit): a scalar parameter's
+    /// red channel on all three, degrees as radians. Linear in `c`, so a texture of these values
+    /// interpolates to the value of the interpolated texels.
+    #[must_use]
+    pub fn value(&self, c: [f64; 3]) -> Rgb {
         let c = if self.scalar { [c[0]; 3] } else { c };
         let c = if self.degrees { c.map(f64::to_radians) } else { c };
         Rgb::new(c[0], c[1], c[2])

@@ -4,7 +4,7 @@
 // values, computed on the CPU), f_d = (R_b or T_b)(1 − E(μ_i))(1 − E(μ_o))/(π(1 − Ē)) with the
 // CPU's cuticle albedo table E (copied). Sampled as on the CPU: a lobe by E(μ_o),
 // (1 − E)Y(R_b), (1 − E)Y(T_b), then GGX visible normals (Heitz 2018) or the cosine on either
-// side; the pdf is the mixture's.
+// side; the pdf is the mixture's. The GGX functions are in `ggx.wgsl`.
 //
 // Words at `b` (32 per material): 0 kind, 1–3 R_b, 4–6 T_b, 7 α, 8 η, 9 1/(π(1 − Ē)), 10 the
 // table's first word (E(k/32), k = 0..32, then a mesh's per-triangle shading records,
@@ -43,69 +43,6 @@ fn leaf_albedo(m: Leaf, mu: f32) -> f32 {
     return word_f(m.table + k) * (1.0 - t) + word_f(m.table + k + 1u) * t;
 }
 
-/// GGX D(m) for cosθ_m.
-fn ggx_d(alpha: f32, cos_m: f32) -> f32 {
-    let a2 = alpha * alpha;
-    let t = cos_m * cos_m * (a2 - 1.0) + 1.0;
-    return a2 / (PI * t * t);
-}
-
-/// Smith's Λ for a direction with cosθ = c.
-fn ggx_lambda(alpha: f32, c: f32) -> f32 {
-    let c2 = c * c;
-    let tan2 = max(1.0 - c2, 0.0) / max(c2, MIN_COS * MIN_COS);
-    return 0.5 * (sqrt(1.0 + alpha * alpha * tan2) - 1.0);
-}
-
-/// A GGX visible normal for v (upper side) from two uniforms (Heitz 2018).
-fn ggx_sample_visible(alpha: f32, v: vec3<f32>, u1: f32, u2: f32) -> vec3<f32> {
-    let vh = normalize(vec3<f32>(alpha * v.x, alpha * v.y, v.z));
-    let len2 = vh.x * vh.x + vh.y * vh.y;
-    var t1 = vec3<f32>(1.0, 0.0, 0.0);
-    if len2 > 0.0 {
-        t1 = vec3<f32>(-vh.y, vh.x, 0.0) / sqrt(len2);
-    }
-    let t2 = cross(vh, t1);
-    let r = sqrt(u1);
-    let sc = sin_cos_f(TAU * u2);
-    let p1 = r * sc.y;
-    let s = 0.5 * (1.0 + vh.z);
-    let p2 = (1.0 - s) * safe_sqrt(1.0 - p1 * p1) + s * r * sc.x;
-    let n = t1 * p1 + t2 * p2 + vh * safe_sqrt(1.0 - p1 * p1 - p2 * p2);
-    return normalize(vec3<f32>(alpha * n.x, alpha * n.y, max(n.z, 1e-12)));
-}
-
-/// The half vector of two directions (0 for opposite ones).
-fn leaf_half(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
-    let s = wi + wo;
-    let l = length(s);
-    if !(l > 0.0) {
-        return vec3<f32>(0.0);
-    }
-    return s / l;
-}
-
-/// The cuticle's f_s, both directions on the upper side.
-fn leaf_cuticle(m: Leaf, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let h = leaf_half(wi, wo);
-    if h.z <= 0.0 || wi.z <= 0.0 || wo.z <= 0.0 {
-        return 0.0;
-    }
-    let g2 = 1.0 / (1.0 + ggx_lambda(m.alpha, wi.z) + ggx_lambda(m.alpha, wo.z));
-    return fresnel_dielectric(max(dot(wi, h), 0.0), m.eta) * ggx_d(m.alpha, h.z) * g2
-        / (4.0 * max(wi.z, MIN_COS) * max(wo.z, MIN_COS));
-}
-
-/// The cuticle sampler's density of wi given wo, both on the upper side.
-fn leaf_cuticle_pdf(m: Leaf, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let h = leaf_half(wi, wo);
-    if h.z <= 0.0 || dot(wo, h) <= 0.0 || wi.z <= 0.0 {
-        return 0.0;
-    }
-    let g1 = 1.0 / (1.0 + ggx_lambda(m.alpha, wo.z));
-    return g1 * ggx_d(m.alpha, h.z) / (4.0 * max(wo.z, MIN_COS));
-}
-
 /// Lobe probabilities (cuticle, body reflection, body transmission) for a viewer at μ_o.
 fn leaf_lobe_weights(m: Leaf, mu_o: f32) -> vec3<f32> {
     let e = leaf_albedo(m, mu_o);
@@ -130,7 +67,7 @@ fn leaf_eval(m: Leaf, wi0: vec3<f32>, wo0: vec3<f32>) -> vec4<f32> {
     let w = leaf_lobe_weights(m, wo.z);
     let cosine = abs(wi.z) / PI;
     if wi.z > 0.0 {
-        return vec4<f32>(vec3<f32>(leaf_cuticle(m, wi, wo)) + m.r_b * body, w.x * leaf_cuticle_pdf(m, wi, wo) + w.y * cosine);
+        return vec4<f32>(vec3<f32>(ggx_reflection(m.alpha, m.eta, wi, wo)) + m.r_b * body, w.x * ggx_reflection_pdf(m.alpha, wi, wo) + w.y * cosine);
     }
     return vec4<f32>(m.t_b * body, w.z * cosine);
 }

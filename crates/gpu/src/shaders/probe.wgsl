@@ -215,6 +215,42 @@ fn probe_irawan_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
     probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
 }
 
+/// As `probe_chiang_cases` for the untextured `wood` material at word 0, in the surface's local
+/// frame (a mirror sample of the smooth finish has pdf −1).
+@compute @workgroup_size(64)
+fn probe_wood_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let m = load_wood(0u, vec2<f32>(0.0), false);
+    let wo = probe_in[3u * i].xyz;
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    probe_out[3u * i] = wood_eval(m, wi, wo);
+    let s = wood_sample(m, wo, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
+/// As `probe_chiang_cases` for the untextured `sadeghi-2013` material at word 0 (its families after it),
+/// in the surface's local frame.
+@compute @workgroup_size(64)
+fn probe_sadeghi_cases(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if 3u * i >= arrayLength(&probe_in) {
+        return;
+    }
+    let wo = probe_in[3u * i].xyz;
+    let wi = probe_in[3u * i + 1u].xyz;
+    let u = probe_in[3u * i + 2u];
+    let c = load_sadeghi(0u, vec2<f32>(0.0), false);
+    probe_out[3u * i] = sadeghi_eval(c, wi, wo);
+    let s = sadeghi_sample(c, wo, u);
+    probe_out[3u * i + 1u] = vec4<f32>(s.wi, s.pdf);
+    probe_out[3u * i + 2u] = vec4<f32>(s.weight, 0.0);
+}
+
 /// Per case in: (x, y, sample index, pair) as bits, (seed hash low, high, 0, 0); out: the pair.
 @compute @workgroup_size(64)
 fn probe_sampler_cases(@builtin(global_invocation_id) gid: vec3<u32>) {

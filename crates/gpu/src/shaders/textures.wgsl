@@ -29,3 +29,10 @@ fn texture_lookup(at: u32, w: u32, h: u32, wrap: u32, scale: vec2<f32>, uv: vec2
     return word_v3(at + 3u * (ya * w + xa)) * ((1.0 - fx) * (1.0 - fy)) + word_v3(at + 3u * (ya * w + xb)) * (fx * (1.0 - fy))
         + word_v3(at + 3u * (yb * w + xa)) * ((1.0 - fx) * fy) + word_v3(at + 3u * (yb * w + xb)) * (fx * fy);
 }
+
+/// The texture whose header is at word `at` (width, height, wrapping, uv scale x and y; its
+/// texels, rgb, follow) at uv.
+fn texture_at(at: u32, uv: vec2<f32>) -> vec3<f32> {
+    let scale = vec2<f32>(word_f(at + 3u), word_f(at + 4u));
+    return texture_lookup(at + 5u, word_u(at), word_u(at + 1u), word_u(at + 2u), scale, uv);
+}

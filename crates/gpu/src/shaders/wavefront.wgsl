@@ -12,7 +12,8 @@ const MATERIAL_MIRROR: u32 = 1u;
 const MATERIAL_CHIANG: u32 = 2u;
 // MATERIAL_KAJIYA_KAY (3) is in kajiya_kay.wgsl, MATERIAL_MARSCHNER (4) in marschner.wgsl,
 // MATERIAL_DEON (5) in deon.wgsl, MATERIAL_YAN_FUR (6) in yan_fur.wgsl, MATERIAL_LEAF (7) in
-// leaf.wgsl, MATERIAL_LAMBERTIAN (8) in lambertian.wgsl, MATERIAL_IRAWAN (12) in irawan_2012.wgsl,
+// leaf.wgsl, MATERIAL_LAMBERTIAN (8) in lambertian.wgsl, MATERIAL_WOOD (9) in wood.wgsl,
+// MATERIAL_SADEGHI (10) in sadeghi.wgsl, MATERIAL_IRAWAN (12) in irawan_2012.wgsl,
 // MATERIAL_HOLLOW_FIBER (13) in hollow_fiber.wgsl, MATERIAL_HUANG (14) in huang_2022.wgsl, the
 // reference fibers (20–23) in reference_fibers.wgsl.
 
@@ -236,6 +237,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     var lfm: Leaf;
     var rfm: ReferenceFiber;
     var irm: Irawan;
+    var wdm: Wood;
+    var sdm: Sadeghi;
     // A Lambertian surface model's albedo at the hit.
     var k_d: vec3<f32>;
     // ω_o in the fiber (or surface model's) frame.
@@ -301,7 +304,8 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         n = select(-ng, ng, dot(ng, s.d) < 0.0);
         let surface_kind = material_kind(material);
-        if surface_kind == MATERIAL_LEAF || surface_kind == MATERIAL_LAMBERTIAN || surface_kind == MATERIAL_IRAWAN {
+        if surface_kind == MATERIAL_LEAF || surface_kind == MATERIAL_LAMBERTIAN || surface_kind == MATERIAL_IRAWAN
+            || surface_kind == MATERIAL_WOOD || surface_kind == MATERIAL_SADEGHI {
             let b = params.material_base + 32u * material;
             let frame = surface_frame(b, kind, index, ng, s.o, s.d);
             fu = frame.x;
@@ -318,6 +322,10 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
                     position = frame.uv * vec2<f32>(word_f(b + 13u), word_f(b + 14u));
                 }
                 irm = irawan_at(b, position);
+            } else if surface_kind == MATERIAL_WOOD {
+                wdm = load_wood(b, frame.uv, kind == KIND_SPHERE || word_u(b + 19u) != 0u);
+            } else if surface_kind == MATERIAL_SADEGHI {
+                sdm = load_sadeghi(b, frame.uv, kind == KIND_SPHERE || word_u(b + 19u) != 0u);
             } else {
                 k_d = word_v3(b + 1u);
                 // Textured, where the surface has texture coordinates (spheres always do).
@@ -391,6 +399,22 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
                     let e = leaf_eval(lfm, wi_l, wo_l);
                     f = e.xyz * abs(wi_l.z);
                     bsdf_pdf = e.w;
+                } else if mkind == MATERIAL_WOOD {
+                    // Opaque, as Lambertian.
+                    if dot(n, ls.wi) > 0.0 {
+                        let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
+                        let e = wood_eval(wdm, wi_l, wo_l);
+                        f = e.xyz * abs(wi_l.z);
+                        bsdf_pdf = e.w;
+                    }
+                } else if mkind == MATERIAL_SADEGHI {
+                    // Opaque, as Lambertian.
+                    if dot(n, ls.wi) > 0.0 {
+                        let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
+                        let e = sadeghi_eval(sdm, wi_l, wo_l);
+                        f = e.xyz * abs(wi_l.z);
+                        bsdf_pdf = e.w;
+                    }
                 } else {
                     let c = max(dot(n, ls.wi), 0.0);
                     f = material_rgb(material) * (c / PI);
@@ -482,6 +506,26 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
         wi = normalize(fu * ls.wi.x + fv * ls.wi.y + fw * ls.wi.z);
         weight = ls.weight;
         pdf = ls.pdf;
+    } else if mkind == MATERIAL_WOOD {
+        // Opaque; pdf −1 is the smooth finish's mirror lobe.
+        let ws = wood_sample(wdm, wo_l, vec4<f32>(ua, ub));
+        wi = normalize(fu * ws.wi.x + fv * ws.wi.y + fw * ws.wi.z);
+        if ws.pdf == 0.0 || dot(n, wi) <= 0.0 {
+            paths[pi].l = s.l;
+            return;
+        }
+        weight = ws.weight;
+        pdf = max(ws.pdf, 0.0);
+        sampled_delta = ws.pdf < 0.0;
+    } else if mkind == MATERIAL_SADEGHI {
+        let cs = sadeghi_sample(sdm, wo_l, vec4<f32>(ua, ub));
+        wi = normalize(fu * cs.wi.x + fv * cs.wi.y + fw * cs.wi.z);
+        if cs.pdf <= 0.0 || dot(n, wi) <= 0.0 {
+            paths[pi].l = s.l;
+            return;
+        }
+        weight = cs.weight;
+        pdf = cs.pdf;
     } else if mkind == MATERIAL_LAMBERT {
         let t = orthonormal_pair(n)[1];
         let b = cross(n, t);

@@ -292,6 +292,27 @@ struct FiberSample {
     pdf: f32,
 }
 
+/// The local direction (sinθ, cosθ cosφ, cosθ sinφ) at inclination θ and azimuth φ.
+fn fiber_direction(theta: f32, phi: f32) -> vec3<f32> {
+    let st = sin_cos_f(theta);
+    let sp = sin_cos_f(phi);
+    return vec3<f32>(st.x, st.y * sp.y, st.y * sp.x);
+}
+
+/// The sample at ω_i given (f_s, pdf) there: weight f_s cosθ_i/pdf; none (pdf 0) where the pdf
+/// is not positive and finite.
+fn fiber_sample_at(wi: vec3<f32>, e: vec4<f32>) -> FiberSample {
+    var out: FiberSample;
+    out.pdf = 0.0;
+    if !(e.w > 0.0) || not_finite(e.w) {
+        return out;
+    }
+    out.wi = wi;
+    out.pdf = e.w;
+    out.weight = e.xyz * (local_cos_theta(wi) / e.w);
+    return out;
+}
+
 /// sinθ_i drawn from lobe p's M_p about the tilted camera side (sinθ_o, cosθ_o) with u₁, u₂.
 fn sample_longitudinal(m: Chiang, p: u32, so: f32, co: f32, u1: f32, u2: f32) -> f32 {
     return longitudinal_sample_sin(m.v[p], m.expm1_neg[p], so, co, u1, u2);

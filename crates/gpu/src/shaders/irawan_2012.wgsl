@@ -169,9 +169,7 @@ fn irawan_sample(m: Irawan, wo: vec3<f32>, u: vec4<f32>) -> FiberSample {
     }
     var wi: vec3<f32>;
     if u.x < 0.5 {
-        let r = sqrt(u.y);
-        let sc = sin_cos_f(TAU * u.z);
-        wi = vec3<f32>(r * sc.y, r * sc.x, safe_sqrt(1.0 - u.y));
+        wi = cosine_direction(u.y, u.z);
     } else {
         let axis = vec3<f32>(-wo.x, -wo.y, wo.z);
         let cos_t = select(exp2(log2(u.y) / 9.0), 0.0, u.y <= 0.0);

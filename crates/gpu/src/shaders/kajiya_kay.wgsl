@@ -165,16 +165,6 @@ fn kk_sample(m: KajiyaKay, wo: vec3<f32>, u: vec4<f32>) -> FiberSample {
     if theta_i < -2.0 {
         return out;
     }
-    let st = sin_cos_f(theta_i);
-    let phi_i = local_phi(wo) - PI * (2.0 * u.w - 1.0);
-    let sp = sin_cos_f(phi_i);
-    let wi = vec3<f32>(st.x, st.y * sp.y, st.y * sp.x);
-    let e = kk_eval(m, wi, wo);
-    if !(e.w > 0.0) || not_finite(e.w) {
-        return out;
-    }
-    out.wi = wi;
-    out.pdf = e.w;
-    out.weight = e.xyz * (local_cos_theta(wi) / e.w);
-    return out;
+    let wi = fiber_direction(theta_i, local_phi(wo) - PI * (2.0 * u.w - 1.0));
+    return fiber_sample_at(wi, kk_eval(m, wi, wo));
 }

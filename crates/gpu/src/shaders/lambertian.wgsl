@@ -19,6 +19,15 @@ fn lambertian_eval(k_d: vec3<f32>, wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(0.0);
 }
 
+/// A cosine-weighted direction about z from (u₁, u₂), as the CPU's `cosine_hemisphere(Z, X, …)`:
+/// radius √u₁ at the angle 2πu₂ in the xy plane, z = √(1 − u₁). The surface models' diffuse
+/// lobes draw with it.
+fn cosine_direction(u1: f32, u2: f32) -> vec3<f32> {
+    let r = sqrt(u1);
+    let sc = sin_cos_f(TAU * u2);
+    return vec3<f32>(r * sc.y, r * sc.x, safe_sqrt(1.0 - u1));
+}
+
 /// A cosine-weighted sample of ω_i (local) with u = (u₀, u₁, –, –).
 fn lambertian_sample(k_d: vec3<f32>, wo: vec3<f32>, u: vec4<f32>) -> FiberSample {
     var out: FiberSample;
@@ -26,9 +35,7 @@ fn lambertian_sample(k_d: vec3<f32>, wo: vec3<f32>, u: vec4<f32>) -> FiberSample
     if wo.z <= 0.0 {
         return out;
     }
-    let r = sqrt(u.x);
-    let sc = sin_cos_f(TAU * u.y);
-    let wi = vec3<f32>(r * sc.y, r * sc.x, safe_sqrt(1.0 - u.x));
+    let wi = cosine_direction(u.x, u.y);
     if wi.z <= 0.0 {
         return out;
     }

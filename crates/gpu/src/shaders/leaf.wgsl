@@ -93,9 +93,7 @@ fn leaf_sample(m: Leaf, wo: vec3<f32>, u: vec4<f32>) -> FiberSample {
         let h = ggx_sample_visible(m.alpha, wo_up, u.y, u.z);
         wi_up = h * (2.0 * dot(wo_up, h)) - wo_up;
     } else {
-        let r = sqrt(u.y);
-        let sc = sin_cos_f(TAU * u.z);
-        wi_up = vec3<f32>(r * sc.y, r * sc.x, safe_sqrt(1.0 - u.y));
+        wi_up = cosine_direction(u.y, u.z);
         if lobe == 2u {
             wi_up.z = -wi_up.z;
         }

@@ -139,9 +139,8 @@ fn reference_fiber_sample(m: ReferenceFiber, wo: vec3<f32>, u: vec4<f32>) -> Fib
         let sn = sin_cos_f(local_phi(wo) + gamma);
         let n = vec3<f32>(0.0, sn.y, sn.x);
         let t = vec3<f32>(1.0, 0.0, 0.0);
-        let r = sqrt(u.y);
-        let sc = sin_cos_f(TAU * u.z);
-        let wi = normalize(t * (r * sc.y) + cross(n, t) * (r * sc.x) + n * safe_sqrt(1.0 - u.y));
+        let d = cosine_direction(u.y, u.z);
+        let wi = normalize(t * d.x + cross(n, t) * d.y + n * d.z);
         let e = reference_fiber_eval(m, wi, wo);
         if !(e.w > 0.0) {
             return out;
@@ -183,15 +182,6 @@ fn reference_fiber_sample(m: ReferenceFiber, wo: vec3<f32>, u: vec4<f32>) -> Fib
     if theta_i < -2.0 {
         return out;
     }
-    let st = sin_cos_f(theta_i);
-    let sp = sin_cos_f(local_phi(wo) - phi_rel);
-    let wi = vec3<f32>(st.x, st.y * sp.y, st.y * sp.x);
-    let e = reference_fiber_eval(m, wi, wo);
-    if !(e.w > 0.0) || not_finite(e.w) {
-        return out;
-    }
-    out.wi = wi;
-    out.pdf = e.w;
-    out.weight = e.xyz * (local_cos_theta(wi) / e.w);
-    return out;
+    let wi = fiber_direction(theta_i, local_phi(wo) - phi_rel);
+    return fiber_sample_at(wi, reference_fiber_eval(m, wi, wo));
 }

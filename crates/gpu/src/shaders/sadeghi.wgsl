@@ -184,9 +184,7 @@ fn sadeghi_sample(c: Sadeghi, wo: vec3<f32>, u: vec4<f32>) -> FiberSample {
     }
     var wi: vec3<f32>;
     if u.x < 0.5 {
-        let r = sqrt(u.y);
-        let sc = sin_cos_f(TAU * u.z);
-        wi = vec3<f32>(r * sc.y, r * sc.x, safe_sqrt(1.0 - u.y));
+        wi = cosine_direction(u.y, u.z);
     } else {
         var x = (u.x - 0.5) / 0.5;
         let c0 = word_f(sadeghi_family(c.b, 0u) + 7u);

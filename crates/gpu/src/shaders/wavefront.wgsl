@@ -23,6 +23,13 @@ fn is_fiber_material(kind: u32) -> bool {
         || kind == MATERIAL_HUANG || is_reference_fiber(kind);
 }
 
+/// The surface models shaded in their own frame (`surface_frame`): leaf, lambertian, wood,
+/// sadeghi-2013 and irawan-2012.
+fn is_surface_model(kind: u32) -> bool {
+    return kind == MATERIAL_LEAF || kind == MATERIAL_LAMBERTIAN || kind == MATERIAL_WOOD
+        || kind == MATERIAL_SADEGHI || kind == MATERIAL_IRAWAN;
+}
+
 fn material_kind(m: u32) -> u32 {
     return scene_words[params.material_base + 32u * m];
 }
@@ -304,8 +311,7 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         n = select(-ng, ng, dot(ng, s.d) < 0.0);
         let surface_kind = material_kind(material);
-        if surface_kind == MATERIAL_LEAF || surface_kind == MATERIAL_LAMBERTIAN || surface_kind == MATERIAL_IRAWAN
-            || surface_kind == MATERIAL_WOOD || surface_kind == MATERIAL_SADEGHI {
+        if is_surface_model(surface_kind) {
             let b = params.material_base + 32u * material;
             let frame = surface_frame(b, kind, index, ng, s.o, s.d);
             fu = frame.x;
@@ -377,41 +383,23 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
                     }
                     f = e.xyz * local_cos_theta(wi_l);
                     bsdf_pdf = e.w;
-                } else if mkind == MATERIAL_LAMBERTIAN {
-                    // Opaque: light from the geometric normal's side only (as on the CPU).
-                    if dot(n, ls.wi) > 0.0 {
+                } else if is_surface_model(mkind) {
+                    // Leaves transmit, so light from either side counts; the other surface models
+                    // are opaque: light from the geometric normal's side only (as on the CPU).
+                    if mkind == MATERIAL_LEAF || dot(n, ls.wi) > 0.0 {
                         let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
-                        let e = lambertian_eval(k_d, wi_l, wo_l);
-                        f = e.xyz * abs(wi_l.z);
-                        bsdf_pdf = e.w;
-                    }
-                } else if mkind == MATERIAL_IRAWAN {
-                    // Opaque, as Lambertian.
-                    if dot(n, ls.wi) > 0.0 {
-                        let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
-                        let e = irawan_eval(irm, wi_l, wo_l);
-                        f = e.xyz * abs(wi_l.z);
-                        bsdf_pdf = e.w;
-                    }
-                } else if mkind == MATERIAL_LEAF {
-                    // Leaves transmit: light from either side.
-                    let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
-                    let e = leaf_eval(lfm, wi_l, wo_l);
-                    f = e.xyz * abs(wi_l.z);
-                    bsdf_pdf = e.w;
-                } else if mkind == MATERIAL_WOOD {
-                    // Opaque, as Lambertian.
-                    if dot(n, ls.wi) > 0.0 {
-                        let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
-                        let e = wood_eval(wdm, wi_l, wo_l);
-                        f = e.xyz * abs(wi_l.z);
-                        bsdf_pdf = e.w;
-                    }
-                } else if mkind == MATERIAL_SADEGHI {
-                    // Opaque, as Lambertian.
-                    if dot(n, ls.wi) > 0.0 {
-                        let wi_l = vec3<f32>(dot(ls.wi, fu), dot(ls.wi, fv), dot(ls.wi, fw));
-                        let e = sadeghi_eval(sdm, wi_l, wo_l);
+                        var e: vec4<f32>;
+                        if mkind == MATERIAL_LAMBERTIAN {
+                            e = lambertian_eval(k_d, wi_l, wo_l);
+                        } else if mkind == MATERIAL_IRAWAN {
+                            e = irawan_eval(irm, wi_l, wo_l);
+                        } else if mkind == MATERIAL_LEAF {
+                            e = leaf_eval(lfm, wi_l, wo_l);
+                        } else if mkind == MATERIAL_WOOD {
+                            e = wood_eval(wdm, wi_l, wo_l);
+                        } else {
+                            e = sadeghi_eval(sdm, wi_l, wo_l);
+                        }
                         f = e.xyz * abs(wi_l.z);
                         bsdf_pdf = e.w;
                     }

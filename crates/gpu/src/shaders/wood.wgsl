@@ -138,9 +138,7 @@ fn wood_sample(m: Wood, wo: vec3<f32>, u: vec4<f32>) -> FiberSample {
         let h = ggx_sample_visible(m.alpha, wo, u.y, u.z);
         wi = h * (2.0 * dot(wo, h)) - wo;
     } else if u.x < w.x + w.y {
-        let r = sqrt(u.y);
-        let sc = sin_cos_f(TAU * u.z);
-        wi = vec3<f32>(r * sc.y, r * sc.x, safe_sqrt(1.0 - u.y));
+        wi = cosine_direction(u.y, u.z);
     } else if w.z > 0.0 {
         let po = wood_psi(m, wood_refract_in(m, wo)).x;
         let z = sample_truncated_normal_f(u.y, (po - HALF_PI) / m.beta, (po + HALF_PI) / m.beta);

@@ -467,53 +467,29 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
             pdf = 0.0;
             sampled_delta = true;
         }
-    } else if mkind == MATERIAL_LAMBERTIAN {
-        let ls = lambertian_sample(k_d, wo_l, vec4<f32>(ua, ub));
+    } else if is_surface_model(mkind) {
+        var ls: FiberSample;
+        if mkind == MATERIAL_LAMBERTIAN {
+            ls = lambertian_sample(k_d, wo_l, vec4<f32>(ua, ub));
+        } else if mkind == MATERIAL_IRAWAN {
+            ls = irawan_sample(irm, wo_l, vec4<f32>(ua, ub));
+        } else if mkind == MATERIAL_LEAF {
+            ls = leaf_sample(lfm, wo_l, vec4<f32>(ua, ub));
+        } else if mkind == MATERIAL_WOOD {
+            ls = wood_sample(wdm, wo_l, vec4<f32>(ua, ub));
+        } else {
+            ls = sadeghi_sample(sdm, wo_l, vec4<f32>(ua, ub));
+        }
         wi = normalize(fu * ls.wi.x + fv * ls.wi.y + fw * ls.wi.z);
-        if ls.pdf <= 0.0 || dot(n, wi) <= 0.0 {
+        // pdf 0: no sample; pdf −1: a delta lobe (wood's smooth finish). Leaves transmit; the
+        // other surface models are opaque, so a direction below the geometric normal ends the path.
+        if ls.pdf == 0.0 || (mkind != MATERIAL_LEAF && dot(n, wi) <= 0.0) {
             paths[pi].l = s.l;
             return;
         }
         weight = ls.weight;
-        pdf = ls.pdf;
-    } else if mkind == MATERIAL_IRAWAN {
-        let ls = irawan_sample(irm, wo_l, vec4<f32>(ua, ub));
-        wi = normalize(fu * ls.wi.x + fv * ls.wi.y + fw * ls.wi.z);
-        if ls.pdf <= 0.0 || dot(n, wi) <= 0.0 {
-            paths[pi].l = s.l;
-            return;
-        }
-        weight = ls.weight;
-        pdf = ls.pdf;
-    } else if mkind == MATERIAL_LEAF {
-        let ls = leaf_sample(lfm, wo_l, vec4<f32>(ua, ub));
-        if ls.pdf <= 0.0 {
-            paths[pi].l = s.l;
-            return;
-        }
-        wi = normalize(fu * ls.wi.x + fv * ls.wi.y + fw * ls.wi.z);
-        weight = ls.weight;
-        pdf = ls.pdf;
-    } else if mkind == MATERIAL_WOOD {
-        // Opaque; pdf −1 is the smooth finish's mirror lobe.
-        let ws = wood_sample(wdm, wo_l, vec4<f32>(ua, ub));
-        wi = normalize(fu * ws.wi.x + fv * ws.wi.y + fw * ws.wi.z);
-        if ws.pdf == 0.0 || dot(n, wi) <= 0.0 {
-            paths[pi].l = s.l;
-            return;
-        }
-        weight = ws.weight;
-        pdf = max(ws.pdf, 0.0);
-        sampled_delta = ws.pdf < 0.0;
-    } else if mkind == MATERIAL_SADEGHI {
-        let cs = sadeghi_sample(sdm, wo_l, vec4<f32>(ua, ub));
-        wi = normalize(fu * cs.wi.x + fv * cs.wi.y + fw * cs.wi.z);
-        if cs.pdf <= 0.0 || dot(n, wi) <= 0.0 {
-            paths[pi].l = s.l;
-            return;
-        }
-        weight = cs.weight;
-        pdf = cs.pdf;
+        pdf = max(ls.pdf, 0.0);
+        sampled_delta = ls.pdf < 0.0;
     } else if mkind == MATERIAL_LAMBERT {
         let t = orthonormal_pair(n)[1];
         let b = cross(n, t);

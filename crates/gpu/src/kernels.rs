@@ -2,9 +2,9 @@
 //! layout every kernel shares (the buffers of `shaders/bindings.wgsl`) and the compiled
 //! pipelines, made once per device.
 
-/// The WGSL source of the path tracer, in dependency order.
-pub(crate) const SHADER: [&str; 21] = [
-    include_str!("shaders/bindings.wgsl"),
+/// The scattering models' WGSL and what they share (`src/shaders/`), which the path tracer and
+/// the model probe (`model_probe.rs`) both compile.
+pub(crate) const MODEL_SHADERS: [&str; 17] = [
     include_str!("shaders/sampler.wgsl"),
     include_str!("shaders/chiang.wgsl"),
     include_str!("shaders/pole_taper.wgsl"),
@@ -22,10 +22,20 @@ pub(crate) const SHADER: [&str; 21] = [
     include_str!("shaders/lambertian.wgsl"),
     include_str!("shaders/irawan_2012.wgsl"),
     include_str!("shaders/textures.wgsl"),
-    include_str!("shaders/geometry.wgsl"),
-    include_str!("shaders/lights.wgsl"),
-    include_str!("shaders/wavefront.wgsl"),
 ];
+
+/// The WGSL source of the path tracer: its buffers, the models, then the geometry, lights and
+/// kernels.
+fn shader_source() -> String {
+    let mut source = String::from(include_str!("shaders/bindings.wgsl"));
+    source.extend(MODEL_SHADERS);
+    source.extend([
+        include_str!("shaders/geometry.wgsl"),
+        include_str!("shaders/lights.wgsl"),
+        include_str!("shaders/wavefront.wgsl"),
+    ]);
+    source
+}
 
 /// The compiled kernels.
 pub(crate) struct Kernels {
@@ -58,7 +68,7 @@ fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
 
 impl Kernels {
     fn new(device: &wgpu::Device, layout: &wgpu::BindGroupLayout) -> Self {
-        let source = SHADER.concat();
+        let source = shader_source();
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("fiberlab wavefront"),
             source: wgpu::ShaderSource::Wgsl(source.into()),

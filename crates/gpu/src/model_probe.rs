@@ -22,26 +22,12 @@ use fiberlab_scatter::yan_2017::YanFur;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-const PROBE: [&str; 18] = [
-    include_str!("shaders/sampler.wgsl"),
-    include_str!("shaders/chiang.wgsl"),
-    include_str!("shaders/pole_taper.wgsl"),
-    include_str!("shaders/kajiya_kay.wgsl"),
-    include_str!("shaders/marschner.wgsl"),
-    include_str!("shaders/deon.wgsl"),
-    include_str!("shaders/yan_fur.wgsl"),
-    include_str!("shaders/reference_fibers.wgsl"),
-    include_str!("shaders/hollow_fiber.wgsl"),
-    include_str!("shaders/huang_2022.wgsl"),
-    include_str!("shaders/ggx.wgsl"),
-    include_str!("shaders/leaf.wgsl"),
-    include_str!("shaders/lambertian.wgsl"),
-    include_str!("shaders/irawan_2012.wgsl"),
-    include_str!("shaders/wood.wgsl"),
-    include_str!("shaders/sadeghi.wgsl"),
-    include_str!("shaders/textures.wgsl"),
-    include_str!("shaders/probe.wgsl"),
-];
+/// The probe's WGSL: the models' (`kernels::MODEL_SHADERS`) and its test kernels.
+fn probe_source() -> String {
+    let mut source = crate::kernels::MODEL_SHADERS.concat();
+    source.push_str(include_str!("shaders/probe.wgsl"));
+    source
+}
 
 /// One evaluation and one sample at a vertex (of any fiber model; `h` is ignored by the
 /// far-field ones).
@@ -80,7 +66,7 @@ fn probe_pipeline(gpu: &Gpu, entry: &'static str) -> wgpu::ComputePipeline {
         .or_insert_with(|| {
             let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("fiberlab probe"),
-                source: wgpu::ShaderSource::Wgsl(PROBE.concat().into()),
+                source: wgpu::ShaderSource::Wgsl(probe_source().into()),
             });
             gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),

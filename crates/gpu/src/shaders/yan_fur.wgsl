@@ -253,33 +253,27 @@ fn yan_corners(m: YanFur, abs_sin_t: f32, h: f32) -> YanCorners {
     if !(abs(h) <= 1.0) {
         return c;
     }
-    let ua = min(abs_sin_t / m.max_sin * f32(m.na - 1u), f32(m.na - 1u));
+    return yan_grid_corners(m, abs_sin_t, (h + 1.0) * 0.5 * f32(m.ni - 1u), m.ni);
+}
+
+/// Bilinear corners of a table with rows in |sinθ| (m.na of them, up to m.max_sin) and `n`
+/// columns, at |sinθ| = `abs_sin` and the fractional column `ub`: slices a·n + b.
+fn yan_grid_corners(m: YanFur, abs_sin: f32, ub: f32, n: u32) -> YanCorners {
+    var c: YanCorners;
+    let ua = min(abs_sin / m.max_sin * f32(m.na - 1u), f32(m.na - 1u));
     let a = min(u32(ua), m.na - 2u);
     let fa = ua - f32(a);
-    let ui = (h + 1.0) * 0.5 * f32(m.ni - 1u);
-    let i = min(u32(max(ui, 0.0)), m.ni - 2u);
-    let fi = clamp(ui - f32(i), 0.0, 1.0);
-    let n = m.ni;
-    c.k = vec4<u32>(a * n + i, a * n + i + 1u, (a + 1u) * n + i, (a + 1u) * n + i + 1u);
-    c.w = vec4<f32>((1.0 - fa) * (1.0 - fi), (1.0 - fa) * fi, fa * (1.0 - fi), fa * fi);
+    let b = min(u32(max(ub, 0.0)), n - 2u);
+    let fb = clamp(ub - f32(b), 0.0, 1.0);
+    c.k = vec4<u32>(a * n + b, a * n + b + 1u, (a + 1u) * n + b, (a + 1u) * n + b + 1u);
+    c.w = vec4<f32>((1.0 - fa) * (1.0 - fb), (1.0 - fa) * fb, fa * (1.0 - fb), fa * fb);
     c.ok = true;
     return c;
 }
 
 /// Bilinear corners in (|sinθ_e|, |φ_q|) of the θ profiles: slices a·profile_azimuths + q.
 fn yan_profile_corners(m: YanFur, abs_sin_e: f32, phi_q: f32) -> YanCorners {
-    var c: YanCorners;
-    let ua = min(abs_sin_e / m.max_sin * f32(m.na - 1u), f32(m.na - 1u));
-    let a = min(u32(ua), m.na - 2u);
-    let fa = ua - f32(a);
-    let uq = min(abs(wrap_few_turns(phi_q)) / PI, 1.0) * f32(m.nq - 1u);
-    let q = min(u32(uq), m.nq - 2u);
-    let fq = clamp(uq - f32(q), 0.0, 1.0);
-    let n = m.nq;
-    c.k = vec4<u32>(a * n + q, a * n + q + 1u, (a + 1u) * n + q, (a + 1u) * n + q + 1u);
-    c.w = vec4<f32>((1.0 - fa) * (1.0 - fq), (1.0 - fa) * fq, fa * (1.0 - fq), fa * fq);
-    c.ok = true;
-    return c;
+    return yan_grid_corners(m, abs_sin_e, min(abs(wrap_few_turns(phi_q)) / PI, 1.0) * f32(m.nq - 1u), m.nq);
 }
 
 /// The closed-form fraction that scatters on the chord: 1 − exp(−σ_s·2√(1 − h′²)/cosθ_t).

@@ -8,7 +8,7 @@
 use crate::arg_values::{self, KeyValue, NamedRect};
 use crate::compare::{Image, load};
 use anyhow::Context;
-use fiberlab_compare::evaluation::{EvaluationRequest, Progress, evaluate, rgb_short};
+use fiberlab_compare::evaluation::{EvaluationRequest, KajiyaKayColour, Progress, evaluate, rgb_short};
 use fiberlab_io::{LinearImage, ToneMap};
 use fiberlab_render::integrator::Region;
 use fiberlab_render::scene_file::SceneFile;
@@ -27,9 +27,12 @@ at normal incidence (TT at h = 0) is attenuated by the same exp(−σ_a·2 radii
   chiang, deon  sigma_a = σ_a (already resolved: a colour's inversion depends on beta_n)
   marschner     sigma_a = σ_a with absorption=chord (default); σ_a/2 with absorption=paper,
                 whose printed path is 4 radii at normal incidence
-  kajiya-kay    no absorption: k_d, k_s (per channel) and p are fitted to the scene's hair
-                model under an energy bound: its furnace W(θ_o) = ∫ f_s cosθ_i dω_i at most
-                the hair model's and at most 1, per channel, at every θ_o checked
+  kajiya-kay    no absorption: k_d, k_s and p are fitted to the scene's hair model's luminance
+                under an energy bound (its furnace W(θ_o) = ∫ f_s cosθ_i dω_i at most the hair
+                model's and at most 1, per channel, at every θ_o checked), coloured by what the
+                hair scatters toward the viewer's side, then (--kajiya-kay-colour scene, the
+                default) scaled per channel until its hair is as bright as the hair model's
+                rendered in the same scene, within the bound
   measured      the table's fiber has its own absorption: measure it with the scene's σ_a
                 (fiberlab measure --param sigma_a=r,g,b)
 A model named like the scene's hair model, without --param, is the scene's model itself;
@@ -71,6 +74,12 @@ pub struct Args {
     /// Samples per pixel of the reference render (two halves, like the models').
     #[arg(long, default_value_t = 256)]
     reference_spp: u32,
+    /// How the fitted Kajiya–Kay gets its colour: `scene` (default: per channel, as bright as
+    /// the scene's hair model rendered in the scene, multiple scattering included, within the
+    /// energy bound; a few renders at a quarter of --spp) or `fiber` (the colour one fiber
+    /// scatters toward the viewer's side).
+    #[arg(long, default_value = "scene", value_parser = KajiyaKayColour::parse)]
+    kajiya_kay_colour: KajiyaKayColour,
     /// Output directory (renders, grid.png, metrics.json).
     #[arg(long, default_value = "evaluation")]
     out: PathBuf,
@@ -114,6 +123,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         reference_image: args.reference.as_deref().map(load).transpose()?,
         spp: args.spp,
         reference_spp: args.reference_spp,
+        kajiya_kay_colour: args.kajiya_kay_colour,
     };
     // Every model is built (and Kajiya–Kay fitted) before anything is rendered or written.
     fiberlab_compare::evaluation::entries(&scene, &request)?;
@@ -130,6 +140,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 written = write(&r.linear_image(), &args.out, "reference");
             }
         }
+        Progress::Calibrating(entry) => println!("{:<14} matching its colour in the scene", entry.name),
         Progress::Rendering(entry) => println!("{:<14} {}", entry.name, entry.given),
         Progress::Model(r) => {
             let (m, floor, c) = (&r.metrics, &r.floor, r.hair_colour);

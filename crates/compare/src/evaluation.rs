@@ -46,6 +46,35 @@ pub struct EvaluationRequest {
     pub spp: Option<u32>,
     /// Samples per pixel of the reference render (two halves).
     pub reference_spp: u32,
+    /// How a fitted Kajiya–Kay gets its colour ([`KajiyaKayColour`]).
+    pub kajiya_kay_colour: KajiyaKayColour,
+}
+
+/// How the fitted Kajiya–Kay gets its colour and brightness.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum KajiyaKayColour {
+    /// From one fiber: the colour the hair scatters toward the viewer's side
+    /// ([`reflected_colour`]), within the energy bound (`fiber`).
+    Fiber,
+    /// Then, in the scene: each channel of `k_d` and `k_s` scaled until Kajiya–Kay's hair
+    /// is as bright as the scene's hair model rendered in the same scene, multiple
+    /// scattering included ([`colour_in_scene`]), within the energy bound (`scene`, the
+    /// default). One fiber's colour is not the colour of many: light that crosses several
+    /// fibers takes their colour again at each, and Kajiya–Kay's lobe, which scatters as much
+    /// back as forward, does not do that the way the hair does.
+    #[default]
+    Scene,
+}
+
+impl KajiyaKayColour {
+    /// `fiber` or `scene`.
+    pub fn parse(name: &str) -> Result<Self, String> {
+        match name {
+            "fiber" => Ok(Self::Fiber),
+            "scene" => Ok(Self::Scene),
+            other => Err(format!("Kajiya–Kay colour `{other}` (known: scene, fiber)")),
+        }
+    }
 }
 
 /// A model as evaluate renders it, with what it was given.
@@ -57,6 +86,8 @@ pub struct Entry {
     pub model: Model,
     /// How it got the scene's hair.
     pub given: String,
+    /// The fitted parameters, where the model is Kajiya–Kay fitted to the scene's hair.
+    pub kajiya_kay_fit: Option<KajiyaKayParams>,
 }
 
 /// A render as the mean of two halves with different seeds, and the per-pixel variance
@@ -218,6 +249,8 @@ pub enum Progress<'a> {
     SceneHair(Option<Rgb>),
     /// The reference is ready.
     Reference(&'a NoisyRender),
+    /// Kajiya–Kay's colour is being matched in the scene ([`colour_in_scene`]).
+    Calibrating(&'a Entry),
     /// A model is about to be rendered.
     Rendering(&'a Entry),
     /// A model is done.
@@ -264,7 +297,7 @@ fn build_model(
         pairs.push((key.to_string(), RawValue::Text(table.to_string_lossy().into_owned())));
     }
     let load = |pairs: &[(String, RawValue)]| load_model(spec.name, pairs, Path::new(""));
-    let entry = |model: Model, given: String| Entry { name: name.to_string(), model, given };
+    let entry = |model: Model, given: String| Entry { name: name.to_string(), model, given, kajiya_kay_fit: None };
     // Kajiya–Kay has no absorption: the evaluation fits its appearance (by type, not by a name
     // typed here).
     if spec.name == KajiyaKay::INFO.name && pairs.is_empty() {
@@ -275,7 +308,8 @@ fn build_model(
             rgb_short(fitted.k_s),
             fitted.p
         );
-        return Ok(entry(KajiyaKay::new(fitted).map_err(ModelError::from)?.into(), given));
+        let model = KajiyaKay::new(fitted).map_err(ModelError::from)?.into();
+        return Ok(Entry { kajiya_kay_fit: Some(fitted), ..entry(model, given) });
     }
     if pairs.is_empty() && spec.name == hair.model.name() {
         return Ok(entry(hair.model.clone(), "the scene's hair model itself".into()));
@@ -358,6 +392,21 @@ impl EnergyBound {
             })
             .collect();
         Self { at }
+    }
+
+    /// Per channel, the largest factor by which the azimuth-free `model`'s coefficients (its
+    /// furnace is linear in them) may be scaled and stay within the bound.
+    fn headroom(&self, model: &Model) -> Rgb {
+        let mut room = [f64::INFINITY; 3];
+        for &(t, bound) in &self.at {
+            let w = azimuth_free_furnace(model, t);
+            for c in 0..3 {
+                if w[c] > 0.0 {
+                    room[c] = room[c].min(bound[c] / w[c]);
+                }
+            }
+        }
+        Rgb(room)
     }
 
     /// Whether the azimuth-free `model` (Kajiya–Kay) stays within the bound in `channel`
@@ -443,6 +492,80 @@ pub fn fitted_kajiya_kay(target: &Model) -> Result<KajiyaKayParams, CompareError
         s = lo;
     }
     Ok(coloured(s))
+}
+
+/// Renders of Kajiya–Kay at most [`colour_in_scene`] makes.
+const COLOUR_ROUNDS: usize = 4;
+
+/// What [`colour_in_scene`] found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneColour {
+    /// The Kajiya–Kay parameters with the scene's colour.
+    pub params: KajiyaKayParams,
+    /// Per channel, the factor on the fiber fit's `k_d` and `k_s`.
+    pub scale: Rgb,
+    /// Per channel, the hair's mean in the last calibration render over the target's.
+    pub last_ratio: Rgb,
+    /// Renders of Kajiya–Kay made.
+    pub rounds: usize,
+}
+
+/// Kajiya–Kay's colour in the scene ([`KajiyaKayColour::Scene`]): `target` (the scene's hair
+/// model) is rendered once at `spp` and Kajiya–Kay (`fit`, from [`fitted_kajiya_kay`]) up to
+/// [`COLOUR_ROUNDS`] times, all at `spp` with one seed (so the renders differ by the
+/// coefficients, not by their noise); after each render, every channel's factor `s_c` on
+/// `k_d` and `k_s` is moved so that the hair's coverage-weighted mean ([`hair_colour`]) meets
+/// the target's: `ln s ← ln s + ln(target/mean)/g`, `g` the slope `d ln mean/d ln s` of the
+/// last two rounds (1 at first; multiple scattering makes it above 1), clamped to [½, 4].
+/// Each factor stays within the energy bound of the fiber fit (the target's furnace and 1,
+/// [`EnergyBound`]); it stops once every channel is within ½ %.
+///
+/// The scene's hair materials are left set to Kajiya–Kay.
+pub fn colour_in_scene(
+    fit: KajiyaKayParams,
+    target: &Model,
+    scene: &mut Scene,
+    settings: &RenderSettings,
+    coverage: &LinearImage,
+    spp: u32,
+) -> Result<SceneColour, CompareError> {
+    let render_with = |scene: &mut Scene, model: &Model| {
+        set_hair_model(scene, model);
+        let s = RenderSettings { spp: spp.max(1), seed: settings.seed.wrapping_add(4), ..settings.clone() };
+        to_image(&render(scene, &s, &|_| {}, &AtomicBool::new(false)).image)
+    };
+    let kajiya_kay = |scale: Rgb| -> Result<(KajiyaKayParams, Model), CompareError> {
+        let params = KajiyaKayParams { k_d: fit.k_d * scale, k_s: fit.k_s * scale, p: fit.p };
+        Ok((params, KajiyaKay::new(params).map_err(ModelError::from)?.into()))
+    };
+    let wanted = render_with(scene, target);
+    let room = EnergyBound::of(target).headroom(&kajiya_kay(Rgb::ONE)?.1);
+    let (mut scale, mut last): (Rgb, Option<(Rgb, Rgb)>) = (Rgb::ONE, None);
+    let mut result = SceneColour { params: fit, scale, last_ratio: Rgb::ONE, rounds: 0 };
+    for round in 1..=COLOUR_ROUNDS {
+        let (params, model) = kajiya_kay(scale)?;
+        let ratio = hair_colour(&render_with(scene, &model), &wanted, coverage);
+        result = SceneColour { params, scale, last_ratio: ratio, rounds: round };
+        if (0..3).all(|c| (ratio[c] - 1.0).abs() < 0.005) || !(0..3).all(|c| ratio[c] > 0.0 && ratio[c].is_finite()) {
+            break;
+        }
+        let mut next = [0.0; 3];
+        for c in 0..3 {
+            let slope = match last {
+                Some((s0, r0)) if (scale[c] / s0[c]).ln().abs() > 1e-6 => {
+                    ((ratio[c] / r0[c]).ln() / (scale[c] / s0[c]).ln()).clamp(0.5, 4.0)
+                }
+                _ => 1.0,
+            };
+            next[c] = (scale[c] * (-ratio[c].ln() / slope).exp()).min(room[c]);
+        }
+        last = Some((scale, ratio));
+        if (0..3).all(|c| next[c] == scale[c]) {
+            break;
+        }
+        scale = Rgb(next);
+    }
+    Ok(result)
 }
 
 /// A grey Kajiya–Kay fiber as a model.
@@ -534,7 +657,24 @@ pub fn evaluate(
     // Where the hair is: the same camera and geometry for every model.
     let coverage = fiberlab_render::fiber_coverage::fiber_coverage(scene, HAIR_COVERAGE_RAYS);
     let mut results = Vec::new();
-    for entry in entries {
+    for mut entry in entries {
+        if let (Some(fit), KajiyaKayColour::Scene) = (entry.kajiya_kay_fit, request.kajiya_kay_colour) {
+            report(Progress::Calibrating(&entry));
+            let calibration_spp = spp.div_ceil(4).max(2);
+            let c = colour_in_scene(fit, &hair.model, scene, settings, &coverage, calibration_spp)?;
+            entry.given = format!(
+                "{}; in the scene ×{} per channel (hair {} of the scene's model after {} renders at {calibration_spp} \
+                 spp): k_d {}, k_s {}",
+                entry.given,
+                rgb_short(c.scale),
+                rgb_short(c.last_ratio),
+                c.rounds,
+                rgb_short(c.params.k_d),
+                rgb_short(c.params.k_s)
+            );
+            entry.model = KajiyaKay::new(c.params).map_err(ModelError::from)?.into();
+            entry.kajiya_kay_fit = Some(c.params);
+        }
         report(Progress::Rendering(&entry));
         set_hair_model(scene, &entry.model);
         let render = render_in_halves(scene, settings, spp, settings.seed);
@@ -813,5 +953,55 @@ mod tests {
         assert!((m.rmse - want).abs() < 0.03 * want, "rmse {} vs floor {want}", m.rmse);
         assert!(excess(m.rmse, floor.rmse) < 0.3 * want);
         assert_eq!(NoisyRender::exact(reference.mean.clone()).noise(), 0.0);
+    }
+
+    /// Kajiya–Kay's colour in the scene: on brown hair over skin (a member of the generated
+    /// scene family, 32², straight hair), the fiber fit alone leaves the hair's colour off
+    /// the Chiang hair it stands for by more than 10 % in some channel (0.77, 0.98, 1.19 of
+    /// it); after [`colour_in_scene`] (32 spp) a render at another seed and 64 spp is within
+    /// 4 % of Chiang's (64 spp, another seed again) in every channel — the hair mean of Chiang
+    /// at 32 spp varies by about 1.5 % between seeds here, the calibration inherits that — and
+    /// every factor is within the energy bound's headroom.
+    #[test]
+    fn kajiya_kay_takes_the_hair_s_colour_in_the_scene() {
+        use fiberlab_render::scene_family::{
+            Density, FamilyScene, FamilySize, Floor, HairColour, LightSide, Skin, Sky,
+        };
+        let member = FamilyScene {
+            density: Density::Dense,
+            skin: Skin::Visible,
+            light: LightSide::Front,
+            sky: Sky::White,
+            hair: HairColour::Brown,
+            floor: Floor::None,
+        };
+        let size = FamilySize { px: 32, ..FamilySize::TEST };
+        let file =
+            fiberlab_render::scene_file::SceneFile::parse(&member.scene_text(&size, 4), Path::new("f.toml")).unwrap();
+        let (mut scene, settings) = file.build().unwrap();
+        let target = scene_hair(&scene).unwrap().model;
+        let coverage = fiberlab_render::fiber_coverage::fiber_coverage(&scene, 4);
+        let fit = fitted_kajiya_kay(&target).unwrap();
+        let image_of = |scene: &mut Scene, model: &Model, seed: u64| {
+            set_hair_model(scene, model);
+            let s = RenderSettings { spp: 64, seed, ..settings.clone() };
+            to_image(&render(&scene, &s, &|_| {}, &AtomicBool::new(false)).image)
+        };
+        let kk = |p: KajiyaKayParams| -> Model { KajiyaKay::new(p).unwrap().into() };
+        let wanted = image_of(&mut scene, &target, 100);
+        let fiber_only = hair_colour(&image_of(&mut scene, &kk(fit), 200), &wanted, &coverage);
+        assert!((0..3).any(|c| (fiber_only[c] - 1.0).abs() > 0.1), "the fiber fit is already right: {fiber_only:?}");
+        let found = colour_in_scene(fit, &target, &mut scene, &settings, &coverage, 32).unwrap();
+        let in_scene = hair_colour(&image_of(&mut scene, &kk(found.params), 200), &wanted, &coverage);
+        for c in 0..3 {
+            assert!(
+                (in_scene[c] - 1.0).abs() < 0.04,
+                "channel {c}: {in_scene:?} (fiber only {fiber_only:?}, {found:?})"
+            );
+        }
+        let room = EnergyBound::of(&target).headroom(&kk(fit));
+        for c in 0..3 {
+            assert!(found.scale[c] <= room[c] * (1.0 + 1e-12), "channel {c}: {found:?} beyond {room:?}");
+        }
     }
 }

@@ -4,7 +4,7 @@
 //! print (`--json`, `metrics.json`).
 
 use crate::PyModel;
-use fiberlab_compare::evaluation::{EvaluationRequest, evaluate as evaluate_models};
+use fiberlab_compare::evaluation::{EvaluationRequest, KajiyaKayColour, evaluate as evaluate_models};
 use fiberlab_compare::model_table::{CompareOptions, compare_model as compare_with_table};
 use fiberlab_io::table::{TableKind, read, read_kind};
 use numpy::PyReadonlyArray3;
@@ -44,7 +44,7 @@ pub(crate) fn compare_model(
 /// against `reference` (`(H, W, 3)` linear RGB): `(metrics, images)`, `metrics` the JSON
 /// text of `metrics.json`, `images` name → `(H, W, 3)` float32 (`reference` and each model).
 #[pyfunction]
-#[pyo3(signature = (path, text, models, table, reference, spp, reference_spp))]
+#[pyo3(signature = (path, text, models, table, reference, spp, reference_spp, kajiya_kay_colour))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn evaluate<'py>(
     py: Python<'py>,
@@ -55,6 +55,7 @@ pub(crate) fn evaluate<'py>(
     reference: Option<PyReadonlyArray3<'py, f64>>,
     spp: Option<u32>,
     reference_spp: u32,
+    kajiya_kay_colour: &str,
 ) -> PyResult<(String, Bound<'py, PyDict>)> {
     let file = crate::scene_file(path.as_deref(), text.as_deref(), "evaluate")?;
     let mut entries = Vec::new();
@@ -72,6 +73,7 @@ pub(crate) fn evaluate<'py>(
         reference_image: reference.as_ref().map(|r| crate::compare::image("reference", r)).transpose()?,
         spp,
         reference_spp,
+        kajiya_kay_colour: KajiyaKayColour::parse(kajiya_kay_colour).map_err(value_error)?,
     };
     let (reference, results) = py.detach(|| {
         let (mut scene, settings) = file.build().map_err(value_error)?;

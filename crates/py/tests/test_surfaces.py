@@ -163,15 +163,23 @@ def test_evaluate_equals_the_command_line_metrics(tmp_path):
     text = text.replace('file = "groom.hair"', f'file = "{ROOT / "examples" / "groom.hair"}"')
     scene = tmp_path / "scene.toml"
     scene.write_text(text)
-    models = "chiang,marschner,deon"
+    models = "chiang,marschner,deon,kajiya-kay"
     run_cli("evaluate", "--scene", str(scene), "--table", str(table.with_suffix(".csv")), "--models", models,
             "--param", "marschner:beta_r=9", "--spp", "2", "--reference-spp", "2", "--out", str(tmp_path / "ev"))
     expected = json.loads((tmp_path / "ev" / "metrics.json").read_text())
     ours = fl.evaluate(scene, models=models.split(","), params={"marschner": {"beta_r": "9"}},
                        table=table.with_suffix(".csv"), spp=2, reference_spp=2)
     assert ours["metrics"] == expected
-    assert [r["model"] for r in ours["metrics"]] == ["chiang", "marschner", "deon"]
-    assert set(ours["images"]) == {"reference", "chiang", "marschner", "deon"}
+    assert [r["model"] for r in ours["metrics"]] == ["chiang", "marschner", "deon", "kajiya-kay"]
+    assert set(ours["images"]) == {"reference", "chiang", "marschner", "deon", "kajiya-kay"}
+    # Kajiya–Kay's colour: matched in the scene by default, from one fiber on request.
+    assert "in the scene" in ours["metrics"][3]["given"]
+    fiber = fl.evaluate(scene, models=["kajiya-kay"], table=table.with_suffix(".csv"), spp=2, reference_spp=2,
+                        kajiya_kay_colour="fiber")
+    assert "in the scene" not in fiber["metrics"][0]["given"]
+    with pytest.raises(ValueError, match="known: scene, fiber"):
+        fl.evaluate(scene, models=["kajiya-kay"], table=table.with_suffix(".csv"), spp=2, reference_spp=2,
+                    kajiya_kay_colour="photo")
     assert all(a.shape == (24, 24, 3) and a.dtype == np.float32 for a in ours["images"].values())
     # The images are the renders the metrics were computed from.
     m = fl.compare(ours["images"]["reference"], ours["images"]["chiang"])

@@ -4,7 +4,8 @@
 //! image the hair-weighted mean of each channel over the reference's, the RMS relative error
 //! of the 16 × 16 blocks the hair covers, the firefly ratio (99.99th percentile over median of
 //! the per-pixel |image − reference| on hair pixels, `fiberlab_io::block_error`) and the
-//! render seconds. Without `--only` it runs over the whole family (48 scenes).
+//! render seconds. Without `--only` it runs over the whole family (96 scenes; `--only floor` the 48
+//! with a floor).
 //!
 //! `cargo run --release -p fiberlab-render --example dual_family -- [--size test|bench]
 //! [--ref-spp 512] [--spp 16] [--only NAME,…] [--dual KEY=VALUE]… [--dir DIR] [--threads N]

@@ -1,6 +1,6 @@
 //! A family of generated hair scenes on which the dual-scattering integrator is compared with
 //! the path tracer (the example `dual_family` and the test `dual_scattering_family` of
-//! this crate): every combination of five two- or three-valued axes, so that a constant fitted
+//! this crate): every combination of six two- or three-valued axes, so that a constant fitted
 //! on one kind of scene is tested on the others.
 //!
 //! | axis | values |
@@ -10,6 +10,7 @@
 //! | [`LightSide`] | the sun in front (behind the camera, above) or behind the head (rim light) |
 //! | [`Sky`] | a white or a blue sky (the environment) |
 //! | [`HairColour`] | blond, brown, black (Chiang 2016 with melanin concentrations) |
+//! | [`Floor`] | none, or a grey Lambertian floor below the hair (light off it reaches the hair from below, through the hair) |
 //!
 //! The hair is straight (the generator's `straight` style, no clumps) on a unit sphere; the
 //! camera frames the head from the front-left. [`FamilySize`] scales the image and the strand
@@ -77,6 +78,15 @@ impl HairColour {
     }
 }
 
+/// What lies below the head.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Floor {
+    /// Nothing: the sky all round.
+    None,
+    /// A Lambertian floor of albedo 0.35 at y = −1.8, under the hair's ends (y ≈ −1.2…−1.6).
+    Grey,
+}
+
 /// One scene of the family.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FamilyScene {
@@ -90,6 +100,8 @@ pub struct FamilyScene {
     pub sky: Sky,
     /// Hair colour.
     pub hair: HairColour,
+    /// Below the head.
+    pub floor: Floor,
 }
 
 /// Image and hair size of the generated scenes.
@@ -126,16 +138,19 @@ impl std::str::FromStr for FamilySize {
 const BENCH_DIAMETER: f64 = 0.002;
 
 impl FamilyScene {
-    /// Every combination of the axes (48 scenes), in a fixed order.
+    /// Every combination of the axes (96 scenes), in a fixed order: the 48 without a floor
+    /// first.
     #[must_use]
     pub fn all() -> Vec<Self> {
-        let mut v = Vec::with_capacity(48);
-        for density in [Density::Dense, Density::Sparse] {
-            for skin in [Skin::Visible, Skin::Dark] {
-                for light in [LightSide::Front, LightSide::Back] {
-                    for sky in [Sky::White, Sky::Blue] {
-                        for hair in [HairColour::Blond, HairColour::Brown, HairColour::Black] {
-                            v.push(Self { density, skin, light, sky, hair });
+        let mut v = Vec::with_capacity(96);
+        for floor in [Floor::None, Floor::Grey] {
+            for density in [Density::Dense, Density::Sparse] {
+                for skin in [Skin::Visible, Skin::Dark] {
+                    for light in [LightSide::Front, LightSide::Back] {
+                        for sky in [Sky::White, Sky::Blue] {
+                            for hair in [HairColour::Blond, HairColour::Brown, HairColour::Black] {
+                                v.push(Self { density, skin, light, sky, hair, floor });
+                            }
                         }
                     }
                 }
@@ -144,7 +159,8 @@ impl FamilyScene {
         v
     }
 
-    /// A name made of the axes' values, e.g. `sparse-skin-front-blue-blond`.
+    /// A name made of the axes' values, e.g. `sparse-skin-front-blue-blond`, with `-floor` at
+    /// the end where there is one.
     #[must_use]
     pub fn name(&self) -> String {
         let d = match self.density {
@@ -168,7 +184,11 @@ impl FamilyScene {
             HairColour::Brown => "brown",
             HairColour::Black => "black",
         };
-        format!("{d}-{s}-{l}-{k}-{h}")
+        let f = match self.floor {
+            Floor::None => "",
+            Floor::Grey => "-floor",
+        };
+        format!("{d}-{s}-{l}-{k}-{h}{f}")
     }
 
     /// The scene as TOML (`fiberlab render`'s format), at `size`, rendered at `spp` samples.
@@ -206,9 +226,14 @@ impl FamilyScene {
              generator = {{ strands = {strands}, segments = {seg}, style = \"straight\", length = 1.2, \
              root_diameter = {diameter}, clumps = 0, gravity = 2.0, seed = 7 }}\n\n\
              [[sphere]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"skin\"\n\n\
-             [[light]]\ntype = \"environment\"\nradiance = {sky}\n\n\
+             {floor}[[light]]\ntype = \"environment\"\nradiance = {sky}\n\n\
              [[light]]\ntype = \"sun\"\ndirection = {sun}\nangular_radius_deg = 1.0\nirradiance = [4.0, 3.8, 3.5]\n",
             name = self.name(),
+            floor = match self.floor {
+                Floor::None => "",
+                Floor::Grey =>
+                    "[materials.ground]\nlambert = [0.35, 0.35, 0.35]\n\n[[mesh]]\nfloor = -1.8\nmaterial = \"ground\"\n\n",
+            },
             px = size.px,
             seg = size.segments,
         );
@@ -225,11 +250,11 @@ mod tests {
     #[test]
     fn every_member_parses_and_names_are_unique() {
         let all = FamilyScene::all();
-        assert_eq!(all.len(), 48);
+        assert_eq!(all.len(), 96);
         let mut names: Vec<String> = all.iter().map(FamilyScene::name).collect();
         names.sort();
         names.dedup();
-        assert_eq!(names.len(), 48);
+        assert_eq!(names.len(), 96);
         for m in &all {
             let f = SceneFile::parse(&m.scene_text(&FamilySize::TEST, 4), Path::new("family.toml"))
                 .unwrap_or_else(|e| panic!("{}: {e}", m.name()));

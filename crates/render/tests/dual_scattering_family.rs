@@ -6,13 +6,16 @@
 //! of the per-pixel |dual − reference|, `fiberlab_io::block_error`) below [`FIREFLY_TOL`].
 //!
 //! The members cover every axis value: dense and sparse hair, skin and a dark head, front and
-//! back light, white and blue sky, blond, brown and black.
+//! back light, white and blue sky, blond, brown and black, no floor and a grey floor (light
+//! off it reaches the hair from below, through the hair: the surface bounce).
 //!
 //! **What this does not show**: issue 37 asks for every channel's mean within 3 % of the path
 //! tracer's. The dual-scattering approximation is not there: on these members it is between
-//! 0.90 and 1.05 times the path tracer (measured at 32 spp against 128 spp; it was 0.80–1.26
+//! 0.90 and 1.12 times the path tracer (measured at 32 spp against 128 spp; it was 0.80–1.26
 //! with the paper's forward attenuation, backscatter series and half-space), so
-//! [`CHANNEL_TOL`] guards against regressions, not the target. The second test shows that the
+//! [`CHANNEL_TOL`] guards against regressions, not the target. These are the family's small
+//! size ([`FamilySize::TEST`], thick strands): at its benchmark size the same members come out
+//! brighter by up to 0.12 (`bench/dual_scattering/result.md`, "The family at its two sizes"). The second test shows that the
 //! defaults beat the paper's form on blond hair over a dark head, dense and sparse.
 
 use fiberlab_io::LinearImage;
@@ -21,7 +24,7 @@ use fiberlab_render::dual_scattering::{DualScatteringSettings, Integrator, integ
 use fiberlab_render::fiber_coverage::fiber_coverage;
 use fiberlab_render::integrator::{RenderSettings, render};
 use fiberlab_render::scene::Scene;
-use fiberlab_render::scene_family::{Density, FamilyScene, FamilySize, HairColour, LightSide, Skin, Sky};
+use fiberlab_render::scene_family::{Density, FamilyScene, FamilySize, Floor, HairColour, LightSide, Skin, Sky};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
@@ -52,6 +55,7 @@ fn dual_scattering_follows_the_path_tracer_on_the_scene_family() {
             light: LightSide::Front,
             sky: Sky::White,
             hair: HairColour::Blond,
+            floor: Floor::None,
         },
         FamilyScene {
             density: Density::Dense,
@@ -59,6 +63,7 @@ fn dual_scattering_follows_the_path_tracer_on_the_scene_family() {
             light: LightSide::Front,
             sky: Sky::Blue,
             hair: HairColour::Blond,
+            floor: Floor::None,
         },
         FamilyScene {
             density: Density::Sparse,
@@ -66,6 +71,7 @@ fn dual_scattering_follows_the_path_tracer_on_the_scene_family() {
             light: LightSide::Back,
             sky: Sky::Blue,
             hair: HairColour::Brown,
+            floor: Floor::None,
         },
         FamilyScene {
             density: Density::Dense,
@@ -73,6 +79,15 @@ fn dual_scattering_follows_the_path_tracer_on_the_scene_family() {
             light: LightSide::Back,
             sky: Sky::White,
             hair: HairColour::Black,
+            floor: Floor::None,
+        },
+        FamilyScene {
+            density: Density::Dense,
+            skin: Skin::Visible,
+            light: LightSide::Front,
+            sky: Sky::White,
+            hair: HairColour::Blond,
+            floor: Floor::Grey,
         },
     ];
     let mut report = String::new();
@@ -125,6 +140,7 @@ fn defaults_beat_the_papers_form_on_blond_hair_dense_and_sparse() {
             light: LightSide::Front,
             sky: Sky::White,
             hair: HairColour::Blond,
+            floor: Floor::None,
         };
         let file =
             fiberlab_render::scene_file::SceneFile::parse(&m.scene_text(&size, 32), Path::new("family.toml")).unwrap();

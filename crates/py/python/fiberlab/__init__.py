@@ -460,14 +460,15 @@ def compare_model(model: Model, table, *, subsamples: int = 3, viewer_first: boo
 
 def evaluate(scene=None, *, text: Optional[str] = None, models=("kajiya-kay", "marschner", "chiang"),
              params: Optional[Mapping[str, Mapping[str, Any]]] = None, table=None, reference=None,
-             spp: Optional[int] = None, reference_spp: int = 256) -> dict:
+             spp: Optional[int] = None, reference_spp: int = 256, kajiya_kay_colour: str = "scene") -> dict:
     """The colour-matched evaluation of ``fiberlab evaluate`` by the same library call
     (``fiberlab_compare::evaluation::evaluate``): each of ``models`` (names, or one
     comma-separated string) rendered in the scene (a path, a dict as for :func:`render`,
     ``text=``, or the default scene) with the scene's hair absorption, against the render of
     the ``measured`` model of ``table`` (a ``fiberlab measure`` CSV) or a ``reference`` image
     (``(H, W, 3)`` linear RGB). ``params`` maps a model name to its parameters (the command
-    line's ``--param MODEL:KEY=VALUE``); ``spp``, ``reference_spp`` as its flags.
+    line's ``--param MODEL:KEY=VALUE``); ``spp``, ``reference_spp``, ``kajiya_kay_colour``
+    (``"scene"`` or ``"fiber"``) as its flags.
 
     Returns ``{"metrics": [...], "images": {...}}``: ``metrics`` the rows of ``metrics.json``
     (``model``, ``given``, ``rmse``, ``rmse_noise``, ``rmse_excess``, ``relmse``,
@@ -492,7 +493,8 @@ def evaluate(scene=None, *, text: Optional[str] = None, models=("kajiya-kay", "m
         raise ValueError(f"evaluate: spp and reference_spp must be at least 1, got {spp}, {reference_spp}")
     rows, images = _native.evaluate(path, text, [(n, dict(params.get(n, {}))) for n in names],
                                     None if table is None else str(table), ref,
-                                    None if spp is None else int(spp), int(reference_spp))
+                                    None if spp is None else int(spp), int(reference_spp),
+                                    str(kajiya_kay_colour))
     return {"metrics": _json.loads(rows), "images": images}
 
 

@@ -985,7 +985,7 @@ mod tests {
         let image_of = |scene: &mut Scene, model: &Model, seed: u64| {
             set_hair_model(scene, model);
             let s = RenderSettings { spp: 64, seed, ..settings.clone() };
-            to_image(&render(&scene, &s, &|_| {}, &AtomicBool::new(false)).image)
+            to_image(&render(scene, &s, &|_| {}, &AtomicBool::new(false)).image)
         };
         let kk = |p: KajiyaKayParams| -> Model { KajiyaKay::new(p).unwrap().into() };
         let wanted = image_of(&mut scene, &target, 100);

@@ -145,12 +145,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Progress::Model(r) => {
             let (m, floor, c) = (&r.metrics, &r.floor, r.hair_colour);
             println!(
-                "{:<14} rmse {:.5} (noise {:.5}, excess {:.5})  relmse {:.5} (noise {:.5})  ssim {:.4}  flip {:.4}  \
-                 image noise {:.5}  hair R/G/B over reference {:.3}/{:.3}/{:.3}",
+                "{:<14} rmse {:.5} (noise {:.5}, excess {:.5} = {:.1}× noise)  relmse {:.5} (noise {:.5})  ssim {:.4}  \
+                 flip {:.4}  image noise {:.5}  hair R/G/B over reference {:.3}/{:.3}/{:.3}",
                 r.entry.name,
                 m.rmse,
                 floor.rmse,
                 r.excess_rmse(),
+                r.excess_over_floor(),
                 m.relmse,
                 floor.relmse,
                 m.ssim,
@@ -178,7 +179,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         image: r.render.mean.clone(),
         lines: vec![
             format!("rmse {:.4} ±{:.4}", r.metrics.rmse, r.floor.rmse),
-            format!("excess {:.4}", r.excess_rmse()),
+            format!("excess {:.4} = {:.1}× noise", r.excess_rmse(), r.excess_over_floor()),
             format!("relmse {:.3} ±{:.3}", r.metrics.relmse, r.floor.relmse),
             format!("ssim {:.3} flip {:.3}", r.metrics.ssim, r.metrics.flip),
             format!("hair R/G/B {:.2}/{:.2}/{:.2}", r.hair_colour[0], r.hair_colour[1], r.hair_colour[2]),

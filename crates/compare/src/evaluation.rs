@@ -193,6 +193,21 @@ impl ModelResult {
         excess(self.metrics.rmse, self.floor.rmse)
     }
 
+    /// The excess RMSE over its noise floor: the model's difference from the reference stands
+    /// clear of the noise where this is at least 3 (infinite against a noiseless reference and
+    /// render, 0 without excess).
+    #[must_use]
+    pub fn excess_over_floor(&self) -> f64 {
+        let e = self.excess_rmse();
+        if self.floor.rmse > 0.0 {
+            e / self.floor.rmse
+        } else if e > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        }
+    }
+
     /// Its row of `metrics.json` (`fiberlab evaluate`; Python's `evaluate` returns the same),
     /// beside the reference's noise.
     #[must_use]

@@ -211,3 +211,45 @@ fn first_problem(model: &fiberlab_scatter::Model, dirs: &[DVec3], uniforms: &[[f
     }
     None
 }
+
+/// Found by `finite_and_non_negative` (its seed is kept in `finite_everywhere.proptest-regressions`):
+/// a `yan-fur` medulla absorbing so strongly (σ_m^a ≈ 8·10⁵ per unit radius) that the light
+/// leaving it backward was a subnormal total, whose normalised θ_o profile came out 0/0. Every
+/// lobe's value, the pdf and the samples must stay finite, the scattered lobes zero.
+#[test]
+fn yan_fur_with_a_medulla_that_absorbs_almost_everything_is_finite() {
+    let pairs = [
+        ("eta", "1.000001"),
+        ("kappa", "0.9306615367862716"),
+        ("sigma_m_s", "39.63684165682063"),
+        ("sigma_m_a", "816549.3107473425"),
+        ("g", "0.294156324848866"),
+        ("layers", "0.000001"),
+        ("alpha", "-20"),
+        ("beta_m", "0.5"),
+        ("beta_n", "0.5"),
+        ("lobes", "r,tt,trt,tts,trts"),
+        ("field", "near"),
+    ];
+    let model = build("yan-fur", &pairs).expect("inside every documented range");
+    let dirs = [
+        DVec3::new(0.192_959_805_150_644_84, 0.981_206_662_021_933_6, 0.0),
+        direction(0.3, 2.0),
+        direction(-1.2, -0.7),
+    ];
+    for &wi in &dirs {
+        for &wo in &dirs {
+            for h in [-1.0, 0.0, 0.3, 1.0] {
+                let f = model.eval(wi, wo, h);
+                let p = model.pdf(wi, wo, h);
+                assert!(f.is_finite() && f.min_component() >= 0.0, "eval {f:?} at {wi:?} {wo:?} h={h}");
+                assert!(p.is_finite() && p >= 0.0, "pdf {p} at {wi:?} {wo:?} h={h}");
+            }
+        }
+        for u in [[0.1, 0.5, 0.9, 0.3], [0.99, 0.01, 0.5, 0.7]] {
+            if let Some(s) = model.sample(wi, 0.0, u) {
+                assert!(s.weight.is_finite() && s.pdf.is_finite(), "sample {:?} pdf {}", s.weight, s.pdf);
+            }
+        }
+    }
+}

@@ -683,10 +683,12 @@ impl MedullaTables {
                 }
             }
         }
+        // Divided by the total first: under strong absorption the total can be subnormal, and
+        // `total·dth` would round to 0 (a 0/0 profile).
         for slice in profiles.chunks_mut(nth) {
             let total: f64 = slice.iter().sum();
             for (k, v) in slice.iter_mut().enumerate() {
-                *v = if total > 0.0 { *v / (total * dth * trapezoid(k, nth)) } else { 0.0 };
+                *v = if total > 0.0 { *v / total / (dth * trapezoid(k, nth)) } else { 0.0 };
             }
         }
         let per_channel = na * nq * nth;

@@ -26,8 +26,8 @@ while read -r name eu ph; do
   sigma=$(awk -v e="$eu" -v p="$ph" 'BEGIN { printf "%.6g,%.6g,%.6g", 0.419*e+0.187*p, 0.697*e+0.4*p, 1.37*e+1.05*p }')
   table=$out/${name}_fiber
   # Incidences up to ±85°: beyond the measured range the `measured` model reuses the nearest
-  # slice, which underestimates the steeply rising reflection at grazing light (the camera-side
-  # furnace at θ_o = 69° is 0.31 from −70…70, 0.65 from these).
+  # slice, which underestimates the steeply rising reflection at grazing light (blond, green: the
+  # camera-side furnace at θ_o = 69° is 0.31 from −70…70, 0.71 from these, Chiang's 0.71).
   $bin measure --theta-i=-85,-78,-70,-60,-50,-30,-10,10,30,50,60,70,78,85 --rays "$RAYS" --bins 60,120 \
     --param sigma_a="$sigma" --param scale_angle=2 --out "$table" > /dev/null
   for light in front back; do

@@ -3,7 +3,7 @@
 # Kajiya–Kay (fitted), Marschner, Chiang and the measured table of an explicit fiber, each
 # compared with a high-sample render of the measured table (the "photograph"), with the
 # residual Monte Carlo noise of every render beside each metric (`fiberlab evaluate --help`).
-#   SPP_blond_front=1536 SPP_brown_front=768 SPP_black_back=768 gallery/make.sh   # the committed gallery (42 min on 2 cores)
+#   SPP_blond_front=1536 SPP_brown_front=768 SPP_brown_back=768 SPP_black_back=4096 gallery/make.sh   # the committed gallery (26 min on 2 cores)
 #   SIZE=96 SPP=48 REF_SPP=448 gallery/make.sh        # a quick look (minutes): differences near the noise
 #   ROWS="blond-front brown-front" SPP=… gallery/make.sh   # only these rows; the others are kept
 # Each row writes gallery/ROW/section.md (its settings, output and time); README.md is the

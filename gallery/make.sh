@@ -27,7 +27,7 @@ while read -r name eu ph; do
   table=$out/${name}_fiber
   # Incidences up to ±85°: beyond the measured range the `measured` model reuses the nearest
   # slice, which underestimates the steeply rising reflection at grazing light (blond, green: the
-  # camera-side furnace at θ_o = 69° is 0.31 from −70…70, 0.71 from these, Chiang's 0.71).
+  # camera-side furnace at θ_o = 69° is 0.61 from −70…70, 0.71 from these, Chiang's 0.71).
   $bin measure --theta-i=-85,-78,-70,-60,-50,-30,-10,10,30,50,60,70,78,85 --rays "$RAYS" --bins 60,120 \
     --param sigma_a="$sigma" --param scale_angle=2 --out "$table" > /dev/null
   for light in front back; do

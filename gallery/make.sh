@@ -42,7 +42,7 @@ while read -r name eu ph; do
     dir=$out/$name-$light
     mkdir -p "$dir"
     t0=$(date +%s)
-    section=$(mktemp)
+    section=$dir/section.md.partial  # renamed when the row is done: a failed row keeps the old one
     {
       echo
       echo "## $name hair, $light-lit"

@@ -170,6 +170,20 @@ pub fn excess(rmse: f64, floor: f64) -> f64 {
     (rmse * rmse - floor * floor).max(0.0).sqrt()
 }
 
+/// [`excess`] in units of the noise floor: the difference stands clear of the noise where this
+/// is at least 3 (infinite against a noiseless floor, 0 without excess).
+#[must_use]
+pub fn excess_over_floor(rmse: f64, floor: f64) -> f64 {
+    let e = excess(rmse, floor);
+    if floor > 0.0 {
+        e / floor
+    } else if e > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    }
+}
+
 /// One model's result.
 #[derive(Clone, Debug)]
 pub struct ModelResult {
@@ -198,14 +212,7 @@ impl ModelResult {
     /// render, 0 without excess).
     #[must_use]
     pub fn excess_over_floor(&self) -> f64 {
-        let e = self.excess_rmse();
-        if self.floor.rmse > 0.0 {
-            e / self.floor.rmse
-        } else if e > 0.0 {
-            f64::INFINITY
-        } else {
-            0.0
-        }
+        excess_over_floor(self.metrics.rmse, self.floor.rmse)
     }
 
     /// Its row of `metrics.json` (`fiberlab evaluate`; Python's `evaluate` returns the same),
@@ -727,6 +734,16 @@ pub fn hair_colour(model: &Image, reference: &Image, coverage: &LinearImage) -> 
 mod tests {
     use super::*;
     use fiberlab_scatter::hair::attenuation::hit_attenuation;
+
+    /// The excess over the floor: a 3-4-5 triangle (RMSE 5 over a floor 3 leaves 4, 4/3× the
+    /// floor), nothing where the RMSE is within the floor, and the noiseless ends.
+    #[test]
+    fn excess_over_floor_is_the_excess_in_units_of_the_floor() {
+        assert!((excess_over_floor(5.0, 3.0) - 4.0 / 3.0).abs() < 1e-12);
+        assert_eq!(excess_over_floor(2.0, 3.0), 0.0);
+        assert_eq!(excess_over_floor(0.5, 0.0), f64::INFINITY);
+        assert_eq!(excess_over_floor(0.0, 0.0), 0.0);
+    }
 
     fn scene_hair_of(model: Model) -> SceneHair {
         SceneHair { sigma_a: model.chord_absorption(), model }
